@@ -1,0 +1,11 @@
+#pragma once
+// The `pof` CLI: one executable, one file per subcommand (cmd_<name>.cpp). Each file defines one
+// add_<name>() that registers its subcommand on the app; main.cpp calls them all and maps
+// pof::io::Error to the exit codes of pof/io/exit_codes.hpp.
+#include <CLI/CLI.hpp>
+
+namespace pof::cli {
+
+void add_version(CLI::App& app);
+
+}  // namespace pof::cli

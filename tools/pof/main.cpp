@@ -1,0 +1,31 @@
+// pof: the command-line front end of pofkit. Subcommands live in cmd_*.cpp (see commands.hpp).
+#include <cstdio>
+#include <exception>
+
+#include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
+
+#include "commands.hpp"
+#include "pof/io/errors.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"pof: calibrate, simulate, compensate and inspect POF knee-angle sensor data"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", POF_VERSION);
+  pof::cli::add_version(app);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // CLI11 prints help/usage itself; its usage errors are exit 2 like every other pofkit tool.
+    const int rc = app.exit(e);
+    return rc == 0 ? 0 : pof::io::kExitUsage;
+  } catch (const pof::io::Error& e) {
+    spdlog::error("{}", e.what());
+    return e.code();
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+    return pof::io::kExitIoErr;
+  }
+  return 0;
+}

@@ -11,6 +11,7 @@
 #include "pof/angle_t.hpp"
 #include "pof/cycle_stats_t.hpp"
 #include "pof/daq_status_t.hpp"
+#include "pof/lcm/subscribe.hpp"
 #include "pof/raw_block_t.hpp"
 
 namespace {
@@ -21,14 +22,12 @@ std::optional<Msg> round_trip(const std::string& channel, const Msg& msg) {
   lcm::LCM lc("memq://");
   EXPECT_TRUE(lc.good());
   std::optional<Msg> got;
-  struct Handler {
-    std::optional<Msg>* out;
-    void on(const lcm::ReceiveBuffer*, const std::string&, const Msg* m) { *out = *m; }
-  } handler{&got};
-  lcm::Subscription* sub = lc.subscribe(channel, &Handler::on, &handler);
-  EXPECT_EQ(lc.publish(channel, &msg), 0);
-  EXPECT_EQ(lc.handleTimeout(1000), 1);  // memq delivers synchronously into the queue
-  lc.unsubscribe(sub);
+  {
+    auto sub = pof::lcmutil::subscribe<Msg>(lc, channel, [&got](const Msg& m, const lcm::ReceiveBuffer&, const std::string&) { got = m; });
+    EXPECT_NE(sub->get(), nullptr);
+    EXPECT_EQ(lc.publish(channel, &msg), 0);
+    EXPECT_EQ(lc.handleTimeout(1000), 1);  // memq delivers synchronously into the queue
+  }
   return got;
 }
 

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <numbers>
 
-#include "pof/core/fit.hpp"
 
 namespace pof::core {
 
@@ -156,9 +155,12 @@ std::vector<Segment> segment(const Eigen::VectorXd& t_s, const Eigen::VectorXd& 
       g.core_end = r.end - trim;
     }
     if (g.kind != Direction::kHold) {
-      const Eigen::Index m = g.core_end - g.core_begin;
-      const LinearFit f = fit_line(t_s.segment(g.core_begin, m), angle_deg.segment(g.core_begin, m));
-      g.velocity_rad_s = f.n ? f.slope * std::numbers::pi / 180.0 : 0.0;
+      // Median of the windowed slopes: the cruise speed, unmoved by a stutter inside the sweep
+      // (a plain line through the sweep would average the stop in).
+      std::vector<double> vs(v.data() + g.core_begin, v.data() + g.core_end);
+      auto mid = vs.begin() + static_cast<std::ptrdiff_t>(vs.size() / 2);
+      std::nth_element(vs.begin(), mid, vs.end());
+      g.velocity_rad_s = *mid * std::numbers::pi / 180.0;
     }
     out.push_back(g);
   }

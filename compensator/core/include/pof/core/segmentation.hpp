@@ -12,8 +12,9 @@
 //     max_pause_s between two sweeps of the same direction is bridged (a stutter, not a stop);
 //     a short pause at a reversal stays a hold between the two sweeps;
 //  4. a sweep whose amplitude is below min_sweep_deg becomes a hold (drift, not movement);
-//  5. a sweep's velocity is the slope of a line fitted to its central part (trim_s removed at each
-//     end where the drive accelerates), in rad/s, signed: positive in flexion.
+//  5. a sweep's velocity is the median of the windowed slopes over its central part (trim_s removed
+//     at each end where the drive accelerates): the cruise speed, even across a stutter; rad/s,
+//     signed, positive in flexion.
 // Partial cycles (a recording that starts or ends mid-sweep) simply give a shorter first/last sweep.
 #include <vector>
 
@@ -38,7 +39,7 @@ struct Segment {
   Eigen::Index begin = 0, end = 0;  // samples [begin, end)
   double t_begin = 0, t_end = 0;    // [s]
   double angle_begin = 0, angle_end = 0;  // reference angle at the ends [deg]
-  double velocity_rad_s = 0;        // fitted slope, signed (0 for holds)
+  double velocity_rad_s = 0;        // cruise velocity, signed (0 for holds)
   Eigen::Index core_begin = 0, core_end = 0;  // central part used for fits (trim_s removed)
 
   [[nodiscard]] Eigen::Index size() const { return end - begin; }

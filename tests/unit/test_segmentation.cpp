@@ -80,9 +80,10 @@ TEST(Segmentation, RandomisedProtocolsGiveTheirSweepsDirectionsAndVelocities) {
       EXPECT_NEAR(std::abs(sweeps[k]->amplitude_deg()), truth[k].amplitude, 0.5) << "trial " << trial << " sweep " << k;
       // The cruise speed is measurable when the cruise outlasts the slope window with room to spare.
       const double cruise_s = truth[k].amplitude / (truth[k].speed_rad_s * 180 / std::numbers::pi) - 0.2;
-      if (cruise_s > 1.5)
+      if (cruise_s > 1.5) {
         EXPECT_NEAR(std::abs(sweeps[k]->velocity_rad_s), truth[k].speed_rad_s, 0.02 * truth[k].speed_rad_s)
             << "trial " << trial << " sweep " << k;
+      }
     }
 
     // Partial cycles: cut the recording inside the first and the last sweep.

@@ -7,5 +7,7 @@
 namespace pof::cli {
 
 void add_version(CLI::App& app);
+void add_calibrate(CLI::App& app);
+void add_compensate(CLI::App& app);
 
 }  // namespace pof::cli

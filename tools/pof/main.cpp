@@ -3,16 +3,22 @@
 #include <exception>
 
 #include <CLI/CLI.hpp>
+#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include "commands.hpp"
 #include "pof/io/errors.hpp"
 
 int main(int argc, char** argv) {
+  // Diagnostics go to stderr: stdout carries results (tables, CSV) that scripts parse.
+  spdlog::set_default_logger(spdlog::stderr_color_st("pof"));
+  spdlog::set_pattern("pof: %^%l%$: %v");
   CLI::App app{"pof: calibrate, simulate, compensate and inspect POF knee-angle sensor data"};
   app.require_subcommand(1);
   app.set_version_flag("--version", POF_VERSION);
   pof::cli::add_version(app);
+  pof::cli::add_calibrate(app);
+  pof::cli::add_compensate(app);
 
   try {
     app.parse(argc, argv);

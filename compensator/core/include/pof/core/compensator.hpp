@@ -1,0 +1,95 @@
+#pragma once
+// Online hysteresis compensation, one scan at a time (Leal-Junior et al. 2017, eqs. (11)/(12)):
+//
+//   normalise (reference guard) -> f5 angle (uncompensated) -> causal velocity estimate ->
+//   direction with a dead band -> eq. (11) flexion / (12) extension, f5 alone in holds.
+//
+// The paper takes direction from the sign of the angle rate and w from its magnitude (section 2.2:
+// "these velocities can be obtained from the rate of angle variation"); it assumes constant velocity
+// per movement (its named future work is variable velocity and acceleration).
+//
+// Velocity estimator: least-squares slope of the last N = round(velocity_window_s * scan_rate_hz)
+// angles, updated from running sums in O(1). For a constant velocity it is unbiased and its estimate
+// refers to the window centre, i.e. it lags by delay_s() = (N - 1) / (2 fs) (0.2475 s for 0.5 s at
+// 200 Hz). With white angle noise sigma [deg] its standard deviation is
+// sigma * sqrt(12 / (N (N^2 - 1))) * fs [deg/s] (velocity_noise_rad_s()); 0.1 deg gives 0.0012 rad/s
+// at the defaults, five times below the hold threshold.
+//
+// Threading: one instance per sensor stream, used from one thread. step() and reset() never
+// allocate, never throw and never block; the constructor allocates the window.
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include "pof/core/calibration.hpp"
+#include "pof/core/model.hpp"
+#include "pof/core/normalise.hpp"
+#include "pof/core/quality.hpp"
+
+namespace pof::core {
+
+/// Where the velocity (and so the direction) comes from.
+enum class VelocitySource : int {
+  kSensor = 0,     // the sensor's own quasi-static angle f5(v): needs no potentiometer (default)
+  kReference = 1,  // the reference angle passed to step() (potentiometer): the paper's setting
+};
+
+struct CompensatorSettings {
+  double scan_rate_hz = 200.0;         // the paper's USB-6008 rate
+  VelocitySource velocity_source = VelocitySource::kSensor;
+  double velocity_window_s = 0.5;      // estimator window (delay (N-1)/2fs, noise above)
+  double move_rad_s = 0.010;           // |w| above which a hold becomes movement (table 1 starts at 0.0209)
+  double hold_rad_s = 0.006;           // |w| below which movement becomes a hold (dead band 0.006-0.010)
+  double velocity_tolerance = 0.10;    // relative margin on the calibrated velocity range before flagging
+  double angle_margin_deg = 2.0;       // margin on the calibrated angle range before flagging
+  double input_limit_v = 10.0;         // |input| at or above this is clipped (USB-6008 +-10 V range)
+  double reference_min_ratio = 0.5;    // reference guard, see normalise.hpp
+  double reference_max_ratio = 2.0;
+  double reference_min_v = 0.05;
+};
+
+struct CompensatedScan {
+  double angle_deg = 0;         // eq. (11)/(12); f5 in holds; NaN when the input is unusable
+  double angle_uncomp_deg = 0;  // f5 alone
+  double velocity_rad_s = 0;    // signed, positive in flexion; NaN until 2 samples are in the window
+  Direction phase = Direction::kHold;
+  std::int32_t quality = 0;     // quality::* bits (= angle_t.QUALITY_*)
+};
+
+class OnlineCompensator {
+ public:
+  /// Throws std::invalid_argument on settings that cannot work (rate or window <= 0, hold >= move).
+  OnlineCompensator(const Calibration& cal, const CompensatorSettings& s = {});
+
+  /// One scan. angle_ref_deg is only used with VelocitySource::kReference (pass NaN otherwise).
+  CompensatedScan step(double sensor_v, double reference_v, double angle_ref_deg = kNoReference) noexcept;
+
+  /// Forget the velocity history (after lost scans); the next output carries quality::kGap and
+  /// kSettling until the window has refilled.
+  void reset() noexcept;
+
+  [[nodiscard]] double delay_s() const noexcept;
+  [[nodiscard]] double velocity_noise_rad_s(double angle_noise_deg) const noexcept;
+  [[nodiscard]] int window() const noexcept { return n_; }
+  [[nodiscard]] const Calibration& calibration() const noexcept { return cal_; }
+  [[nodiscard]] const CompensatorSettings& settings() const noexcept { return s_; }
+
+  static constexpr double kNoReference = std::numeric_limits<double>::quiet_NaN();
+
+ private:
+  void clear_window() noexcept;
+  double push(double y) noexcept;  // returns slope [deg/scan], NaN with < 2 samples
+
+  Calibration cal_;
+  CompensatorSettings s_;
+  ReferenceGuard guard_;
+  int n_ = 1;
+  std::vector<double> ring_;
+  int head_ = 0, count_ = 0;
+  double s0_ = 0, s1_ = 0;   // sum y_j, sum j*y_j over the window (j = 0 oldest)
+  std::int64_t since_refresh_ = 0;
+  Direction phase_ = Direction::kHold;
+  bool gap_pending_ = false;
+};
+
+}  // namespace pof::core

@@ -1,0 +1,133 @@
+#include "pof/core/compensator.hpp"
+
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+namespace pof::core {
+
+namespace {
+constexpr double kRadPerDeg = std::numbers::pi / 180.0;
+// Running sums drift by rounding; rebuilding them from the window this often keeps the error at
+// the 1e-12 level at a cost of N/4096 operations per scan.
+constexpr std::int64_t kRefreshScans = 4096;
+}  // namespace
+
+OnlineCompensator::OnlineCompensator(const Calibration& cal, const CompensatorSettings& s) : cal_(cal), s_(s) {
+  if (!(s.scan_rate_hz > 0) || !(s.velocity_window_s > 0))
+    throw std::invalid_argument("compensator: scan_rate_hz and velocity_window_s must be > 0");
+  if (!(s.hold_rad_s >= 0) || !(s.hold_rad_s < s.move_rad_s))
+    throw std::invalid_argument("compensator: need 0 <= hold_rad_s < move_rad_s (the dead band)");
+  if (!(cal.reference_level_v > 0)) throw std::invalid_argument("compensator: reference level must be > 0");
+  n_ = static_cast<int>(std::lround(s.velocity_window_s * s.scan_rate_hz));
+  if (n_ < 2) n_ = 2;
+  if (n_ > 1'000'000) throw std::invalid_argument("compensator: velocity window too long");
+  ring_.assign(static_cast<std::size_t>(n_), 0.0);
+  guard_.level_v = cal.reference_level_v;
+  guard_.min_ratio = s.reference_min_ratio;
+  guard_.max_ratio = s.reference_max_ratio;
+  guard_.min_abs_v = s.reference_min_v;
+}
+
+void OnlineCompensator::clear_window() noexcept {
+  head_ = count_ = 0;
+  s0_ = s1_ = 0;
+  since_refresh_ = 0;
+  phase_ = Direction::kHold;
+}
+
+void OnlineCompensator::reset() noexcept {
+  clear_window();
+  gap_pending_ = true;
+}
+
+double OnlineCompensator::delay_s() const noexcept { return (n_ - 1) / (2.0 * s_.scan_rate_hz); }
+
+double OnlineCompensator::velocity_noise_rad_s(double angle_noise_deg) const noexcept {
+  const double n = n_;
+  return angle_noise_deg * std::sqrt(12.0 / (n * (n * n - 1))) * s_.scan_rate_hz * kRadPerDeg;
+}
+
+double OnlineCompensator::push(double y) noexcept {
+  auto at = [this](int i) -> double& { return ring_[static_cast<std::size_t>(i)]; };
+  if (count_ < n_) {
+    s1_ += count_ * y;
+    s0_ += y;
+    at((head_ + count_) % n_) = y;
+    ++count_;
+  } else {
+    const double old = at(head_);
+    s1_ += -(s0_ - old) + (n_ - 1) * y;
+    s0_ += y - old;
+    at(head_) = y;
+    head_ = (head_ + 1) % n_;
+    if (++since_refresh_ >= kRefreshScans) {
+      since_refresh_ = 0;
+      s0_ = s1_ = 0;
+      for (int j = 0; j < n_; ++j) {
+        const double v = at((head_ + j) % n_);
+        s0_ += v;
+        s1_ += j * v;
+      }
+    }
+  }
+  const double m = count_;
+  if (count_ < 2) return std::nan("");
+  const double sj = m * (m - 1) / 2, sjj = (m - 1) * m * (2 * m - 1) / 6;
+  return (m * s1_ - sj * s0_) / (m * sjj - sj * sj);
+}
+
+CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, double angle_ref_deg) noexcept {
+  CompensatedScan out;
+  if (gap_pending_) {
+    out.quality |= quality::kGap;
+    gap_pending_ = false;
+  }
+  if (std::abs(sensor_v) >= s_.input_limit_v || std::abs(reference_v) >= s_.input_limit_v)
+    out.quality |= quality::kOverRange;
+  const Normalised nz = normalise(sensor_v, reference_v, guard_);
+  const double nan = std::nan("");
+  if (!nz.ok) {
+    // Unusable scan: the window is emptied so that the velocity is never computed across it.
+    out.quality |= nz.finite_input ? quality::kReferenceLost : quality::kInvalidInput;
+    out.quality |= quality::kSettling;
+    out.angle_deg = out.angle_uncomp_deg = out.velocity_rad_s = nan;
+    clear_window();
+    return out;
+  }
+  out.angle_uncomp_deg = quasi_static_angle(cal_.model, nz.v);
+  const double y = s_.velocity_source == VelocitySource::kReference ? angle_ref_deg : out.angle_uncomp_deg;
+  if (!std::isfinite(y)) {
+    out.quality |= quality::kInvalidInput | quality::kSettling;
+    out.angle_deg = out.angle_uncomp_deg;  // f5: the best we can do without a velocity
+    out.velocity_rad_s = nan;
+    clear_window();
+    return out;
+  }
+  const double w = push(y) * s_.scan_rate_hz * kRadPerDeg;
+  out.velocity_rad_s = w;
+  if (count_ < n_) {
+    out.quality |= quality::kSettling;
+    phase_ = Direction::kHold;  // a half-filled window is too noisy to decide a direction
+  } else if (phase_ == Direction::kHold) {
+    if (w > s_.move_rad_s) phase_ = Direction::kFlexion;
+    else if (w < -s_.move_rad_s) phase_ = Direction::kExtension;
+  } else if (std::abs(w) < s_.hold_rad_s) {
+    phase_ = Direction::kHold;
+  } else if (phase_ == Direction::kFlexion && w < -s_.move_rad_s) {
+    phase_ = Direction::kExtension;
+  } else if (phase_ == Direction::kExtension && w > s_.move_rad_s) {
+    phase_ = Direction::kFlexion;
+  }
+  out.phase = phase_;
+  const double aw = std::abs(w);
+  out.angle_deg = compensated_angle(cal_.model, nz.v, aw, phase_);
+  if (phase_ != Direction::kHold &&
+      (aw < cal_.velocity_min_rad_s * (1 - s_.velocity_tolerance) || aw > cal_.velocity_max_rad_s * (1 + s_.velocity_tolerance)))
+    out.quality |= quality::kVelocityExtrapolated;
+  if (out.angle_deg < cal_.angle_min_deg - s_.angle_margin_deg || out.angle_deg > cal_.angle_max_deg + s_.angle_margin_deg)
+    out.quality |= quality::kAngleExtrapolated;
+  return out;
+}
+
+}  // namespace pof::core

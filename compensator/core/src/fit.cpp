@@ -1,0 +1,105 @@
+#include "pof/core/fit.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include <Eigen/Dense>
+
+namespace pof::core {
+
+namespace {
+double r_squared(const Eigen::VectorXd& y, const Eigen::VectorXd& residuals) {
+  const double ss_tot = (y.array() - y.mean()).square().sum();
+  return ss_tot > 0 ? 1.0 - residuals.squaredNorm() / ss_tot : 0.0;
+}
+}  // namespace
+
+LinearFit fit_line(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& y) {
+  LinearFit f;
+  const Eigen::Index n = std::min(x.size(), y.size());
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  f.slope = f.intercept = f.slope_se = f.intercept_se = nan;
+  if (n < 2) return f;
+  const double mx = x.head(n).mean(), my = y.head(n).mean();
+  const Eigen::ArrayXd dx = x.head(n).array() - mx;
+  const double sxx = dx.square().sum();
+  if (!(sxx > 0)) return f;
+  f.n = n;
+  f.slope = (dx * (y.head(n).array() - my)).sum() / sxx;
+  f.intercept = my - f.slope * mx;
+  f.residuals = y.head(n).array() - (f.slope * x.head(n).array() + f.intercept);
+  const double ssr = f.residuals.squaredNorm();
+  const double dn = static_cast<double>(n);
+  f.rmse = std::sqrt(ssr / dn);
+  f.r2 = r_squared(y.head(n), f.residuals);
+  if (n > 2) {
+    const double s2 = ssr / (dn - 2);
+    f.slope_se = std::sqrt(s2 / sxx);
+    f.intercept_se = std::sqrt(s2 * (1.0 / dn + mx * mx / sxx));
+  } else {
+    f.slope_se = f.intercept_se = 0;
+  }
+  return f;
+}
+
+double ExpFit::operator()(double x) const { return c1 * std::exp(c2 * x); }
+
+ExpFit fit_exponential(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& y) {
+  const Eigen::Index n = std::min(x.size(), y.size());
+  if (n < 2) throw std::invalid_argument("exponential fit needs at least 2 points");
+  if ((y.head(n).array() <= 0).any()) throw std::invalid_argument("exponential fit needs y > 0");
+  // Start: ln y = ln c1 + c2 x.
+  const LinearFit lf = fit_line(x.head(n), y.head(n).array().log().matrix());
+  if (lf.n == 0) throw std::invalid_argument("exponential fit needs at least 2 distinct x");
+  ExpFit f;
+  f.c1 = std::exp(lf.intercept);
+  f.c2 = lf.slope;
+  Eigen::MatrixXd J(n, 2);
+  Eigen::VectorXd r(n);
+  for (int it = 0; it < 50; ++it) {
+    const Eigen::ArrayXd e = (f.c2 * x.head(n).array()).exp();
+    J.col(0) = e.matrix();
+    J.col(1) = (f.c1 * x.head(n).array() * e).matrix();
+    r = y.head(n).array() - f.c1 * e;
+    const Eigen::Vector2d step = J.colPivHouseholderQr().solve(r);
+    f.c1 += step(0);
+    f.c2 += step(1);
+    f.iterations = it + 1;
+    if (std::abs(step(0)) <= 1e-12 * (1 + std::abs(f.c1)) && std::abs(step(1)) <= 1e-12 * (1 + std::abs(f.c2))) {
+      f.converged = true;
+      break;
+    }
+  }
+  const Eigen::ArrayXd e = (f.c2 * x.head(n).array()).exp();
+  J.col(0) = e.matrix();
+  J.col(1) = (f.c1 * x.head(n).array() * e).matrix();
+  f.residuals = y.head(n).array() - f.c1 * e;
+  const double ssr = f.residuals.squaredNorm();
+  f.rmse = std::sqrt(ssr / static_cast<double>(n));
+  f.r2 = r_squared(y.head(n), f.residuals);
+  if (n > 2) {
+    const Eigen::Matrix2d cov = (J.transpose() * J).inverse() * (ssr / static_cast<double>(n - 2));
+    f.c1_se = std::sqrt(std::max(0.0, cov(0, 0)));
+    f.c2_se = std::sqrt(std::max(0.0, cov(1, 1)));
+  }
+  return f;
+}
+
+Hysteresis hysteresis_eq1(const LineAccumulator& flexion, const LineAccumulator& extension) {
+  Hysteresis h;
+  if (!flexion.ok() || !extension.ok()) return h;
+  const double lo = std::min(flexion.x_min, extension.x_min);
+  const double hi = std::max(flexion.x_max, extension.x_max);
+  h.x_mid = 0.5 * (lo + hi);
+  h.y_flexion_mid = flexion.at(h.x_mid);
+  h.y_extension_mid = extension.at(h.x_mid);
+  const double ends[4] = {flexion.at(lo), flexion.at(hi), extension.at(lo), extension.at(hi)};
+  h.span = *std::max_element(ends, ends + 4) - *std::min_element(ends, ends + 4);
+  if (!(h.span > 0)) return h;
+  h.pct = (h.y_extension_mid - h.y_flexion_mid) / h.span * 100.0;
+  h.valid = std::isfinite(h.pct);
+  return h;
+}
+
+}  // namespace pof::core

@@ -1,0 +1,64 @@
+#pragma once
+// The calibration file (TOML, schema_version 1), written by `pof calibrate`, read by
+// `pof compensate` and pof-compensatord. Layout (docs/calibration.md):
+//
+//   schema_version = 1
+//   sensor_id = "LEFT_KNEE"            date = "2026-11-21T05:50:00Z"   source_recording = "cal.csv"
+//   reference_level_v = 4.0            # reference voltage at calibration time [V] (normalisation)
+//   [model]            c1, c2, c9, c10 # table 2
+//   [model.flexion]    c3 .. c8        # f2 and f4 for flexion
+//   [model.extension]  c3 .. c8
+//   [range]            angle_min_deg, angle_max_deg, velocity_min_rad_s, velocity_max_rad_s
+//   [fit_quality]      sensitivity_v_per_deg, linearity_r2, f1_r2, f1_rmse_pct, f4_flexion_r2,
+//                      f4_extension_r2, n_holds, n_velocity_tests
+//   [equations]        flexion, extension (eq. (11)/(12) as text; informational, not read back)
+//   [potentiometer]    deg_per_volt, zero_v, offsets = [[angle_deg, correction_deg], ...] (optional)
+//
+// Loading validates every key (missing, wrong type, NaN/inf, impossible range) and names it in
+// the ConfigError (exit 78); nothing is returned unless everything is valid.
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "pof/core/calibration.hpp"
+#include "pof/core/potentiometer.hpp"
+
+namespace pof::io {
+
+inline constexpr int kCalibrationSchemaVersion = 1;
+
+struct FitQuality {
+  double sensitivity_v_per_deg = 0;  // |dV/dalpha| of the quasi-static line (paper: 0.0229)
+  double linearity_r2 = 0;           // R^2 of that line (paper: 0.9992)
+  double f1_r2 = 0, f1_rmse_pct = 0;
+  double f4_flexion_r2 = 0, f4_extension_r2 = 0;
+  std::int64_t n_holds = 0, n_velocity_tests = 0;
+};
+
+struct CalibrationFile {
+  std::string sensor_id;
+  std::string date;               // ISO 8601 UTC
+  std::string source_recording;
+  pof::core::Calibration cal;
+  FitQuality quality;
+  std::string equation_flexion, equation_extension;  // informational
+  std::optional<pof::core::PotentiometerCalibration> potentiometer;
+};
+
+/// Builds the file contents from a fit.
+CalibrationFile make_calibration_file(const pof::core::CalibrationResult& r, const std::string& sensor_id,
+                                      const std::string& source_recording, const std::string& date_utc);
+
+std::string to_toml(const CalibrationFile& f);
+/// Atomic (temp + rename). Throws IoError.
+void save_calibration(const CalibrationFile& f, const std::string& path);
+/// Throws NoInputError (missing/unreadable), ConfigError (anything invalid, naming the key).
+CalibrationFile load_calibration(const std::string& path);
+/// Parses TOML text; `name` is used in messages. Throws ConfigError.
+CalibrationFile parse_calibration(const std::string& text, const std::string& name);
+
+/// The [potentiometer] section of a TOML file (a calibration file or a separate one).
+/// Throws NoInputError, ConfigError.
+pof::core::PotentiometerCalibration load_potentiometer(const std::string& path);
+
+}  // namespace pof::io

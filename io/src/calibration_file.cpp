@@ -1,0 +1,304 @@
+// Calibration TOML (layout in calibration_file.hpp). Parsed with toml++, validated key by key into
+// a local value that is returned only when complete: a bad file never half-loads.
+#include "pof/io/calibration_file.hpp"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include <toml++/toml.h>
+
+#include "pof/io/atomic_file.hpp"
+#include "pof/io/errors.hpp"
+
+namespace pof::io {
+
+namespace {
+
+std::string num(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  std::string s = buf;
+  // TOML needs a '.' or exponent for a float; "4" would read back as an integer (accepted, but
+  // keep the file's types honest).
+  if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
+  return s;
+}
+
+std::string quoted(const std::string& s) {
+  std::string out = "\"";
+  for (const char c : s) {
+    switch (c) {
+      case '"': out += "\\\""; break;
+      case '\\': out += "\\\\"; break;
+      case '\n': out += "\\n"; break;
+      case '\t': out += "\\t"; break;
+      case '\r': out += "\\r"; break;
+      default:
+        if (static_cast<unsigned char>(c) < 0x20) {
+          char buf[8];
+          std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(static_cast<unsigned char>(c)));
+          out += buf;
+        } else {
+          out += c;
+        }
+    }
+  }
+  return out + "\"";
+}
+
+const char* type_name(toml::node_type t) {
+  switch (t) {
+    case toml::node_type::table: return "a table";
+    case toml::node_type::array: return "an array";
+    case toml::node_type::string: return "a string";
+    case toml::node_type::integer: return "an integer";
+    case toml::node_type::floating_point: return "a float";
+    case toml::node_type::boolean: return "a boolean";
+    default: return "a date/time";
+  }
+}
+
+class Keys {
+ public:
+  Keys(const toml::table& t, std::string name) : t_(t), name_(std::move(name)) {}
+
+  [[noreturn]] void fail(const std::string& key, const std::string& what) const {
+    throw ConfigError(name_ + ": key '" + key + "': " + what);
+  }
+  toml::node_view<const toml::node> node(const std::string& key) const {
+    auto n = t_.at_path(key);
+    if (!n) fail(key, "missing");
+    return n;
+  }
+  double number(const std::string& key) const {
+    const auto n = node(key);
+    double v;
+    if (const auto* f = n.as_floating_point()) v = f->get();
+    else if (const auto* i = n.as_integer()) v = static_cast<double>(i->get());
+    else fail(key, std::string("expected a number, got ") + type_name(n.type()));
+    if (!std::isfinite(v)) fail(key, "expected a finite number, got " + num(v));
+    return v;
+  }
+  double positive(const std::string& key) const {
+    const double v = number(key);
+    if (!(v > 0)) fail(key, "expected a number > 0, got " + num(v));
+    return v;
+  }
+  std::int64_t integer(const std::string& key) const {
+    const auto n = node(key);
+    if (const auto* i = n.as_integer()) return i->get();
+    fail(key, std::string("expected an integer, got ") + type_name(n.type()));
+  }
+  std::string string(const std::string& key, bool required = true) const {
+    auto n = t_.at_path(key);
+    if (!n) {
+      if (required) fail(key, "missing");
+      return {};
+    }
+    if (const auto* s = n.as_string()) return s->get();
+    fail(key, std::string("expected a string, got ") + type_name(n.type()));
+  }
+
+ private:
+  const toml::table& t_;
+  std::string name_;
+};
+
+toml::table parse_toml(const std::string& text, const std::string& name) {
+  try {
+    return toml::parse(text, name);
+  } catch (const toml::parse_error& e) {
+    const auto& b = e.source().begin;
+    throw ConfigError(name + ":" + std::to_string(b.line) + ":" + std::to_string(b.column) + ": TOML syntax: " +
+                      std::string(e.description()));
+  }
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw NoInputError(path + ": cannot open: " + std::strerror(errno));
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  if (in.bad()) throw IoError(path + ": read error");
+  return ss.str();
+}
+
+pof::core::PotentiometerCalibration read_potentiometer(const Keys& k, const toml::table& t) {
+  pof::core::PotentiometerCalibration p;
+  p.deg_per_volt = k.number("potentiometer.deg_per_volt");
+  if (p.deg_per_volt == 0) k.fail("potentiometer.deg_per_volt", "must not be 0");
+  p.zero_v = k.number("potentiometer.zero_v");
+  if (auto offs = t.at_path("potentiometer.offsets")) {
+    const auto* arr = offs.as_array();
+    if (!arr) k.fail("potentiometer.offsets", std::string("expected an array of [angle_deg, correction_deg], got ") + type_name(offs.type()));
+    for (std::size_t i = 0; i < arr->size(); ++i) {
+      const std::string key = "potentiometer.offsets[" + std::to_string(i) + "]";
+      const auto* pair = (*arr)[i].as_array();
+      if (!pair || pair->size() != 2) k.fail(key, "expected [angle_deg, correction_deg]");
+      double v[2];
+      for (std::size_t j = 0; j < 2; ++j) {
+        const auto& e = (*pair)[j];
+        if (const auto* f = e.as_floating_point()) v[j] = f->get();
+        else if (const auto* n = e.as_integer()) v[j] = static_cast<double>(n->get());
+        else k.fail(key, "expected two numbers");
+        if (!std::isfinite(v[j])) k.fail(key, "expected finite numbers");
+      }
+      if (!p.offsets.empty() && !(v[0] > p.offsets.back().first)) k.fail(key, "angles must increase");
+      p.offsets.emplace_back(v[0], v[1]);
+    }
+  }
+  return p;
+}
+
+}  // namespace
+
+CalibrationFile make_calibration_file(const pof::core::CalibrationResult& r, const std::string& sensor_id,
+                                      const std::string& source_recording, const std::string& date_utc) {
+  CalibrationFile f;
+  f.sensor_id = sensor_id;
+  f.date = date_utc;
+  f.source_recording = source_recording;
+  f.cal = r.cal;
+  f.quality.sensitivity_v_per_deg = std::abs(r.quasi_static.v_of_angle.slope);
+  f.quality.linearity_r2 = r.quasi_static.v_of_angle.r2;
+  f.quality.f1_r2 = r.f1.r2;
+  f.quality.f1_rmse_pct = r.f1.rmse;
+  f.quality.f4_flexion_r2 = r.f4_flexion.r2;
+  f.quality.f4_extension_r2 = r.f4_extension.r2;
+  f.quality.n_holds = r.quasi_static.hold_v.size();
+  f.quality.n_velocity_tests = static_cast<std::int64_t>(r.tests.size());
+  f.equation_flexion = format_combined_equation(r.eq11, pof::core::Direction::kFlexion);
+  f.equation_extension = format_combined_equation(r.eq12, pof::core::Direction::kExtension);
+  return f;
+}
+
+std::string to_toml(const CalibrationFile& f) {
+  const auto& m = f.cal.model;
+  std::ostringstream o;
+  o << "# POF knee-angle sensor calibration (Leal-Junior et al. 2017, table 2). Written by pof calibrate.\n"
+    << "schema_version = " << kCalibrationSchemaVersion << "\n"
+    << "sensor_id = " << quoted(f.sensor_id) << "\n"
+    << "date = " << quoted(f.date) << "\n"
+    << "source_recording = " << quoted(f.source_recording) << "\n"
+    << "# reference photodiode voltage at calibration time [V]: v = sensor_v * reference_level_v / reference_v\n"
+    << "reference_level_v = " << num(f.cal.reference_level_v) << "\n\n"
+    << "[model]\n"
+    << "c1 = " << num(m.c1) << "    # f1: h = c1 exp(c2 w) [%]\n"
+    << "c2 = " << num(m.c2) << "    # [s/rad]\n"
+    << "c9 = " << num(m.c9) << "    # f5: alpha = -c9 V2 + c10 [deg/V]\n"
+    << "c10 = " << num(m.c10) << "    # [deg]\n";
+  for (int d = 0; d < 2; ++d) {
+    const auto& x = d == 0 ? m.flexion : m.extension;
+    o << "\n[model." << (d == 0 ? "flexion" : "extension") << "]\n"
+      << "c3 = " << num(x.c3) << "    # f2: a = c3 h + c4\n"
+      << "c4 = " << num(x.c4) << "\n"
+      << "c5 = " << num(x.c5) << "    # f2: b = c5 h + c6 [V]\n"
+      << "c6 = " << num(x.c6) << "\n"
+      << "c7 = " << num(x.c7) << "    # f4: V2 = c7 V1 - c8\n"
+      << "c8 = " << num(x.c8) << "\n";
+  }
+  o << "\n[range]    # where the fit has data; outside it the compensator flags extrapolation\n"
+    << "angle_min_deg = " << num(f.cal.angle_min_deg) << "\n"
+    << "angle_max_deg = " << num(f.cal.angle_max_deg) << "\n"
+    << "velocity_min_rad_s = " << num(f.cal.velocity_min_rad_s) << "\n"
+    << "velocity_max_rad_s = " << num(f.cal.velocity_max_rad_s) << "\n"
+    << "\n[fit_quality]\n"
+    << "sensitivity_v_per_deg = " << num(f.quality.sensitivity_v_per_deg) << "\n"
+    << "linearity_r2 = " << num(f.quality.linearity_r2) << "\n"
+    << "f1_r2 = " << num(f.quality.f1_r2) << "\n"
+    << "f1_rmse_pct = " << num(f.quality.f1_rmse_pct) << "\n"
+    << "f4_flexion_r2 = " << num(f.quality.f4_flexion_r2) << "\n"
+    << "f4_extension_r2 = " << num(f.quality.f4_extension_r2) << "\n"
+    << "n_holds = " << f.quality.n_holds << "\n"
+    << "n_velocity_tests = " << f.quality.n_velocity_tests << "\n"
+    << "\n[equations]    # eq. (11)/(12) in the paper's form; informational, not read back\n"
+    << "flexion = " << quoted(f.equation_flexion) << "\n"
+    << "extension = " << quoted(f.equation_extension) << "\n";
+  if (f.potentiometer) {
+    const auto& p = *f.potentiometer;
+    o << "\n[potentiometer]    # angle_deg = deg_per_volt * (pot_v - zero_v) + offset(angle)\n"
+      << "deg_per_volt = " << num(p.deg_per_volt) << "\n"
+      << "zero_v = " << num(p.zero_v) << "\n"
+      << "offsets = [";
+    for (std::size_t i = 0; i < p.offsets.size(); ++i)
+      o << (i ? ", " : "") << "[" << num(p.offsets[i].first) << ", " << num(p.offsets[i].second) << "]";
+    o << "]\n";
+  }
+  return o.str();
+}
+
+void save_calibration(const CalibrationFile& f, const std::string& path) { write_file_atomic(path, to_toml(f)); }
+
+CalibrationFile parse_calibration(const std::string& text, const std::string& name) {
+  const toml::table t = parse_toml(text, name);
+  const Keys k(t, name);
+  const std::int64_t version = k.integer("schema_version");
+  if (version != kCalibrationSchemaVersion)
+    k.fail("schema_version", "expected " + std::to_string(kCalibrationSchemaVersion) + ", got " + std::to_string(version));
+  CalibrationFile f;
+  f.sensor_id = k.string("sensor_id");
+  f.date = k.string("date");
+  f.source_recording = k.string("source_recording");
+  f.cal.reference_level_v = k.positive("reference_level_v");
+  auto& m = f.cal.model;
+  m.c1 = k.positive("model.c1");
+  m.c2 = k.number("model.c2");
+  m.c9 = k.positive("model.c9");  // the light falls as the knee bends: f5 has a negative slope
+  m.c10 = k.number("model.c10");
+  f.cal.angle_min_deg = k.number("range.angle_min_deg");
+  f.cal.angle_max_deg = k.number("range.angle_max_deg");
+  if (f.cal.angle_min_deg < -30 || f.cal.angle_min_deg > 150) k.fail("range.angle_min_deg", "outside -30..150 deg");
+  if (f.cal.angle_max_deg < -30 || f.cal.angle_max_deg > 150) k.fail("range.angle_max_deg", "outside -30..150 deg");
+  if (!(f.cal.angle_max_deg > f.cal.angle_min_deg))
+    k.fail("range.angle_max_deg", "must exceed range.angle_min_deg (" + num(f.cal.angle_min_deg) + ")");
+  f.cal.velocity_min_rad_s = k.positive("range.velocity_min_rad_s");
+  f.cal.velocity_max_rad_s = k.positive("range.velocity_max_rad_s");
+  if (!(f.cal.velocity_max_rad_s > f.cal.velocity_min_rad_s))
+    k.fail("range.velocity_max_rad_s", "must exceed range.velocity_min_rad_s (" + num(f.cal.velocity_min_rad_s) + ")");
+  if (f.cal.velocity_max_rad_s > 50) k.fail("range.velocity_max_rad_s", "above 50 rad/s is not a knee");
+  const double h_lo = pof::core::hysteresis_pct(m, f.cal.velocity_max_rad_s);
+  const double h_hi = pof::core::hysteresis_pct(m, f.cal.velocity_min_rad_s);
+  for (int d = 0; d < 2; ++d) {
+    const std::string p = d == 0 ? "model.flexion." : "model.extension.";
+    auto& x = d == 0 ? m.flexion : m.extension;
+    x.c3 = k.number(p + "c3");
+    x.c4 = k.number(p + "c4");
+    x.c5 = k.number(p + "c5");
+    x.c6 = k.number(p + "c6");
+    x.c7 = k.number(p + "c7");
+    x.c8 = k.number(p + "c8");
+    // f3 must keep the voltage's orientation over the calibrated hysteresis (a > 0) and f4 must
+    // not collapse it (c7 > 0): otherwise eq. (11)/(12) cannot be inverted.
+    for (const double h : {h_lo, h_hi})
+      if (!(x.c3 * h + x.c4 > 0)) k.fail(p + "c4", "f2 gives a = c3 h + c4 <= 0 at h = " + num(h) + " % (impossible gain)");
+    if (!(x.c7 > 0)) k.fail(p + "c7", "expected > 0, got " + num(x.c7));
+  }
+  f.quality.sensitivity_v_per_deg = k.number("fit_quality.sensitivity_v_per_deg");
+  f.quality.linearity_r2 = k.number("fit_quality.linearity_r2");
+  if (f.quality.linearity_r2 > 1) k.fail("fit_quality.linearity_r2", "R^2 above 1");
+  f.quality.f1_r2 = k.number("fit_quality.f1_r2");
+  f.quality.f1_rmse_pct = k.number("fit_quality.f1_rmse_pct");
+  f.quality.f4_flexion_r2 = k.number("fit_quality.f4_flexion_r2");
+  f.quality.f4_extension_r2 = k.number("fit_quality.f4_extension_r2");
+  f.quality.n_holds = k.integer("fit_quality.n_holds");
+  f.quality.n_velocity_tests = k.integer("fit_quality.n_velocity_tests");
+  f.equation_flexion = k.string("equations.flexion", false);
+  f.equation_extension = k.string("equations.extension", false);
+  if (t.contains("potentiometer")) f.potentiometer = read_potentiometer(k, t);
+  return f;
+}
+
+CalibrationFile load_calibration(const std::string& path) { return parse_calibration(read_text(path), path); }
+
+pof::core::PotentiometerCalibration load_potentiometer(const std::string& path) {
+  const toml::table t = parse_toml(read_text(path), path);
+  const Keys k(t, path);
+  if (!t.contains("potentiometer")) k.fail("potentiometer", "missing (expected a [potentiometer] table with deg_per_volt, zero_v)");
+  return read_potentiometer(k, t);
+}
+
+}  // namespace pof::io

@@ -1,0 +1,107 @@
+# pof calibrate / pof compensate end to end (issue 3) on recordings generated from the model
+# (tests/support/gen_recording): outputs, formats, exit codes 65 (with the line) / 66 / 78 (with
+# the key), no overwrite of good files by a failed run, quiet in pipes.
+source "$(dirname "$0")/lib.sh"
+POF="$BIN_DIR/pof"
+GEN="$BIN_DIR/../tests/gen_recording"
+PY=/usr/bin/python3
+
+"$GEN" cal.csv calibration
+"$GEN" val.csv validation
+"$GEN" cal_pot.csv calibration pot
+
+# --- calibrate, with the report
+expect_exit 0 "$POF" calibrate cal.csv -o cal.toml --report rep --sensor-id LEFT_KNEE
+grep -q '^schema_version = 1$' cal.toml || fail "cal.toml has no schema_version = 1"
+grep -q '^sensor_id = "LEFT_KNEE"$' cal.toml || fail "sensor id not stored"
+grep -q 'alpha_f = (' <<<"$out" || fail "eq. (11) not printed: $out"
+grep -q 'alpha_e = (' <<<"$out" || fail "eq. (12) not printed: $out"
+[[ "$out$err" != *$'\r'* ]] || fail "progress output in a pipe"
+for f in calibration.json compensated.csv fig6_quasi_static.png fig7_regressions.png loops.png error_vs_angle.png; do
+  [ -s "rep/$f" ] || fail "report file rep/$f missing or empty"
+done
+"$PY" - rep/calibration.json <<'PYEOF' || fail "calibration.json lacks figures"
+import json, sys
+r = json.load(open(sys.argv[1]))
+assert len(r["velocity_tests"]) == 9, len(r["velocity_tests"])
+for k in ("quasi_static", "f1", "f2", "f4", "combined", "range", "segments", "self_check"):
+    assert k in r, k
+assert r["f1"]["c1_se"] > 0 and len(r["f1"]["residuals_pct"]) == 9
+assert abs(r["quasi_static"]["sensitivity_v_per_deg"] - 0.022) < 0.001
+PYEOF
+
+# --- compensate: the CSV and JSON formats other tools read
+expect_exit 0 "$POF" compensate val.csv --cal cal.toml --csv out.csv --json stats.json
+[ "$(head -1 out.csv)" = "t_s,angle_deg,angle_uncomp_deg,angle_ref_deg,velocity_rad_s,phase" ] || fail "out.csv header: $(head -1 out.csv)"
+[ "$(wc -l <out.csv)" -eq "$(wc -l <val.csv)" ] || fail "out.csv must have one row per input scan"
+cut -d, -f6 out.csv | tail -n +2 | sort -u | tr '\n' ' ' | grep -qx "extension flexion hold " || fail "phases: $(cut -d, -f6 out.csv | sort -u)"
+grep -q '^overall ' <<<"$out" || fail "no table-3 summary printed: $out"
+"$PY" - stats.json <<'PYEOF' || fail "stats.json keys or values wrong"
+import json, sys
+s = json.load(open(sys.argv[1]))
+keys = ["velocity_rad_s", "rmse_comp_deg", "rmse_uncomp_deg", "hysteresis_comp_pct", "hysteresis_uncomp_pct", "max_error_deg"]
+assert len(s["cycles"]) == 15, len(s["cycles"])
+for c in s["cycles"]:
+    for k in ["cycle"] + keys:
+        assert k in c, k
+for k in keys:
+    assert k in s["overall"], k
+o = s["overall"]
+assert o["rmse_comp_deg"] < o["rmse_uncomp_deg"], o
+assert o["hysteresis_comp_pct"] < 0.5 * o["hysteresis_uncomp_pct"], o
+PYEOF
+
+# --- potentiometer-only recordings need --pot-cal (78 otherwise)
+expect_exit 78 "$POF" calibrate cal_pot.csv -o pot_cal.toml
+grep -q "pot-cal" <<<"$err" || fail "no hint about --pot-cal: $err"
+printf '[potentiometer]\ndeg_per_volt = 18.0\nzero_v = 0.0\n' >pot.toml
+expect_exit 0 "$POF" calibrate cal_pot.csv -o pot_cal.toml --pot-cal pot.toml
+grep -q '^\[potentiometer\]' pot_cal.toml || fail "potentiometer calibration not stored"
+
+# --- bad data: 65 with file:line, and a good calibration file is never replaced by a failed run
+cp cal.toml cal.keep
+awk -F, 'NR==1234 {$2="abc"} {print}' OFS=, val.csv >bad.csv
+expect_exit 65 "$POF" compensate bad.csv --cal cal.toml
+grep -q "bad.csv:1234: column sensor_v" <<<"$err" || fail "no line number for a corrupt value: $err"
+head -c 100000 val.csv >trunc.csv
+last=$(wc -l <trunc.csv); last=$((last + 1))
+expect_exit 65 "$POF" compensate trunc.csv --cal cal.toml
+grep -q "trunc.csv:$last:" <<<"$err" || fail "no line number for a truncated file: $err"
+expect_exit 65 "$POF" calibrate trunc.csv -o cal.toml
+cmp -s cal.toml cal.keep || fail "a failed calibrate changed cal.toml"
+expect_exit 65 "$POF" calibrate val.csv -o cal.toml
+grep -q "hold" <<<"$err" || fail "calibrating without holds should say so: $err"
+cmp -s cal.toml cal.keep || fail "a failed calibrate changed cal.toml"
+printf 'time,volts\n1,2\n' >wrong_header.csv
+expect_exit 65 "$POF" compensate wrong_header.csv --cal cal.toml
+grep -q "wrong_header.csv:1: header has no column 't_s'" <<<"$err" || fail "header error: $err"
+
+# --- missing files: 66
+expect_exit 66 "$POF" compensate no_such.csv --cal cal.toml
+grep -q "no_such.csv" <<<"$err" || fail "missing recording not named: $err"
+expect_exit 66 "$POF" compensate val.csv --cal no_such.toml
+
+# --- bad calibration files: 78, naming the key; nothing half-loaded
+sed '/^c7 = /{x;s/^/x/;/^x$/{x;d};x}' cal.toml >missing_key.toml   # drop model.flexion.c7
+expect_exit 78 "$POF" compensate val.csv --cal missing_key.toml
+grep -q "key 'model.flexion.c7': missing" <<<"$err" || fail "missing key not named: $err"
+sed 's/^c9 = .*/c9 = "fast"/' cal.toml >wrong_type.toml
+expect_exit 78 "$POF" compensate val.csv --cal wrong_type.toml
+grep -q "key 'model.c9': expected a number, got a string" <<<"$err" || fail "wrong type not named: $err"
+sed 's/^c10 = .*/c10 = nan/' cal.toml >nan.toml
+expect_exit 78 "$POF" compensate val.csv --cal nan.toml
+grep -q "key 'model.c10': expected a finite number" <<<"$err" || fail "NaN not named: $err"
+sed 's/^velocity_max_rad_s = .*/velocity_max_rad_s = 0.001/' cal.toml >range.toml
+expect_exit 78 "$POF" compensate val.csv --cal range.toml
+grep -q "key 'range.velocity_max_rad_s'" <<<"$err" || fail "impossible range not named: $err"
+sed 's/^schema_version = 1/schema_version = 7/' cal.toml >schema.toml
+expect_exit 78 "$POF" compensate val.csv --cal schema.toml
+grep -q "key 'schema_version': expected 1, got 7" <<<"$err" || fail "schema version: $err"
+printf 'schema_version = 1\n[model\nc1 = 2\n' >syntax.toml
+expect_exit 78 "$POF" compensate val.csv --cal syntax.toml
+grep -q "syntax.toml:2:" <<<"$err" || fail "TOML syntax error without line: $err"
+
+# --- usage: 2
+expect_exit 2 "$POF" compensate val.csv
+expect_exit 2 "$POF" calibrate cal.csv
+echo "ok"

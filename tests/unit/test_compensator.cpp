@@ -1,0 +1,264 @@
+// The online compensator: quasi-static identity, dead band, velocity estimator delay and noise
+// against their documented values, quality flags, and eq. (11)/(12) on moving data.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include "paper_protocol.hpp"
+#include "pof/core/compensator.hpp"
+
+using pof::core::CompensatedScan;
+using pof::core::Direction;
+using pof::core::OnlineCompensator;
+namespace quality = pof::core::quality;
+
+namespace {
+
+pof::core::Calibration paper_calibration(double level = 4.0) {
+  pof::core::Calibration c;
+  c.model = pof::core::paper_coefficients();
+  c.reference_level_v = level;
+  return c;
+}
+
+pof::testing::ProtocolSettings noiseless() {
+  pof::testing::ProtocolSettings p;
+  p.daq.noise_v = 0;
+  p.daq.bits = 0;
+  return p;
+}
+
+}  // namespace
+
+// Scans where the true velocity has been constant for longer than the estimator window (+10 %):
+// the estimate has caught up there.
+std::vector<char> cruising(const pof::testing::Trajectory& tr, int window) {
+  std::vector<char> out(tr.velocity_deg_s.size(), 0);
+  int run = 0;
+  for (std::size_t i = 1; i < out.size(); ++i) {
+    run = std::abs(tr.velocity_deg_s[i] - tr.velocity_deg_s[i - 1]) < 1e-6 ? run + 1 : 0;
+    out[i] = run > window * 11 / 10;
+  }
+  return out;
+}
+
+// Property: a noiseless quasi-static recording (holds at random angles, random laser drift)
+// compensates back to the reference angle: exactly in the settled holds (f5 is the model there)
+// and within 0.3 deg in the steady part of the steps. (Just after a start or stop the direction
+// comes from a delayed velocity and the error is the model's flexion/f5 gap; see docs.)
+TEST(Compensator, NoiselessQuasiStaticRecordingReturnsTheReferenceAngle) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> angle(0, 90), hold(2, 8), drift(0, 0.2);
+  for (int trial = 0; trial < 5; ++trial) {
+    auto p = noiseless();
+    p.laser_drift = drift(rng);
+    pof::testing::Trajectory tr(p.rate_hz, 0);
+    tr.hold(hold(rng));
+    for (int k = 0; k < 8; ++k) {
+      tr.move_to(angle(rng), 5.0, 0.2);
+      tr.hold(hold(rng));
+    }
+    const auto g = pof::testing::acquire(pof::core::paper_coefficients(), tr, p);
+    OnlineCompensator comp(paper_calibration(p.reference_level_v));
+    const auto steady = cruising(tr, comp.window());
+    double worst_hold = 0, worst_move = 0;
+    int n_hold = 0, n_move = 0;
+    for (Eigen::Index i = 0; i < g.size(); ++i) {
+      const auto k = static_cast<std::size_t>(i);
+      const CompensatedScan s = comp.step(g.sensor_v(i), g.reference_v(i));
+      const double err = std::abs(s.angle_deg - g.angle_true_deg(i));
+      if (!steady[k]) continue;
+      if (tr.velocity_deg_s[k] == 0) {
+        EXPECT_EQ(s.phase, Direction::kHold) << "scan " << i;
+        worst_hold = std::max(worst_hold, err);
+        ++n_hold;
+      } else {
+        EXPECT_EQ(s.phase, tr.velocity_deg_s[k] > 0 ? Direction::kFlexion : Direction::kExtension) << "scan " << i;
+        worst_move = std::max(worst_move, err);
+        ++n_move;
+      }
+    }
+    EXPECT_GT(n_hold, 1000);
+    EXPECT_GT(n_move, 100);
+    EXPECT_LT(worst_hold, 1e-9) << "trial " << trial;
+    EXPECT_LT(worst_move, 0.3) << "trial " << trial;
+  }
+}
+
+TEST(Compensator, MovingDataIsCompensatedByEquations11And12) {
+  auto p = noiseless();
+  p.quasi_static = false;
+  p.velocities_rad_s = {0.0561, 0.1726};
+  const auto g = pof::testing::paper_recording(p);
+  OnlineCompensator comp(paper_calibration(p.reference_level_v));
+  double sq_c = 0, sq_u = 0;
+  int n = 0;
+  for (Eigen::Index i = 0; i < g.size(); ++i) {
+    const auto s = comp.step(g.sensor_v(i), g.reference_v(i));
+    if (s.phase == Direction::kHold) continue;
+    sq_c += std::pow(s.angle_deg - g.angle_true_deg(i), 2);
+    sq_u += std::pow(s.angle_uncomp_deg - g.angle_true_deg(i), 2);
+    ++n;
+  }
+  ASSERT_GT(n, 1000);
+  const double rc = std::sqrt(sq_c / n), ru = std::sqrt(sq_u / n);
+  std::printf("noiseless cycles: RMSE compensated %.3f deg, uncompensated %.3f deg\n", rc, ru);
+  EXPECT_LT(rc, 0.5 * ru);
+  EXPECT_LT(rc, 0.3);
+}
+
+// With noise and 12-bit quantisation the direction must not chatter. Velocity from the
+// potentiometer: over the whole paper protocol each movement gives exactly hold -> sweep -> hold
+// (18 steps + the return + 18 sweeps).
+TEST(Compensator, DeadBandKeepsHoldsAndReversalsFromChattering) {
+  const pof::testing::ProtocolSettings p;
+  const auto g = pof::testing::paper_recording(p);
+  pof::core::CompensatorSettings s;
+  s.velocity_source = pof::core::VelocitySource::kReference;
+  OnlineCompensator comp(paper_calibration(p.reference_level_v), s);
+  int transitions = 0;
+  Direction last = Direction::kHold;
+  for (Eigen::Index i = 0; i < g.size(); ++i) {
+    const auto out = comp.step(g.sensor_v(i), g.reference_v(i), g.angle_ref_deg(i));
+    if (out.phase != last) ++transitions;
+    last = out.phase;
+  }
+  EXPECT_EQ(transitions, 2 * (18 + 1 + 18));
+}
+
+// Velocity from the sensor itself (default): noisy holds stay holds and steady sweeps keep their
+// direction. (The model's voltage jumps between f5 and eq. (11)/(12) when a movement starts or
+// stops, which the sensor-derived velocity sees as a short movement: documented, not tested away.)
+TEST(Compensator, SensorVelocityDoesNotChatterInHoldsOrSweeps) {
+  const pof::testing::ProtocolSettings p;
+  const auto tr = pof::testing::paper_trajectory(p);
+  const auto g = pof::testing::acquire(pof::core::paper_coefficients(), tr, p);
+  OnlineCompensator comp(paper_calibration(p.reference_level_v));
+  const auto steady = cruising(tr, 2 * comp.window());
+  int checked = 0;
+  for (Eigen::Index i = 0; i < g.size(); ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    const auto out = comp.step(g.sensor_v(i), g.reference_v(i));
+    if (!steady[k]) continue;
+    const double v = tr.velocity_deg_s[k];
+    const Direction want = v > 0 ? Direction::kFlexion : v < 0 ? Direction::kExtension : Direction::kHold;
+    ASSERT_EQ(out.phase, want) << "t = " << g.t_s(i) << " s";
+    ++checked;
+  }
+  EXPECT_GT(checked, g.size() / 2);
+}
+
+TEST(Compensator, VelocityEstimatorDelayAndNoiseAreAsDocumented) {
+  const auto cal = paper_calibration();
+  pof::core::CompensatorSettings s;
+  s.velocity_source = pof::core::VelocitySource::kReference;
+  OnlineCompensator comp(cal, s);
+  EXPECT_EQ(comp.window(), 100);
+  EXPECT_NEAR(comp.delay_s(), 0.2475, 1e-12);
+  // Delay: phase lag of the estimate of a slow sinusoid (0.2 Hz) is omega * delay.
+  const double f = 0.2, w0 = 2 * std::numbers::pi * f, amp = 20;
+  double cc = 0, cs = 0;
+  int n = 0;
+  for (int i = 0; i < 200 * 50; ++i) {
+    const double t = i / 200.0;
+    const double ang = 45 + amp * std::sin(w0 * t);
+    const auto out = comp.step(quasi_static_voltage(cal.model, 45), 4.0, ang);
+    if (i < 1000) continue;
+    cc += out.velocity_rad_s * std::cos(w0 * t);
+    cs += out.velocity_rad_s * std::sin(w0 * t);
+    ++n;
+  }
+  const double lag = std::atan2(cs, cc) / w0;
+  EXPECT_NEAR(lag, comp.delay_s(), 0.005);
+  // Noise: white reference-angle noise sigma gives the documented velocity standard deviation.
+  comp.reset();
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> noise(0, 0.1);
+  double sum = 0, sum2 = 0;
+  n = 0;
+  for (int i = 0; i < 200 * 120; ++i) {
+    const auto out = comp.step(quasi_static_voltage(cal.model, 45), 4.0, 45 + noise(rng));
+    if (i < 200) continue;
+    sum += out.velocity_rad_s;
+    sum2 += out.velocity_rad_s * out.velocity_rad_s;
+    ++n;
+  }
+  const double sd = std::sqrt(sum2 / n - std::pow(sum / n, 2));
+  EXPECT_NEAR(sd, comp.velocity_noise_rad_s(0.1), 0.1 * comp.velocity_noise_rad_s(0.1));
+  EXPECT_NEAR(comp.velocity_noise_rad_s(0.1), 0.0012, 0.0001);  // the figure quoted in compensator.hpp
+}
+
+TEST(Compensator, ConstantVelocityIsEstimatedWithoutBias) {
+  const auto cal = paper_calibration();
+  OnlineCompensator comp(cal);
+  const double w = 0.1047, deg_s = w * 180 / std::numbers::pi;
+  CompensatedScan out;
+  for (int i = 0; i < 400; ++i)
+    out = comp.step(quasi_static_voltage(cal.model, 10 + deg_s * i / 200.0), 4.0);
+  EXPECT_NEAR(out.velocity_rad_s, w, 1e-9);
+  EXPECT_EQ(out.phase, Direction::kFlexion);
+  EXPECT_EQ(out.quality, 0);
+}
+
+TEST(Compensator, QualityFlags) {
+  const auto cal = paper_calibration();
+  OnlineCompensator comp(cal);
+  const double v45 = quasi_static_voltage(cal.model, 45);
+  auto out = comp.step(v45, 4.0);
+  EXPECT_TRUE(out.quality & quality::kSettling);
+  for (int i = 0; i < 200; ++i) out = comp.step(v45, 4.0);
+  EXPECT_EQ(out.quality, 0);
+  EXPECT_NEAR(out.angle_deg, 45, 1e-9);
+
+  out = comp.step(v45, 0.0);  // laser off: never a division by ~0
+  EXPECT_TRUE(out.quality & quality::kReferenceLost);
+  EXPECT_TRUE(std::isnan(out.angle_deg));
+  out = comp.step(v45, 0.9);  // far below the calibrated level
+  EXPECT_TRUE(out.quality & quality::kReferenceLost);
+  out = comp.step(std::nan(""), 4.0);
+  EXPECT_TRUE(out.quality & quality::kInvalidInput);
+  EXPECT_TRUE(std::isnan(out.angle_deg));
+  out = comp.step(10.0, 4.0);
+  EXPECT_TRUE(out.quality & quality::kOverRange);
+  EXPECT_TRUE(out.quality & quality::kAngleExtrapolated);  // 10 V is far beyond 0 deg
+
+  comp.reset();
+  out = comp.step(v45, 4.0);
+  EXPECT_TRUE(out.quality & quality::kGap);
+  EXPECT_TRUE(out.quality & quality::kSettling);
+  out = comp.step(v45, 4.0);
+  EXPECT_FALSE(out.quality & quality::kGap);
+
+  // 1 rad/s is beyond the calibrated 0.4304 rad/s.
+  comp.reset();
+  for (int i = 0; i < 150; ++i) out = comp.step(quasi_static_voltage(cal.model, 10 + 57.3 * i / 200.0), 4.0);
+  EXPECT_TRUE(out.quality & quality::kVelocityExtrapolated);
+  EXPECT_EQ(out.phase, Direction::kFlexion);
+}
+
+TEST(Compensator, ReferenceVelocitySourceUsesTheReferenceAngle) {
+  const auto cal = paper_calibration();
+  pof::core::CompensatorSettings s;
+  s.velocity_source = pof::core::VelocitySource::kReference;
+  OnlineCompensator comp(cal, s);
+  CompensatedScan out;
+  // The sensor holds still while the reference moves in extension: the reference decides.
+  for (int i = 0; i < 300; ++i) out = comp.step(quasi_static_voltage(cal.model, 45), 4.0, 80 - 6.0 * i / 200.0);
+  EXPECT_EQ(out.phase, Direction::kExtension);
+  EXPECT_NEAR(out.velocity_rad_s, -6.0 * std::numbers::pi / 180, 1e-9);
+  out = comp.step(quasi_static_voltage(cal.model, 45), 4.0);  // reference missing
+  EXPECT_TRUE(out.quality & quality::kInvalidInput);
+  EXPECT_NEAR(out.angle_deg, 45, 1e-9) << "f5 still gives an angle";
+}
+
+TEST(Compensator, RejectsSettingsThatCannotWork) {
+  pof::core::CompensatorSettings s;
+  s.hold_rad_s = 0.02;
+  s.move_rad_s = 0.01;
+  EXPECT_THROW(OnlineCompensator(paper_calibration(), s), std::invalid_argument);
+  s = {};
+  s.scan_rate_hz = 0;
+  EXPECT_THROW(OnlineCompensator(paper_calibration(), s), std::invalid_argument);
+}

@@ -175,12 +175,15 @@ const KneeState& Trajectory::step() {
       }
       st_.commanded_deg = s.target_deg;
       // Time-optimal approach: cruise at the commanded speed, brake at the drive's deceleration so
-      // as to stop on the target (v^2 = 2 a d), never change speed faster than amax.
-      const double v_brake = std::sqrt(2.0 * amax_ * std::abs(d));
+      // as to stop on the target, never change speed faster than amax. The braking speed is the
+      // discrete-time one (v^2 / 2a + v dt / 2 = d with x += v dt), so the knee arrives with at most
+      // amax dt of residual speed instead of overshooting the continuous v^2 = 2 a d curve.
+      const double h = 0.5 * amax_ * dt_;
+      const double v_brake = std::sqrt(h * h + 2.0 * amax_ * std::abs(d)) - h;
       const double v_des = std::copysign(std::min(s.speed_deg_s, v_brake), d);
       const double dv = std::clamp(v_des - st_.velocity_deg_s, -amax_ * dt_, amax_ * dt_);
       double v = st_.velocity_deg_s + dv;
-      double next = st_.angle_deg + 0.5 * (st_.velocity_deg_s + v) * dt_;
+      double next = st_.angle_deg + v * dt_;
       if ((s.target_deg - next) * d <= 0 || std::abs(s.target_deg - next) < 1e-9) {
         // Arrives within this tick: stop on the target.
         next = s.target_deg;
@@ -208,7 +211,7 @@ const KneeState& Trajectory::step() {
     const double v_des = std::clamp(vc + kp_ * (pc - st_.angle_deg), -vmax_, vmax_);
     const double dv = std::clamp(v_des - st_.velocity_deg_s, -amax_ * dt_, amax_ * dt_);
     const double v = st_.velocity_deg_s + dv;
-    st_.angle_deg += 0.5 * (st_.velocity_deg_s + v) * dt_;
+    st_.angle_deg += v * dt_;
     st_.velocity_deg_s = v;
     if (++tick_in_step_ >= s.ticks) {
       ++idx_;

@@ -21,7 +21,7 @@ constexpr std::uint64_t kStreamNoise = 1, kStreamDrift = 2, kStreamWander = 3;
 double checked_rate(const Scenario& s, double override_hz) {
   validate(s);
   const double r = override_hz > 0 ? override_hz : s.daq.scan_rate_hz;
-  if (!(r > 0) || !std::isfinite(r) || override_hz < 0)
+  if (!(r > 0) || !std::isfinite(r) || !(override_hz >= 0))
     throw pof::io::ConfigError(s.source + ": scan rate: expected a rate > 0 Hz, got " + std::to_string(override_hz));
   return r;
 }

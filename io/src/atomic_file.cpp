@@ -5,46 +5,68 @@
 #include <unistd.h>
 
 #include <cerrno>
-#include <cstdio>
 #include <cstring>
 #include <string>
+#include <system_error>
+#include <vector>
 
 #include "pof/io/errors.hpp"
 
 namespace pof::io {
 
-void write_file_atomic(const std::string& path, const std::string& content) {
-  std::string tmpl = path + ".tmp.XXXXXX";
-  const int fd = ::mkstemp(tmpl.data());
-  if (fd < 0) throw IoError(path + ": cannot create a temporary file next to it: " + std::strerror(errno));
-  auto fail = [&](const char* what) {
+AtomicFile::AtomicFile(std::filesystem::path dest) : dest_(std::move(dest)) {
+  const std::filesystem::path dir = dest_.has_parent_path() ? dest_.parent_path() : std::filesystem::path(".");
+  std::string pattern = (dir / ("." + dest_.filename().string() + ".tmp-XXXXXX")).string();
+  std::vector<char> buf(pattern.begin(), pattern.end());
+  buf.push_back('\0');
+  const int fd = ::mkstemp(buf.data());
+  if (fd < 0)
+    throw IoError(dest_.string() + ": cannot create a temporary file in '" + dir.string() + "': " + std::strerror(errno));
+  // mkstemp makes 0600; a recording is an ordinary file (0666 & ~umask).
+  const mode_t mask = ::umask(0);
+  ::umask(mask);
+  (void)::fchmod(fd, static_cast<mode_t>(0666 & ~mask));
+  ::close(fd);
+  tmp_ = buf.data();
+}
+
+AtomicFile::~AtomicFile() {
+  if (!committed_) {
+    std::error_code ec;
+    std::filesystem::remove(tmp_, ec);
+  }
+}
+
+void AtomicFile::commit() {
+  const int fd = ::open(tmp_.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0 || ::fsync(fd) != 0) {
     const int e = errno;
-    ::close(fd);
-    ::unlink(tmpl.c_str());
-    throw IoError(path + ": " + what + ": " + std::strerror(e));
-  };
+    if (fd >= 0) ::close(fd);
+    throw IoError(dest_.string() + ": cannot sync '" + tmp_.string() + "': " + std::strerror(e));
+  }
+  ::close(fd);
+  if (::rename(tmp_.c_str(), dest_.c_str()) != 0)
+    throw IoError(dest_.string() + ": cannot rename '" + tmp_.string() + "' onto it: " + std::strerror(errno));
+  committed_ = true;
+}
+
+void write_file_atomic(const std::filesystem::path& path, const std::string& content) {
+  AtomicFile file(path);
+  const int fd = ::open(file.temp_path().c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
+  if (fd < 0) throw IoError(path.string() + ": cannot open '" + file.temp_path().string() + "': " + std::strerror(errno));
   std::size_t done = 0;
   while (done < content.size()) {
     const ssize_t w = ::write(fd, content.data() + done, content.size() - done);
+    if (w < 0 && errno == EINTR) continue;
     if (w < 0) {
-      if (errno == EINTR) continue;
-      fail("write failed");
+      const int e = errno;
+      ::close(fd);
+      throw IoError(path.string() + ": write failed: " + std::strerror(e));
     }
     done += static_cast<std::size_t>(w);
   }
-  // mkstemp creates 0600; outputs are ordinary files.
-  if (::fchmod(fd, 0644) != 0) fail("chmod failed");
-  if (::fsync(fd) != 0) fail("fsync failed");
-  if (::close(fd) != 0) {
-    const int e = errno;
-    ::unlink(tmpl.c_str());
-    throw IoError(path + ": close failed: " + std::strerror(e));
-  }
-  if (std::rename(tmpl.c_str(), path.c_str()) != 0) {
-    const int e = errno;
-    ::unlink(tmpl.c_str());
-    throw IoError(path + ": rename from temporary file failed: " + std::strerror(e));
-  }
+  if (::close(fd) != 0) throw IoError(path.string() + ": close failed: " + std::strerror(errno));
+  file.commit();  // fsync + rename; the destructor removes the temporary file on any throw above
 }
 
 }  // namespace pof::io

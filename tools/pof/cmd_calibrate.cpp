@@ -3,7 +3,6 @@
 // constant-velocity cycles), writes the calibration file and, with --report, a JSON with every
 // figure and PNG plots (tools/plot/calibration_report.py).
 #include <sys/stat.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -17,6 +16,7 @@
 #include <optional>
 
 #include "commands.hpp"
+#include "plot.hpp"
 #include "compensation_csv.hpp"
 #include "pof/core/calibration.hpp"
 #include "pof/core/offline.hpp"
@@ -46,42 +46,15 @@ std::string utc_now() {
   return buf;
 }
 
-// The plot script: $POF_PLOT_DIR, else the source tree this binary was built from, else the
-// installed share directory.
-std::string plot_script() {
-  const char* env = std::getenv("POF_PLOT_DIR");
-  for (const char* dir : {env, POF_PLOT_DIR_SOURCE, POF_PLOT_DIR_INSTALLED}) {
-    if (!dir) continue;
-    const std::string p = std::string(dir) + "/calibration_report.py";
-    if (::access(p.c_str(), R_OK) == 0) return p;
-  }
-  return {};
-}
-
-// Runs /usr/bin/python3 (matplotlib is a Debian package; the PATH python may lack it).
+// Plots are a convenience on top of the complete JSON report: a plotting failure warns, not fails.
 bool run_plots(const std::string& dir) {
-  const std::string script = plot_script();
-  if (script.empty()) {
-    std::fprintf(stderr, "pof calibrate: warning: calibration_report.py not found (set POF_PLOT_DIR); no plots\n");
+  try {
+    run_plot_script("calibration_report.py", {dir});
+    return true;
+  } catch (const pof::io::IoError& e) {
+    std::fprintf(stderr, "pof calibrate: warning: %s; the JSON report is complete, the plots are not\n", e.what());
     return false;
   }
-  const pid_t pid = ::fork();
-  if (pid < 0) return false;
-  if (pid == 0) {
-    const char* argv[] = {"/usr/bin/python3", script.c_str(), dir.c_str(), nullptr};
-    ::execv(argv[0], const_cast<char* const*>(argv));
-    std::fprintf(stderr, "pof calibrate: cannot run /usr/bin/python3: %s\n", std::strerror(errno));
-    ::_exit(127);
-  }
-  int status = 0;
-  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-    std::fprintf(stderr, "pof calibrate: warning: %s failed (exit %d); the JSON report is complete, the plots are not\n",
-                 script.c_str(), WIFEXITED(status) ? WEXITSTATUS(status) : -1);
-    return false;
-  }
-  return true;
 }
 
 void run(const CalibrateOptions& o) {

@@ -9,5 +9,6 @@ namespace pof::cli {
 void add_version(CLI::App& app);
 void add_calibrate(CLI::App& app);
 void add_compensate(CLI::App& app);
+void add_sim(CLI::App& app);
 
 }  // namespace pof::cli

@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   pof::cli::add_version(app);
   pof::cli::add_calibrate(app);
   pof::cli::add_compensate(app);
+  pof::cli::add_sim(app);
 
   try {
     app.parse(argc, argv);

@@ -7,5 +7,7 @@
 namespace pof::cli {
 
 void add_version(CLI::App& app);
+void add_record(CLI::App& app);
+void add_spy(CLI::App& app);
 
 }  // namespace pof::cli

@@ -3,12 +3,15 @@
 #include <exception>
 
 #include <CLI/CLI.hpp>
+#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include "commands.hpp"
 #include "pof/io/errors.hpp"
 
 int main(int argc, char** argv) {
+  // Diagnostics go to stderr: stdout carries results (`pof record --check`, `pof spy --once`).
+  spdlog::set_default_logger(spdlog::stderr_color_mt("pof"));
   CLI::App app{"pof: calibrate, simulate, compensate and inspect POF knee-angle sensor data"};
   app.require_subcommand(1);
   app.set_version_flag("--version", POF_VERSION);

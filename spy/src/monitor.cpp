@@ -148,7 +148,7 @@ std::string render(const Monitor& m, const RenderOptions& o) {
                       static_cast<unsigned long long>(o.kernel_drops))) +
        (o.ansi ? "   (q quits)\n" : "\n");
   s += "\n";
-  s += heading(o, fmt("%-26s %-14s %9s %10s %7s %8s %9s %7s", "CHANNEL", "TYPE", "RATE/s", "MSGS", "SIZE", "GAPS",
+  s += heading(o, fmt("%-26s %-19s %9s %10s %7s %8s %9s %7s", "CHANNEL", "TYPE", "RATE/s", "MSGS", "SIZE", "GAPS",
                       "MISSING", "AGE s")) +
        "\n";
   for (const auto& [name, c] : m.channels()) {
@@ -157,7 +157,7 @@ std::string render(const Monitor& m, const RenderOptions& o) {
     const double age = o.now_utime > c.last_recv_utime ? static_cast<double>(o.now_utime - c.last_recv_utime) / 1e6 : 0.0;
     std::string gaps = c.type == recorder::PofType::kUnknown ? "-" : std::to_string(c.seq.gaps);
     std::string missing = c.type == recorder::PofType::kUnknown ? "-" : std::to_string(c.seq.missing);
-    s += fmt("%-26s %-14s %9.1f %10llu %7zu %8s %9s %7.2f", name.c_str(), type.c_str(), c.rate_hz,
+    s += fmt("%-26s %-19s %9.1f %10llu %7zu %8s %9s %7.2f", name.c_str(), type.c_str(), c.rate_hz,
              static_cast<unsigned long long>(c.count), c.last_size, gaps.c_str(), missing.c_str(), age);
     if (c.seq.restarts > 0) s += fmt("  restarts %llu", static_cast<unsigned long long>(c.seq.restarts));
     if (c.decode_errors > 0) s += fmt("  DECODE ERRORS %llu", static_cast<unsigned long long>(c.decode_errors));

@@ -72,7 +72,7 @@ for t, m in msgs:
 PY
 # shellcheck disable=SC2086  # POF_RECORD_ARGS is split into words, as systemd does with $VAR
 /usr/bin/python3 notify.py "$prefix/bin/pof" record --output state/recordings/ $args --duration 3 \
-  --lcm-url "udpm://239.255.76.67:7717?ttl=0" >notify.out
+  --lcm-url "udpm://239.255.76.67:$((20000 + RANDOM % 30000))?ttl=0" >notify.out
 cat notify.out
 [ "$(head -n 1 notify.out)" = 0 ] || fail "pof record (service command line) exited $(head -n 1 notify.out)"
 grep -q "READY=1" notify.out || fail "no READY=1"

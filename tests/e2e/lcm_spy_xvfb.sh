@@ -2,7 +2,8 @@
 # virtual X server, finds the 4 pofkit types, decodes a live angle stream, and stays up.
 # A screenshot (xwd -> PNG) is left in WORK_DIR/lcm-spy.png for a person to look at.
 source "$(dirname "$0")/lib.sh"
-PORT=${PORT:-7716}
+# A random port: other test runs on this host (ttl=0 multicast is host-wide) must not cross in.
+PORT=${PORT:-$((20000 + RANDOM % 30000))}
 URL="udpm://239.255.76.67:$PORT?ttl=0"
 for t in xvfb-run java xwd; do
   command -v $t >/dev/null || { echo "SKIP: $t missing (./pofkit setup installs xvfb, x11-apps, default-jdk-headless)"; exit 77; }

@@ -3,7 +3,8 @@
 # playing the repaired log, disk full (ENOSPC on a 2 MiB tmpfs: exit 74, the log stays clean) and
 # the error exits.
 source "$(dirname "$0")/lib.sh"
-PORT=${PORT:-7712}
+# A random port: other test runs on this host (ttl=0 multicast is host-wide) must not cross in.
+PORT=${PORT:-$((20000 + RANDOM % 30000))}
 URL="udpm://239.255.76.67:$PORT?ttl=0"
 URL2="udpm://239.255.76.67:$((PORT + 1))?ttl=0"
 PUB="$BIN_DIR/../tests/pof-testpub"

@@ -5,7 +5,8 @@
 source "$(dirname "$0")/lib.sh"
 RATE=${RATE:-50000}
 COUNT=${COUNT:-$((RATE * 3))}
-PORT=${PORT:-7711}
+# A random port: other test runs on this host (ttl=0 multicast is host-wide) must not cross in.
+PORT=${PORT:-$((20000 + RANDOM % 30000))}
 URL="udpm://239.255.76.67:$PORT?ttl=0"
 PUB="$BIN_DIR/../tests/pof-testpub"
 

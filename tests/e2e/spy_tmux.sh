@@ -2,7 +2,8 @@
 # plus a foreign channel; the screen must show rates, decoded values and fingerprints, and 'q'
 # must quit. Then the --once/--duration snapshot mode for scripts.
 source "$(dirname "$0")/lib.sh"
-PORT=${PORT:-7714}
+# A random port: other test runs on this host (ttl=0 multicast is host-wide) must not cross in.
+PORT=${PORT:-$((20000 + RANDOM % 30000))}
 URL="udpm://239.255.76.67:$PORT?ttl=0"
 PUB="$BIN_DIR/../tests/pof-testpub"
 POF="$BIN_DIR/pof"

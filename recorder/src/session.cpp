@@ -17,6 +17,7 @@
 
 #include "pof/io/errors.hpp"
 #include "pof/recorder/udp_socket.hpp"
+#include "pof/recorder/udpm_receiver.hpp"
 
 namespace pof::recorder {
 namespace fs = std::filesystem;
@@ -165,11 +166,18 @@ void Session::start() {
     }
   }
 
-  lcm_ = std::make_unique<lcm::LCM>(url_);
-  if (!lcm_->good()) throw io::ConfigError("LCM URL '" + url_ + "': cannot open (is there a multicast route? see docs/deployment.md)");
-  lcm::Subscription* sub = lcm_->subscribe(opt_.channels, &Session::on_message, this);
-  if (sub == nullptr) throw io::ConfigError("--channels '" + opt_.channels + "': LCM refused the subscription");
-  sub->setQueueCapacity(opt_.lcm_queue_capacity);
+  if (url_.rfind("udpm://", 0) == 0 && !opt_.use_liblcm) {
+    // lcm-logger -c semantics: the regex must match the whole channel name (std::regex_match).
+    channel_re_ = std::make_unique<std::regex>(opt_.channels, std::regex::optimize);
+    direct_ = std::make_unique<UdpmReceiver>(parse_udpm_url(url_));
+  } else {
+    lcm_ = std::make_unique<lcm::LCM>(url_);
+    if (!lcm_->good())
+      throw io::ConfigError("LCM URL '" + url_ + "': cannot open (is there a multicast route? see docs/deployment.md)");
+    lcm::Subscription* sub = lcm_->subscribe(opt_.channels, &Session::on_message, this);
+    if (sub == nullptr) throw io::ConfigError("--channels '" + opt_.channels + "': LCM refused the subscription");
+    sub->setQueueCapacity(opt_.lcm_queue_capacity);
+  }
 
   if (port_ != 0) {
     const auto socks = udp_sockets(port_);
@@ -190,7 +198,20 @@ void Session::start() {
 
 // LCM thread: copy and hand off, nothing else (no disk, no logging).
 void Session::on_message(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-  const std::size_t size = kRecordHeader + channel.size() + rbuf->data_size;
+  enqueue(rbuf->recv_utime, channel, rbuf->data, rbuf->data_size);
+}
+
+bool Session::channel_wanted(std::string_view channel) {
+  auto it = wanted_.find(channel);
+  if (it == wanted_.end()) {
+    if (wanted_.size() > 4096) wanted_.clear();  // bounded: a storm of random channel names
+    it = wanted_.emplace(std::string(channel), std::regex_match(channel.begin(), channel.end(), *channel_re_)).first;
+  }
+  return it->second;
+}
+
+void Session::enqueue(int64_t utime, std::string_view channel, const void* data, uint32_t data_size) {
+  const std::size_t size = kRecordHeader + channel.size() + data_size;
   std::lock_guard lk(mu_);
   ++received_;
   if (!accepting_ || pending_bytes_ + size > opt_.handoff_bytes) {
@@ -201,17 +222,28 @@ void Session::on_message(const lcm::ReceiveBuffer* rbuf, const std::string& chan
   pending_.resize(at + size);
   unsigned char* p = pending_.data() + at;
   const uint32_t cl = static_cast<uint32_t>(channel.size());
-  std::memcpy(p, &rbuf->recv_utime, 8);
+  std::memcpy(p, &utime, 8);
   std::memcpy(p + 8, &cl, 4);
-  std::memcpy(p + 12, &rbuf->data_size, 4);
+  std::memcpy(p + 12, &data_size, 4);
   std::memcpy(p + kRecordHeader, channel.data(), cl);
-  std::memcpy(p + kRecordHeader + cl, rbuf->data, rbuf->data_size);
+  if (data_size > 0) std::memcpy(p + kRecordHeader + cl, data, data_size);
   pending_bytes_ += size;
   if (pending_bytes_ > peak_bytes_) peak_bytes_ = pending_bytes_;
   if (++pending_events_ == 1) cv_.notify_one();
 }
 
 void Session::lcm_loop() {
+  if (direct_) {
+    const UdpmReceiver::Sink sink = [this](int64_t utime, std::string_view channel, const unsigned char* data,
+                                           uint32_t size) {
+      if (channel_wanted(channel)) enqueue(utime, channel, data, size);
+    };
+    while (!stop_lcm_.load()) {
+      direct_->receive(50, sink);
+      lcm_beats_.fetch_add(1);
+    }
+    return;
+  }
   while (!stop_lcm_.load()) {
     lcm_->handleTimeout(50);
     lcm_beats_.fetch_add(1);
@@ -401,6 +433,7 @@ SessionStats Session::stop() {
   final_rcvbuf_ = s.udp_rcvbuf_bytes;
   write_manifest_noexcept(outcome_name(s.outcome));
   lcm_.reset();
+  direct_.reset();
   return s;
 }
 
@@ -419,6 +452,7 @@ void Session::write_manifest(const char* status) {
   ::gethostname(host, sizeof host - 1);
   m["host"] = host;
   m["lcm_url"] = url_;
+  m["receiver"] = receiver_name();
   m["channel_regex"] = opt_.channels;
   m["options"] = {{"rotate_bytes", opt_.rotate_bytes},
                   {"rotate_seconds", opt_.rotate_seconds},

@@ -82,7 +82,8 @@ expect_exit 0 "$POF" record --repair "$last"
 grep -q "nothing to repair" <<<"$out" || fail "second repair was not a no-op: $out"
 
 # --- lcm-logplayer plays the repaired log ---------------------------------------------------------
-"$POF" record -q -o replay.lcmlog --lcm-url "$URL2" 2>replay.err &
+# --liblcm: the replay is also the test of the liblcm receive path (subscription queue raised).
+"$POF" record -q --liblcm -o replay.lcmlog --lcm-url "$URL2" 2>replay.err &
 rep=$!
 sleep 0.5
 lcm-logplayer -s 2 -l "$URL2" "$last"

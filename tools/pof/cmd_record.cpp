@@ -40,6 +40,7 @@ struct RecordArgs {
   std::vector<std::string> check;
   std::string repair;
   bool quiet = false;
+  bool liblcm = false;
 };
 
 std::string utc(int64_t utime) {
@@ -125,6 +126,7 @@ void run_record(const RecordArgs& a) {
   o.lcm_queue_capacity = a.queue_capacity;
   o.handoff_bytes = static_cast<std::size_t>(a.handoff_mb * 1024.0 * 1024.0);
   for (const auto& f : a.manifest_files) o.manifest_files.emplace_back(f);
+  o.use_liblcm = a.liblcm;
   o.manifest_extra["versions"] = {
       {"pofkit", POF_VERSION},
       {"git", POF_GIT_DESCRIBE},
@@ -147,7 +149,7 @@ void run_record(const RecordArgs& a) {
   session.start();
   const auto first = session.poll();
   if (!a.quiet)
-    spdlog::info("recording '{}' from {} into {} (manifest {})", a.channels, session.url(),
+    spdlog::info("recording '{}' from {} ({}) into {} (manifest {})", a.channels, session.url(), session.receiver_name(),
                  first.files.empty() ? std::string("?") : first.files.front().string(), first.manifest.string());
   notifier.ready("recording into " + (first.files.empty() ? std::string("?") : first.files.front().string()));
 
@@ -226,6 +228,9 @@ void add_record(CLI::App& app) {
   cmd->add_option("--manifest-file", a->manifest_files,
                   "Calibration/configuration file to copy next to the log and list in the manifest (repeatable)");
   cmd->add_flag("-q,--quiet", a->quiet, "Only report problems");
+  cmd->add_flag("--liblcm", a->liblcm,
+                "Receive udpm:// through liblcm's subscription queue instead of batched recvmmsg "
+                "(slower: for comparison)");
   auto* check = cmd->add_option("--check", a->check, "Report complete events, per-channel sequence gaps and any torn tail "
                                                       "of these logs (exit 65 when torn or damaged)");
   auto* repair = cmd->add_option("--repair", a->repair,

@@ -24,6 +24,8 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <regex>
+#include <string_view>
 #include <string>
 #include <thread>
 #include <vector>
@@ -51,6 +53,9 @@ struct SessionOptions {
   int lcm_queue_capacity = 1 << 20;    // per-subscription queue [messages] (LCM default: 30)
   std::size_t handoff_bytes = 256u << 20;  // bound of the LCM->writer queue [bytes]
   std::vector<std::filesystem::path> manifest_files;  // copied next to the log and listed
+  // udpm:// is received by UdpmReceiver (recvmmsg batches; udpm_receiver.hpp says why) unless
+  // use_liblcm is set; other providers (memq://, file://) always go through liblcm.
+  bool use_liblcm = false;
   nlohmann::json manifest_extra = nlohmann::json::object();  // versions, command line, config
 };
 
@@ -95,6 +100,8 @@ class Session {
   [[nodiscard]] uint64_t writer_heartbeat() const { return writer_beats_.load(); }
   [[nodiscard]] uint64_t lcm_heartbeat() const { return lcm_beats_.load(); }
 
+  /// "recvmmsg" or "liblcm": how messages are received.
+  [[nodiscard]] const char* receiver_name() const { return direct_ ? "recvmmsg" : "liblcm"; }
   /// The URL actually used (recv_buf_size added).
   [[nodiscard]] const std::string& url() const { return url_; }
 
@@ -104,6 +111,8 @@ class Session {
   static constexpr std::size_t kRecordHeader = 16;
 
   void on_message(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
+  void enqueue(int64_t utime, std::string_view channel, const void* data, uint32_t size);
+  bool channel_wanted(std::string_view channel);
   void lcm_loop();
   void writer_loop();
   bool open_next_file();
@@ -119,6 +128,9 @@ class Session {
   std::filesystem::path attach_dir_;
   nlohmann::json attachments_ = nlohmann::json::array();
   std::unique_ptr<lcm::LCM> lcm_;
+  std::unique_ptr<class UdpmReceiver> direct_;
+  std::unique_ptr<std::regex> channel_re_;
+  std::map<std::string, bool, std::less<>> wanted_;  // regex verdict per channel name (receive thread)
   uint16_t port_ = 0;
   uint64_t udp_drops_at_start_ = 0;
   int64_t start_utime_ = 0;

@@ -10,5 +10,7 @@ void add_version(CLI::App& app);
 void add_calibrate(CLI::App& app);
 void add_compensate(CLI::App& app);
 void add_sim(CLI::App& app);
+void add_record(CLI::App& app);
+void add_spy(CLI::App& app);
 
 }  // namespace pof::cli

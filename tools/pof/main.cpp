@@ -10,8 +10,9 @@
 #include "pof/io/errors.hpp"
 
 int main(int argc, char** argv) {
-  // Diagnostics go to stderr: stdout carries results (tables, CSV) that scripts parse.
-  spdlog::set_default_logger(spdlog::stderr_color_st("pof"));
+  // Diagnostics go to stderr: stdout carries results (tables, CSV, `pof record --check`,
+  // `pof spy --once`) that scripts parse.
+  spdlog::set_default_logger(spdlog::stderr_color_mt("pof"));
   spdlog::set_pattern("pof: %^%l%$: %v");
   CLI::App app{"pof: calibrate, simulate, compensate and inspect POF knee-angle sensor data"};
   app.require_subcommand(1);
@@ -20,6 +21,8 @@ int main(int argc, char** argv) {
   pof::cli::add_calibrate(app);
   pof::cli::add_compensate(app);
   pof::cli::add_sim(app);
+  pof::cli::add_record(app);
+  pof::cli::add_spy(app);
 
   try {
     app.parse(argc, argv);

@@ -1,0 +1,51 @@
+#pragma once
+// Recognising pofkit's own LCM messages in raw bytes: a message starts with its type's 8-byte
+// big-endian fingerprint (../shared/notes/lcm.md "Log format"), and every POF stream carries `seq`
+// (lcmtypes/*.lcm). Used by `pof record --check` (per-channel sequence gaps) and `pof spy`.
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+
+namespace pof::recorder {
+
+enum class PofType { kUnknown, kRawBlock, kAngle, kCycleStats, kDaqStatus };
+
+/// The first 8 bytes as a big-endian fingerprint (0 when shorter).
+uint64_t fingerprint_of(const void* data, std::size_t size);
+/// Which of our types the fingerprint names (kUnknown for anything else).
+PofType pof_type_of(const void* data, std::size_t size);
+/// "raw_block_t", "angle_t", ... or "?" for kUnknown.
+const char* pof_type_name(PofType t);
+/// The `seq` field of one of our messages, read at its fixed offset (cheap: no allocation);
+/// nullopt when not ours or too short.
+std::optional<int64_t> pof_seq(const void* data, std::size_t size);
+/// The same through the generated decode() (slow; the reference for pof_seq in tests).
+std::optional<int64_t> pof_seq_decoded(const void* data, std::size_t size);
+
+/// Sequence bookkeeping for one stream: gaps are counted in missing messages; a restart of the
+/// publisher (seq going back to 0 or backwards) is counted separately, not as a gap.
+struct SeqTracker {
+  bool have = false;
+  int64_t first = 0;
+  int64_t last = 0;
+  uint64_t gaps = 0;        // number of jumps
+  uint64_t missing = 0;     // messages missing in those jumps
+  uint64_t restarts = 0;    // seq went backwards
+  void update(int64_t seq) {
+    if (!have) {
+      have = true;
+      first = last = seq;
+      return;
+    }
+    if (seq == last + 1) {
+    } else if (seq > last + 1) {
+      ++gaps;
+      missing += static_cast<uint64_t>(seq - last - 1);
+    } else {
+      ++restarts;
+    }
+    last = seq;
+  }
+};
+
+}  // namespace pof::recorder

@@ -1,0 +1,341 @@
+// Crash-safe LCM log writing, checking and repair; the format and durability model are described in
+// pof/recorder/lcmlog_durable.hpp.
+#include "pof/recorder/lcmlog_durable.hpp"
+
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <utility>
+
+#include "pof/io/errors.hpp"
+
+namespace pof::recorder {
+namespace {
+
+std::string errstr(int err) { return std::strerror(err); }
+
+// write(2) until done; returns 0 or the errno of the failure. A short write of a regular file means
+// the device is full or the file size limit was reached; the next write() then reports why.
+int write_all(int fd, const unsigned char* p, std::size_t n) {
+  while (n > 0) {
+    const ssize_t w = ::write(fd, p, n);
+    if (w < 0) {
+      if (errno == EINTR) continue;
+      return errno;
+    }
+    if (w == 0) return ENOSPC;
+    p += w;
+    n -= static_cast<std::size_t>(w);
+  }
+  return 0;
+}
+
+int fsync_dir(const std::filesystem::path& dir) {
+  const int dfd = ::open(dir.empty() ? "." : dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dfd < 0) return errno;
+  const int rc = ::fsync(dfd) == 0 ? 0 : errno;
+  ::close(dfd);
+  return rc;
+}
+
+// A read-only mapping of a whole file (empty files map to nothing).
+class MappedFile {
+ public:
+  explicit MappedFile(const std::filesystem::path& path) {
+    fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd_ < 0) throw io::NoInputError(path.string() + ": cannot open: " + errstr(errno));
+    struct stat st {};
+    if (::fstat(fd_, &st) != 0) throw io::NoInputError(path.string() + ": cannot stat: " + errstr(errno));
+    if (!S_ISREG(st.st_mode)) throw io::NoInputError(path.string() + ": not a regular file");
+    size_ = static_cast<uint64_t>(st.st_size);
+    if (size_ > 0) {
+      void* m = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE, fd_, 0);
+      if (m == MAP_FAILED) throw io::NoInputError(path.string() + ": cannot map: " + errstr(errno));
+      data_ = static_cast<const unsigned char*>(m);
+      ::madvise(m, size_, MADV_SEQUENTIAL);
+    }
+  }
+  ~MappedFile() {
+    if (data_ != nullptr) ::munmap(const_cast<unsigned char*>(data_), size_);
+    if (fd_ >= 0) ::close(fd_);
+  }
+  MappedFile(const MappedFile&) = delete;
+  MappedFile& operator=(const MappedFile&) = delete;
+  [[nodiscard]] const unsigned char* data() const { return data_; }
+  [[nodiscard]] uint64_t size() const { return size_; }
+
+ private:
+  int fd_ = -1;
+  const unsigned char* data_ = nullptr;
+  uint64_t size_ = 0;
+};
+
+// Next offset >= from holding a plausible complete event, or size when none.
+uint64_t resync(const unsigned char* d, uint64_t from, uint64_t size) {
+  for (uint64_t off = from; off + kLogHeaderBytes <= size; ++off) {
+    if (d[off] != 0xED || get_be32(d + off) != kLogSync) continue;
+    uint32_t cl = 0;
+    uint32_t dl = 0;
+    if (!header_problem(d + off, off, size, &cl, &dl)) return off;
+  }
+  return size;
+}
+
+}  // namespace
+
+// ----------------------------------------------------------------------------------------------
+DurableLogWriter::DurableLogWriter(std::filesystem::path path, Options options)
+    : path_(std::move(path)), options_(options) {
+  // O_EXCL: a recorder never overwrites an earlier recording.
+  fd_ = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  if (fd_ < 0) throw io::IoError(path_.string() + ": cannot create the log file: " + errstr(errno));
+  // The directory entry must survive a power loss too, or the whole log vanishes.
+  if (const int err = fsync_dir(path_.parent_path()); err != 0)
+    throw io::IoError(path_.parent_path().string() + ": cannot fsync the directory: " + errstr(err));
+  buf_.reserve(options_.buffer_bytes + 4096);
+}
+
+DurableLogWriter::~DurableLogWriter() { close(); }
+
+WriteStatus DurableLogWriter::fail(int err) {
+  errno_ = err;
+  status_ = (err == ENOSPC || err == EFBIG || err == EDQUOT) ? WriteStatus::kNoSpace : WriteStatus::kIoError;
+  return status_;
+}
+
+WriteStatus DurableLogWriter::append(int64_t utime, std::string_view channel, const void* data, std::size_t size) {
+  if (status_ != WriteStatus::kOk) return status_;
+  if (fd_ < 0) return fail(EBADF);
+  if (channel.empty() || channel.size() > kMaxChannelBytes || size > kMaxDataBytes) return fail(EINVAL);
+  const std::size_t n = kLogHeaderBytes + channel.size() + size;
+  if (!buf_.empty() && buf_.size() + n > options_.buffer_bytes) {
+    if (flush() != WriteStatus::kOk) return status_;
+  }
+  const std::size_t at = buf_.size();
+  buf_.resize(at + n);
+  unsigned char* p = buf_.data() + at;
+  put_be32(p, kLogSync);
+  put_be64(p + 4, next_event_);
+  put_be64(p + 12, static_cast<uint64_t>(utime));
+  put_be32(p + 20, static_cast<uint32_t>(channel.size()));
+  put_be32(p + 24, static_cast<uint32_t>(size));
+  std::memcpy(p + kLogHeaderBytes, channel.data(), channel.size());
+  if (size > 0) std::memcpy(p + kLogHeaderBytes + channel.size(), data, size);
+  ++next_event_;
+  ++buffered_events_;
+  if (buf_.size() >= options_.buffer_bytes) return flush();
+  return WriteStatus::kOk;
+}
+
+WriteStatus DurableLogWriter::flush() {
+  if (status_ != WriteStatus::kOk) return status_;
+  if (buf_.empty()) return WriteStatus::kOk;
+  const int err = write_all(fd_, buf_.data(), buf_.size());
+  if (err != 0) {
+    // Undo the partial batch so the file ends on a complete event (disk full never corrupts
+    // what was written). If even that fails the tail is torn; check/repair find it.
+    while (::ftruncate(fd_, static_cast<off_t>(committed_)) != 0 && errno == EINTR) {
+    }
+    ::lseek(fd_, static_cast<off_t>(committed_), SEEK_SET);
+    ::fdatasync(fd_);
+    next_event_ -= buffered_events_;
+    buffered_events_ = 0;
+    buf_.clear();
+    return fail(err);
+  }
+  committed_ += buf_.size();
+  events_written_ += buffered_events_;
+  buffered_events_ = 0;
+  buf_.clear();
+  return WriteStatus::kOk;
+}
+
+WriteStatus DurableLogWriter::sync() {
+  if (flush() != WriteStatus::kOk) return status_;
+  if (::fdatasync(fd_) != 0) return fail(errno);
+  return WriteStatus::kOk;
+}
+
+WriteStatus DurableLogWriter::close() {
+  if (fd_ < 0) return status_;
+  if (status_ == WriteStatus::kOk) sync();
+  ::close(fd_);
+  fd_ = -1;
+  return status_;
+}
+
+// ----------------------------------------------------------------------------------------------
+std::optional<std::string> header_problem(const unsigned char* p, uint64_t offset, uint64_t file_bytes,
+                                          uint32_t* channel_len, uint32_t* data_len) {
+  const uint32_t sync = get_be32(p);
+  if (sync != kLogSync) {
+    char b[64];
+    std::snprintf(b, sizeof b, "bad sync word 0x%08X (expected 0xEDA1DA01)", sync);
+    return std::string(b);
+  }
+  *channel_len = get_be32(p + 20);
+  *data_len = get_be32(p + 24);
+  if (*channel_len == 0 || *channel_len > kMaxChannelBytes)
+    return "implausible channel length " + std::to_string(*channel_len);
+  if (*data_len > kMaxDataBytes) return "implausible data length " + std::to_string(*data_len);
+  const uint64_t end = offset + kLogHeaderBytes + *channel_len + *data_len;
+  if (end > file_bytes)
+    return "event truncated: needs " + std::to_string(end - offset) + " bytes, " +
+           std::to_string(file_bytes - offset) + " left";
+  return std::nullopt;
+}
+
+LogCheck scan_log(const std::filesystem::path& path, const std::function<void(const LogEventRef&)>& on_event) {
+  MappedFile f(path);
+  LogCheck c;
+  c.file_bytes = f.size();
+  const unsigned char* d = f.data();
+  uint64_t off = 0;
+  while (off < c.file_bytes) {
+    if (c.file_bytes - off < kLogHeaderBytes) {
+      c.problem = "partial header: " + std::to_string(c.file_bytes - off) + " bytes";
+      break;
+    }
+    uint32_t cl = 0;
+    uint32_t dl = 0;
+    if (auto why = header_problem(d + off, off, c.file_bytes, &cl, &dl)) {
+      c.problem = *why;
+      break;
+    }
+    LogEventRef ev{off, static_cast<int64_t>(get_be64(d + off + 4)), static_cast<int64_t>(get_be64(d + off + 12)),
+                   std::string_view(reinterpret_cast<const char*>(d + off + kLogHeaderBytes), cl),
+                   d + off + kLogHeaderBytes + cl, dl};
+    if (c.events == 0) c.first_utime = ev.utime;
+    c.last_utime = ev.utime;
+    ++c.channel_events[std::string(ev.channel)];
+    ++c.events;
+    if (on_event) on_event(ev);
+    off += kLogHeaderBytes + cl + dl;
+  }
+  c.good_bytes = off;
+  // Anything complete after the damage? (A torn tail has none; a damaged middle does.)
+  uint64_t r = resync(d, off + 1, c.file_bytes);
+  while (r < c.file_bytes) {
+    uint32_t cl = 0;
+    uint32_t dl = 0;
+    if (header_problem(d + r, r, c.file_bytes, &cl, &dl)) {
+      r = resync(d, r + 1, c.file_bytes);
+      continue;
+    }
+    ++c.events_after_damage;
+    c.bytes_after_damage += kLogHeaderBytes + cl + dl;
+    r += kLogHeaderBytes + cl + dl;
+  }
+  return c;
+}
+
+LogCheck check_log(const std::filesystem::path& path) { return scan_log(path, {}); }
+
+std::vector<LogEvent> read_log(const std::filesystem::path& path, LogCheck* check) {
+  std::vector<LogEvent> out;
+  LogCheck c = scan_log(path, [&](const LogEventRef& e) {
+    out.push_back(LogEvent{e.offset, e.event_number, e.utime, std::string(e.channel),
+                           std::vector<unsigned char>(e.data, e.data + e.data_size)});
+  });
+  if (check != nullptr) *check = c;
+  return out;
+}
+
+// ----------------------------------------------------------------------------------------------
+namespace {
+
+void write_file_synced(const std::filesystem::path& path, const unsigned char* p, std::size_t n) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw io::IoError(path.string() + ": cannot create: " + errstr(errno));
+  int err = write_all(fd, p, n);
+  if (err == 0 && ::fsync(fd) != 0) err = errno;
+  ::close(fd);
+  if (err != 0) {
+    ::unlink(path.c_str());
+    throw io::IoError(path.string() + ": cannot write: " + errstr(err));
+  }
+}
+
+std::filesystem::path free_name(const std::filesystem::path& want) {
+  std::filesystem::path p = want;
+  for (int i = 1; std::filesystem::exists(p); ++i) p = want.string() + "." + std::to_string(i);
+  return p;
+}
+
+}  // namespace
+
+RepairResult repair_log(const std::filesystem::path& path) {
+  RepairResult r;
+  r.before = check_log(path);
+  const LogCheck& c = r.before;
+  r.events_kept = c.events;
+  if (c.clean()) {
+    r.action = "clean: " + std::to_string(c.events) + " complete events, nothing to repair";
+    return r;
+  }
+  const std::filesystem::path dir = path.parent_path();
+  if (c.events_after_damage == 0) {
+    // Torn tail: keep the removed bytes (they may matter to someone), then truncate.
+    r.backup = free_name(path.string() + ".torn-" + std::to_string(c.good_bytes));
+    {
+      MappedFile f(path);
+      write_file_synced(r.backup, f.data() + c.good_bytes, static_cast<std::size_t>(c.torn_bytes()));
+    }
+    const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+    if (fd < 0) throw io::IoError(path.string() + ": cannot open for repair: " + errstr(errno));
+    int err = 0;
+    if (::ftruncate(fd, static_cast<off_t>(c.good_bytes)) != 0) err = errno;
+    if (err == 0 && ::fsync(fd) != 0) err = errno;
+    ::close(fd);
+    if (err != 0) throw io::IoError(path.string() + ": cannot truncate: " + errstr(err));
+    r.changed = true;
+    r.action = "truncated a torn tail of " + std::to_string(c.torn_bytes()) + " bytes at offset " +
+               std::to_string(c.good_bytes) + " (" + c.problem + "); kept " + std::to_string(c.events) +
+               " complete events; removed bytes saved in " + r.backup.string();
+    return r;
+  }
+  // Damage in the middle: rewrite every complete event into a new file, renumbered, then swap.
+  const std::filesystem::path tmp = free_name(path.string() + ".repair-tmp");
+  uint64_t kept = 0;
+  {
+    MappedFile f(path);
+    const unsigned char* d = f.data();
+    DurableLogWriter w(tmp);
+    uint64_t off = 0;
+    while (off < f.size()) {
+      uint32_t cl = 0;
+      uint32_t dl = 0;
+      if (f.size() - off < kLogHeaderBytes || header_problem(d + off, off, f.size(), &cl, &dl)) {
+        off = resync(d, off + 1, f.size());
+        continue;
+      }
+      w.append(static_cast<int64_t>(get_be64(d + off + 12)),
+               std::string_view(reinterpret_cast<const char*>(d + off + kLogHeaderBytes), cl),
+               d + off + kLogHeaderBytes + cl, dl);
+      ++kept;
+      off += kLogHeaderBytes + cl + dl;
+    }
+    if (w.close() != WriteStatus::kOk) {
+      const int err = w.error_errno();
+      std::filesystem::remove(tmp);
+      throw io::IoError(tmp.string() + ": cannot write the repaired log: " + errstr(err));
+    }
+  }
+  r.backup = free_name(path.string() + ".bak");
+  if (::link(path.c_str(), r.backup.c_str()) != 0)
+    throw io::IoError(r.backup.string() + ": cannot keep the original: " + errstr(errno));
+  if (::rename(tmp.c_str(), path.c_str()) != 0)
+    throw io::IoError(path.string() + ": cannot replace with the repaired log: " + errstr(errno));
+  fsync_dir(dir);
+  r.changed = true;
+  r.events_kept = kept;
+  r.action = "rewrote " + std::to_string(kept) + " complete events around damage at offset " +
+             std::to_string(c.good_bytes) + " (" + c.problem + "); original kept as " + r.backup.string();
+  return r;
+}
+
+}  // namespace pof::recorder

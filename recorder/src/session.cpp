@@ -1,0 +1,503 @@
+// The lossless recording session; the why is in pof/recorder/session.hpp.
+#include "pof/recorder/session.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <fstream>
+#include <regex>
+
+#include <lcm/lcm-cpp.hpp>
+#include <spdlog/spdlog.h>
+
+#include "pof/io/errors.hpp"
+#include "pof/recorder/udp_socket.hpp"
+#include "pof/recorder/udpm_receiver.hpp"
+
+namespace pof::recorder {
+namespace fs = std::filesystem;
+namespace {
+
+int64_t now_utime() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+std::string iso_utc(int64_t utime) {
+  const std::time_t t = static_cast<std::time_t>(utime / 1000000);
+  std::tm tm{};
+  ::gmtime_r(&t, &tm);
+  char b[40];
+  std::strftime(b, sizeof b, "%Y-%m-%dT%H:%M:%S", &tm);
+  char out[64];
+  std::snprintf(out, sizeof out, "%s.%06lldZ", b, static_cast<long long>(utime % 1000000));
+  return out;
+}
+
+// lcm-logger -c semantics: the regex must match the whole channel name.
+bool url_has_option(const std::string& url, const std::string& key) {
+  const auto q = url.find('?');
+  if (q == std::string::npos) return false;
+  return url.find(key + "=", q) != std::string::npos;
+}
+
+void write_text_atomically(const fs::path& path, const std::string& text) {
+  const fs::path tmp = path.string() + ".tmp";
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw io::IoError(tmp.string() + ": cannot create: " + std::strerror(errno));
+  const char* p = text.data();
+  std::size_t n = text.size();
+  int err = 0;
+  while (n > 0) {
+    const ssize_t w = ::write(fd, p, n);
+    if (w < 0 && errno == EINTR) continue;
+    if (w <= 0) {
+      err = w < 0 ? errno : ENOSPC;
+      break;
+    }
+    p += w;
+    n -= static_cast<std::size_t>(w);
+  }
+  if (err == 0 && ::fsync(fd) != 0) err = errno;
+  ::close(fd);
+  if (err == 0 && ::rename(tmp.c_str(), path.c_str()) != 0) err = errno;
+  if (err != 0) {
+    ::unlink(tmp.c_str());
+    throw io::IoError(path.string() + ": cannot write: " + std::strerror(err));
+  }
+}
+
+}  // namespace
+
+const char* outcome_name(Outcome o) {
+  switch (o) {
+    case Outcome::kRunning: return "recording";
+    case Outcome::kStopped: return "stopped";
+    case Outcome::kDiskFull: return "disk_full";
+    case Outcome::kIoError: return "io_error";
+  }
+  return "?";
+}
+
+Session::Session(SessionOptions options) : opt_(std::move(options)) {
+  if (opt_.output.empty()) throw io::ConfigError("pof record: no output file given (--output)");
+  try {
+    std::regex check(opt_.channels);
+  } catch (const std::regex_error& e) {
+    throw io::ConfigError("--channels '" + opt_.channels + "': not a valid regular expression: " + e.what());
+  }
+  if (opt_.rotate_seconds < 0 || opt_.sync_interval_s <= 0)
+    throw io::ConfigError("--rotate-seconds must be >= 0 and --sync-interval > 0");
+  // The output: a directory gets a timestamped file (the service records into /var/lib/pof).
+  base_ = opt_.output;
+  const std::string s = base_.string();
+  if (fs::is_directory(base_) || (!s.empty() && s.back() == '/')) {
+    if (!fs::is_directory(base_))
+      throw io::IoError(s + ": output directory does not exist");
+    const std::time_t t = std::time(nullptr);
+    std::tm tm{};
+    ::gmtime_r(&t, &tm);
+    char name[64];
+    std::strftime(name, sizeof name, "pof-%Y%m%dT%H%M%SZ.lcmlog", &tm);
+    base_ = base_ / name;
+  }
+  if (!base_.has_parent_path()) base_ = fs::path(".") / base_;
+  if (!fs::is_directory(base_.parent_path()))
+    throw io::IoError(base_.parent_path().string() + ": output directory does not exist");
+  fs::path stem = base_.parent_path() / base_.stem();
+  manifest_path_ = stem.string() + ".manifest.json";
+  attach_dir_ = stem.string() + ".files";
+  for (unsigned i = 0; i < 1; ++i) {
+    if (fs::exists(file_path(i)))
+      throw io::IoError(file_path(i).string() + ": exists; pof record never overwrites a recording");
+  }
+  if (fs::exists(manifest_path_))
+    throw io::IoError(manifest_path_.string() + ": exists; pof record never overwrites a recording");
+  for (const auto& f : opt_.manifest_files) {
+    if (!fs::is_regular_file(f)) throw io::NoInputError(f.string() + ": --manifest-file: no such file");
+  }
+
+  url_ = opt_.lcm_url;
+  if (url_.empty()) {
+    const char* env = std::getenv("LCM_DEFAULT_URL");
+    url_ = env != nullptr && *env != '\0' ? env : "udpm://239.255.76.67:7667?ttl=0";
+  }
+  if (url_.rfind("udpm://", 0) == 0 && !url_has_option(url_, "recv_buf_size")) {
+    url_ += (url_.find('?') == std::string::npos ? "?" : "&");
+    url_ += "recv_buf_size=" + std::to_string(opt_.recv_buf_bytes);
+  }
+  port_ = lcm_url_port(url_.c_str());
+}
+
+Session::~Session() {
+  try {
+    stop();
+  } catch (...) {
+  }
+}
+
+fs::path Session::file_path(unsigned index) const {
+  if (opt_.rotate_bytes == 0 && opt_.rotate_seconds == 0) return base_;
+  char n[16];
+  std::snprintf(n, sizeof n, ".%04u", index);
+  return base_.parent_path() / (base_.stem().string() + n + base_.extension().string());
+}
+
+void Session::start() {
+  if (started_) return;
+  start_utime_ = now_utime();
+  // Attachments first: a missing or unreadable calibration must fail before anything is recorded.
+  if (!opt_.manifest_files.empty()) {
+    std::error_code ec;
+    fs::create_directory(attach_dir_, ec);
+    if (ec) throw io::IoError(attach_dir_.string() + ": cannot create: " + ec.message());
+    for (const auto& f : opt_.manifest_files) {
+      const fs::path dst = attach_dir_ / f.filename();
+      if (!fs::copy_file(f, dst, fs::copy_options::overwrite_existing, ec) || ec)
+        throw io::IoError(dst.string() + ": cannot copy " + f.string() + ": " + ec.message());
+      attachments_.push_back({{"source", fs::absolute(f).string()},
+                              {"copy", (attach_dir_.filename() / f.filename()).string()},
+                              {"bytes", fs::file_size(dst)}});
+    }
+  }
+
+  if (url_.rfind("udpm://", 0) == 0 && !opt_.use_liblcm) {
+    // lcm-logger -c semantics: the regex must match the whole channel name (std::regex_match).
+    channel_re_ = std::make_unique<std::regex>(opt_.channels, std::regex::optimize);
+    direct_ = std::make_unique<UdpmReceiver>(parse_udpm_url(url_));
+  } else {
+    lcm_ = std::make_unique<lcm::LCM>(url_);
+    if (!lcm_->good())
+      throw io::ConfigError("LCM URL '" + url_ + "': cannot open (is there a multicast route? see docs/deployment.md)");
+    lcm::Subscription* sub = lcm_->subscribe(opt_.channels, &Session::on_message, this);
+    if (sub == nullptr) throw io::ConfigError("--channels '" + opt_.channels + "': LCM refused the subscription");
+    sub->setQueueCapacity(opt_.lcm_queue_capacity);
+  }
+
+  if (port_ != 0) {
+    const auto socks = udp_sockets(port_);
+    for (const auto& so : socks) udp_drops_at_start_ += so.drops;
+    if (!socks.empty() && socks.front().rcvbuf_bytes < opt_.recv_buf_bytes) {
+      // SO_RCVBUF reports twice the request when granted; below the request means rmem_max capped it.
+      spdlog::warn("the kernel granted a UDP receive buffer of {} bytes (asked {}; net.core.rmem_max = {}): "
+                   "bursts may be lost; install deploy/sysctl.d/60-pof-lcm.conf",
+                   socks.front().rcvbuf_bytes, opt_.recv_buf_bytes, rmem_max());
+    }
+  }
+  if (!open_next_file()) throw io::IoError(error_);
+  write_manifest("recording");
+  started_ = true;
+  writer_thread_ = std::thread([this] { writer_loop(); });
+  lcm_thread_ = std::thread([this] { lcm_loop(); });
+}
+
+// LCM thread: copy and hand off, nothing else (no disk, no logging).
+void Session::on_message(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+  enqueue(rbuf->recv_utime, channel, rbuf->data, rbuf->data_size);
+}
+
+bool Session::channel_wanted(std::string_view channel) {
+  auto it = wanted_.find(channel);
+  if (it == wanted_.end()) {
+    if (wanted_.size() > 4096) wanted_.clear();  // bounded: a storm of random channel names
+    it = wanted_.emplace(std::string(channel), std::regex_match(channel.begin(), channel.end(), *channel_re_)).first;
+  }
+  return it->second;
+}
+
+void Session::enqueue(int64_t utime, std::string_view channel, const void* data, uint32_t data_size) {
+  const std::size_t size = kRecordHeader + channel.size() + data_size;
+  std::lock_guard lk(mu_);
+  ++received_;
+  if (!accepting_ || pending_bytes_ + size > opt_.handoff_bytes) {
+    ++dropped_;
+    return;
+  }
+  const std::size_t at = pending_.size();
+  pending_.resize(at + size);
+  unsigned char* p = pending_.data() + at;
+  const uint32_t cl = static_cast<uint32_t>(channel.size());
+  std::memcpy(p, &utime, 8);
+  std::memcpy(p + 8, &cl, 4);
+  std::memcpy(p + 12, &data_size, 4);
+  std::memcpy(p + kRecordHeader, channel.data(), cl);
+  if (data_size > 0) std::memcpy(p + kRecordHeader + cl, data, data_size);
+  pending_bytes_ += size;
+  if (pending_bytes_ > peak_bytes_) peak_bytes_ = pending_bytes_;
+  if (++pending_events_ == 1) cv_.notify_one();
+}
+
+void Session::lcm_loop() {
+  if (direct_) {
+    const UdpmReceiver::Sink sink = [this](int64_t utime, std::string_view channel, const unsigned char* data,
+                                           uint32_t size) {
+      if (channel_wanted(channel)) enqueue(utime, channel, data, size);
+    };
+    while (!stop_lcm_.load()) {
+      direct_->receive(50, sink);
+      lcm_beats_.fetch_add(1);
+    }
+    return;
+  }
+  while (!stop_lcm_.load()) {
+    lcm_->handleTimeout(50);
+    lcm_beats_.fetch_add(1);
+  }
+}
+
+bool Session::open_next_file() {
+  const fs::path p = file_path(file_index_);
+  try {
+    auto w = std::make_unique<DurableLogWriter>(p);
+    std::lock_guard lk(stats_mu_);
+    writer_ = std::move(w);
+    files_.push_back(FileInfo{p, 0, 0, 0, 0});
+  } catch (const io::Error& e) {
+    std::lock_guard lk(stats_mu_);
+    outcome_ = Outcome::kIoError;
+    error_ = e.what();
+    return false;
+  }
+  ++file_index_;
+  file_bytes_ = 0;
+  file_opened_ = std::chrono::steady_clock::now();
+  return true;
+}
+
+// Writer thread: close the current file (synced) and open the next one.
+bool Session::rotate() {
+  if (writer_->close() != WriteStatus::kOk) return false;
+  {
+    std::lock_guard lk(stats_mu_);
+    files_.back().events = writer_->events_written();
+    files_.back().bytes = writer_->bytes_written();
+  }
+  if (!open_next_file()) return false;
+  write_manifest_noexcept("recording");
+  return true;
+}
+
+void Session::write_manifest_noexcept(const char* status) noexcept {
+  try {
+    write_manifest(status);
+  } catch (const std::exception& e) {
+    spdlog::warn("manifest not updated: {}", e.what());
+  }
+}
+
+void Session::writer_loop() {
+  std::vector<unsigned char> batch;
+  auto last_sync = std::chrono::steady_clock::now();
+  bool failed = false;
+  for (;;) {
+    {
+      std::unique_lock lk(mu_);
+      cv_.wait_for(lk, std::chrono::milliseconds(50), [this] { return !pending_.empty() || stop_writer_.load(); });
+      batch.clear();
+      batch.swap(pending_);
+      pending_bytes_ = 0;
+      pending_events_ = 0;
+    }
+    writer_beats_.fetch_add(1);
+    const bool stopping = stop_writer_.load();
+    if (!failed) {
+      const auto now = std::chrono::steady_clock::now();
+      if (opt_.rotate_seconds > 0 && !batch.empty() && writer_->events_appended() > 0 &&
+          std::chrono::duration<double>(now - file_opened_).count() >= opt_.rotate_seconds) {
+        rotate();
+      }
+      for (std::size_t off = 0; off + kRecordHeader <= batch.size();) {
+        struct {
+          int64_t utime;
+          std::string_view channel;
+          const unsigned char* data;
+          uint32_t size;
+        } e{};
+        uint32_t cl = 0;
+        std::memcpy(&e.utime, batch.data() + off, 8);
+        std::memcpy(&cl, batch.data() + off + 8, 4);
+        std::memcpy(&e.size, batch.data() + off + 12, 4);
+        e.channel = std::string_view(reinterpret_cast<const char*>(batch.data() + off + kRecordHeader), cl);
+        e.data = batch.data() + off + kRecordHeader + cl;
+        off += kRecordHeader + cl + e.size;
+        const uint64_t n = kLogHeaderBytes + cl + e.size;
+        if (opt_.rotate_bytes > 0 && writer_->events_appended() > 0 && file_bytes_ + n > opt_.rotate_bytes) {
+          if (!rotate()) break;
+        }
+        if (writer_->append(e.utime, e.channel, e.data, e.size) != WriteStatus::kOk) break;
+        file_bytes_ += n;
+        std::lock_guard lk(stats_mu_);
+        FileInfo& fi = files_.back();
+        if (fi.first_utime == 0) fi.first_utime = e.utime;
+        fi.last_utime = e.utime;
+        auto it = channels_.find(e.channel);
+        if (it == channels_.end()) {
+          it = channels_.emplace(std::string(e.channel), ChannelStats{}).first;
+          it->second.fingerprint = fingerprint_of(e.data, e.size);
+          it->second.type = pof_type_of(e.data, e.size);
+        }
+        ChannelStats& cs = it->second;
+        ++cs.events;
+        cs.bytes += e.size;
+        if (cs.type != PofType::kUnknown) {
+          if (auto sq = pof_seq(e.data, e.size)) cs.seq.update(*sq);
+        }
+      }
+      if (writer_->status() == WriteStatus::kOk) writer_->flush();
+      if (writer_->status() == WriteStatus::kOk &&
+          (stopping || std::chrono::steady_clock::now() - last_sync >= std::chrono::duration<double>(opt_.sync_interval_s))) {
+        writer_->sync();
+        last_sync = std::chrono::steady_clock::now();
+      }
+      {
+        std::lock_guard lk(stats_mu_);
+        if (writer_) {
+          files_.back().events = writer_->events_written();
+          files_.back().bytes = writer_->bytes_written();
+        }
+        written_ = 0;
+        for (const auto& f : files_) written_ += f.events;
+        if (writer_ && writer_->status() != WriteStatus::kOk && outcome_ == Outcome::kRunning) {
+          outcome_ = writer_->status() == WriteStatus::kNoSpace ? Outcome::kDiskFull : Outcome::kIoError;
+          error_ = writer_->path().string() + ": " + std::strerror(writer_->error_errno()) + " after " +
+                   std::to_string(writer_->events_written()) + " events (" + std::to_string(writer_->bytes_written()) +
+                   " bytes) in this file; the log is complete up to there";
+        }
+        failed = outcome_ != Outcome::kRunning;
+      }
+      if (failed) {
+        std::lock_guard lk(mu_);
+        accepting_ = false;
+      }
+    }
+    batch.clear();
+    if (stopping) {
+      std::lock_guard lk(mu_);
+      if (pending_.empty()) break;
+    }
+  }
+  if (writer_) writer_->close();
+}
+
+SessionStats Session::poll() {
+  SessionStats s;
+  {
+    std::lock_guard lk(mu_);
+    s.received = received_;
+    s.dropped_handoff = dropped_;
+    s.handoff_peak_bytes = peak_bytes_;
+  }
+  {
+    std::lock_guard lk(stats_mu_);
+    s.outcome = outcome_;
+    s.error = error_;
+    s.written = written_;
+    for (const auto& f : files_) s.files.push_back(f.path);
+  }
+  if (port_ != 0) {
+    const auto socks = udp_sockets(port_);
+    uint64_t d = 0;
+    for (const auto& so : socks) d += so.drops;
+    s.udp_drops = d >= udp_drops_at_start_ ? d - udp_drops_at_start_ : 0;
+    if (!socks.empty()) s.udp_rcvbuf_bytes = socks.front().rcvbuf_bytes;
+  }
+  s.manifest = manifest_path_;
+  return s;
+}
+
+SessionStats Session::stop() {
+  if (!started_ || stopped_) return poll();
+  stopped_ = true;
+  // Last look at the kernel counters while the socket still exists.
+  SessionStats before = poll();
+  stop_lcm_.store(true);
+  if (lcm_thread_.joinable()) lcm_thread_.join();
+  stop_writer_.store(true);
+  cv_.notify_one();
+  if (writer_thread_.joinable()) writer_thread_.join();
+  stop_utime_ = now_utime();
+  SessionStats s = poll();
+  s.udp_drops = before.udp_drops;
+  s.udp_rcvbuf_bytes = before.udp_rcvbuf_bytes;
+  {
+    std::lock_guard lk(stats_mu_);
+    if (outcome_ == Outcome::kRunning) outcome_ = Outcome::kStopped;
+    s.outcome = outcome_;
+  }
+  final_udp_drops_ = s.udp_drops;
+  final_rcvbuf_ = s.udp_rcvbuf_bytes;
+  write_manifest_noexcept(outcome_name(s.outcome));
+  lcm_.reset();
+  direct_.reset();
+  return s;
+}
+
+void Session::write_manifest(const char* status) {
+  nlohmann::json m;
+  m["schema_version"] = 1;
+  m["kind"] = "pof record session";
+  m["status"] = status;
+  m["start_utime"] = start_utime_;
+  m["start_utc"] = iso_utc(start_utime_);
+  if (stop_utime_ != 0) {
+    m["stop_utime"] = stop_utime_;
+    m["stop_utc"] = iso_utc(stop_utime_);
+  }
+  char host[256] = {};
+  ::gethostname(host, sizeof host - 1);
+  m["host"] = host;
+  m["lcm_url"] = url_;
+  m["receiver"] = receiver_name();
+  m["channel_regex"] = opt_.channels;
+  m["options"] = {{"rotate_bytes", opt_.rotate_bytes},
+                  {"rotate_seconds", opt_.rotate_seconds},
+                  {"sync_interval_s", opt_.sync_interval_s},
+                  {"lcm_queue_capacity", opt_.lcm_queue_capacity},
+                  {"handoff_bytes", opt_.handoff_bytes}};
+  for (const auto& [k, v] : opt_.manifest_extra.items()) m[k] = v;
+  m["attachments"] = attachments_;
+  SessionStats s;
+  {
+    std::lock_guard lk(mu_);
+    s.received = received_;
+    s.dropped_handoff = dropped_;
+  }
+  nlohmann::json files = nlohmann::json::array();
+  nlohmann::json chans = nlohmann::json::object();
+  {
+    std::lock_guard lk(stats_mu_);
+    for (const auto& f : files_)
+      files.push_back({{"name", f.path.filename().string()},
+                       {"events", f.events},
+                       {"bytes", f.bytes},
+                       {"first_utime", f.first_utime},
+                       {"last_utime", f.last_utime}});
+    for (const auto& [name, c] : channels_) {
+      nlohmann::json j = {{"events", c.events}, {"bytes", c.bytes}, {"type", pof_type_name(c.type)}};
+      char fp[24];
+      std::snprintf(fp, sizeof fp, "0x%016llx", static_cast<unsigned long long>(c.fingerprint));
+      j["fingerprint"] = fp;
+      if (c.seq.have)
+        j["seq"] = {{"first", c.seq.first}, {"last", c.seq.last}, {"gaps", c.seq.gaps}, {"missing", c.seq.missing},
+                    {"restarts", c.seq.restarts}};
+      chans[name] = j;
+    }
+    s.written = written_;
+    if (!error_.empty()) m["error"] = error_;
+  }
+  m["files"] = files;
+  m["channels"] = chans;
+  m["counters"] = {{"received", s.received},
+                   {"written", s.written},
+                   {"dropped_handoff", s.dropped_handoff},
+                   {"udp_kernel_drops", final_udp_drops_},
+                   {"udp_rcvbuf_bytes", final_rcvbuf_}};
+  write_text_atomically(manifest_path_, m.dump(2) + "\n");
+}
+
+}  // namespace pof::recorder

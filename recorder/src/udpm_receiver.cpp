@@ -1,0 +1,238 @@
+#include "pof/recorder/udpm_receiver.hpp"
+
+#include <arpa/inet.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/time.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+
+#include "pof/io/errors.hpp"
+#include "pof/recorder/lcmlog_durable.hpp"
+
+namespace pof::recorder {
+namespace {
+
+constexpr uint32_t kMagicShort = 0x4C433032;  // "LC02"
+constexpr uint32_t kMagicFrag = 0x4C433033;   // "LC03"
+
+uint16_t get_be16(const unsigned char* p) { return static_cast<uint16_t>((p[0] << 8) | p[1]); }
+
+}  // namespace
+
+UdpmUrl parse_udpm_url(const std::string& url) {
+  UdpmUrl u;
+  if (url.rfind("udpm://", 0) != 0) throw io::ConfigError("LCM URL '" + url + "': not a udpm:// URL");
+  std::string rest = url.substr(7);
+  std::string query;
+  if (const auto q = rest.find('?'); q != std::string::npos) {
+    query = rest.substr(q + 1);
+    rest = rest.substr(0, q);
+  }
+  if (!rest.empty()) {
+    const auto colon = rest.find(':');
+    u.group = rest.substr(0, colon);
+    if (colon != std::string::npos) {
+      char* end = nullptr;
+      const long port = std::strtol(rest.c_str() + colon + 1, &end, 10);
+      if (*end != '\0' || port <= 0 || port > 65535)
+        throw io::ConfigError("LCM URL '" + url + "': port: expected 1..65535");
+      u.port = static_cast<uint16_t>(port);
+    }
+  }
+  in_addr a{};
+  if (inet_aton(u.group.c_str(), &a) == 0 || !IN_MULTICAST(ntohl(a.s_addr)))
+    throw io::ConfigError("LCM URL '" + url + "': '" + u.group + "' is not an IPv4 multicast address");
+  std::size_t pos = 0;
+  while (pos < query.size()) {
+    const auto amp = query.find('&', pos);
+    const std::string kv = query.substr(pos, amp == std::string::npos ? std::string::npos : amp - pos);
+    pos = amp == std::string::npos ? query.size() : amp + 1;
+    const auto eq = kv.find('=');
+    const std::string k = kv.substr(0, eq);
+    const std::string v = eq == std::string::npos ? "" : kv.substr(eq + 1);
+    char* end = nullptr;
+    const long n = std::strtol(v.c_str(), &end, 10);
+    const bool num = !v.empty() && *end == '\0';
+    if (k == "ttl") {
+      if (!num || n < 0 || n > 255) throw io::ConfigError("LCM URL '" + url + "': ttl: expected 0..255");
+      u.ttl = static_cast<int>(n);
+    } else if (k == "recv_buf_size") {
+      if (!num || n < 0 || n > (1L << 30)) throw io::ConfigError("LCM URL '" + url + "': recv_buf_size: expected bytes");
+      u.recv_buf_size = static_cast<int>(n);
+    }
+    // Other liblcm options (transmit-only ones) do not concern a receiver.
+  }
+  return u;
+}
+
+UdpmReceiver::UdpmReceiver(const UdpmUrl& url) {
+  const std::string where = "udpm://" + url.group + ":" + std::to_string(url.port);
+  fd_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  if (fd_ < 0) throw io::ConfigError(where + ": socket: " + std::strerror(errno));
+  auto fail = [&](const char* what) {
+    const int err = errno;
+    ::close(fd_);
+    fd_ = -1;
+    throw io::ConfigError(where + ": " + what + ": " + std::strerror(err) +
+                          (err == ENODEV || err == ENETUNREACH ? " (no multicast route? see docs/deployment.md)" : ""));
+  };
+  const int one = 1;
+  const int zero = 0;
+  if (::setsockopt(fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one) != 0) fail("SO_REUSEADDR");
+  if (url.recv_buf_size > 0) ::setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &url.recv_buf_size, sizeof url.recv_buf_size);
+  if (::setsockopt(fd_, SOL_SOCKET, SO_TIMESTAMP, &one, sizeof one) != 0) fail("SO_TIMESTAMP");
+  ::setsockopt(fd_, IPPROTO_IP, IP_MULTICAST_ALL, &zero, sizeof zero);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_ANY);
+  addr.sin_port = htons(url.port);
+  if (::bind(fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) fail("bind");
+  ip_mreq mreq{};
+  inet_aton(url.group.c_str(), &mreq.imr_multiaddr);
+  mreq.imr_interface.s_addr = htonl(INADDR_ANY);
+  if (::setsockopt(fd_, IPPROTO_IP, IP_ADD_MEMBERSHIP, &mreq, sizeof mreq) != 0) fail("IP_ADD_MEMBERSHIP");
+  buf_.resize(kBatch * kDatagramBytes);
+  ctrl_.resize(kBatch * CMSG_SPACE(sizeof(timeval)));
+}
+
+UdpmReceiver::~UdpmReceiver() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+int UdpmReceiver::receive(int timeout_ms, const Sink& sink) {
+  pollfd p{fd_, POLLIN, 0};
+  const int r = ::poll(&p, 1, timeout_ms);
+  if (r <= 0) return r < 0 && errno != EINTR ? -1 : 0;
+  mmsghdr msgs[kBatch];
+  iovec iov[kBatch];
+  sockaddr_in from[kBatch];
+  int delivered = 0;
+  for (;;) {
+    for (int i = 0; i < kBatch; ++i) {
+      iov[i] = {buf_.data() + static_cast<std::size_t>(i) * kDatagramBytes, kDatagramBytes};
+      msgs[i] = {};
+      msgs[i].msg_hdr.msg_iov = &iov[i];
+      msgs[i].msg_hdr.msg_iovlen = 1;
+      msgs[i].msg_hdr.msg_name = &from[i];
+      msgs[i].msg_hdr.msg_namelen = sizeof from[i];
+      msgs[i].msg_hdr.msg_control = ctrl_.data() + static_cast<std::size_t>(i) * CMSG_SPACE(sizeof(timeval));
+      msgs[i].msg_hdr.msg_controllen = CMSG_SPACE(sizeof(timeval));
+    }
+    const int n = ::recvmmsg(fd_, msgs, kBatch, MSG_DONTWAIT, nullptr);
+    if (n < 0) {
+      if (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR) break;
+      return -1;
+    }
+    for (int i = 0; i < n; ++i) {
+      int64_t utime = 0;
+      for (cmsghdr* c = CMSG_FIRSTHDR(&msgs[i].msg_hdr); c != nullptr; c = CMSG_NXTHDR(&msgs[i].msg_hdr, c)) {
+        if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_TIMESTAMP) {
+          timeval tv{};
+          std::memcpy(&tv, CMSG_DATA(c), sizeof tv);
+          utime = static_cast<int64_t>(tv.tv_sec) * 1000000 + tv.tv_usec;
+        }
+      }
+      if (utime == 0) {
+        timeval tv{};
+        ::gettimeofday(&tv, nullptr);
+        utime = static_cast<int64_t>(tv.tv_sec) * 1000000 + tv.tv_usec;
+      }
+      ++datagrams_;
+      handle_datagram(static_cast<const unsigned char*>(iov[i].iov_base), msgs[i].msg_len, from[i], utime, sink, delivered);
+    }
+    if (n < kBatch) break;
+  }
+  return delivered;
+}
+
+void UdpmReceiver::handle_datagram(const unsigned char* p, std::size_t n, const sockaddr_in& from, int64_t utime,
+                                   const Sink& sink, int& delivered) {
+  if (n < 8) {
+    ++malformed_;
+    return;
+  }
+  const uint32_t magic = get_be32(p);
+  if (magic == kMagicShort) {
+    const auto* ch = reinterpret_cast<const char*>(p + 8);
+    const std::size_t max = n - 8;
+    const std::size_t len = strnlen(ch, max);
+    if (len == max || len == 0 || len > kMaxChannelBytes) {
+      ++malformed_;
+      return;
+    }
+    const std::string_view channel(ch, len);
+    // liblcm 1.3.1 publishes LCM_SELF_TEST when a process first subscribes, to check its own
+    // multicast loopback: an internal probe, not application traffic.
+    if (channel == "LCM_SELF_TEST") return;
+    sink(utime, channel, p + 8 + len + 1, static_cast<uint32_t>(n - 8 - len - 1));
+    ++delivered;
+    return;
+  }
+  if (magic != kMagicFrag || n < 20) {
+    ++malformed_;
+    return;
+  }
+  const uint32_t seq = get_be32(p + 4);
+  const uint32_t size = get_be32(p + 8);
+  const uint32_t offset = get_be32(p + 12);
+  const uint16_t frag_no = get_be16(p + 16);
+  const uint16_t frags = get_be16(p + 18);
+  const unsigned char* body = p + 20;
+  std::size_t body_len = n - 20;
+  const uint64_t key = (uint64_t{from.sin_addr.s_addr} << 16) | from.sin_port;
+  Partial& m = partial_[key];
+  if (m.fragments != 0 && m.seq != seq) {
+    ++incomplete_;  // the sender moved on: liblcm drops the incomplete message too
+    m = Partial{};
+  }
+  if (frag_no == 0) {
+    const auto* ch = reinterpret_cast<const char*>(body);
+    const std::size_t len = strnlen(ch, body_len);
+    if (len == body_len || len == 0 || len > kMaxChannelBytes || size > kMaxDataBytes || frags == 0) {
+      ++malformed_;
+      return;
+    }
+    if (m.fragments == 0) {
+      m.seq = seq;
+      m.size = size;
+      m.fragments = frags;
+      m.data.assign(size, 0);
+    }
+    m.channel.assign(ch, len);
+    body += len + 1;
+    body_len -= len + 1;
+  } else if (m.fragments == 0) {
+    // A later fragment before fragment 0: start the message; the channel comes with fragment 0.
+    if (size > kMaxDataBytes || frags == 0) {
+      ++malformed_;
+      return;
+    }
+    m.seq = seq;
+    m.size = size;
+    m.fragments = frags;
+    m.data.assign(size, 0);
+  }
+  if (size != m.size || frags != m.fragments || uint64_t{offset} + body_len > m.size) {
+    ++malformed_;
+    partial_.erase(key);
+    return;
+  }
+  std::memcpy(m.data.data() + offset, body, body_len);
+  m.received += static_cast<uint32_t>(body_len);
+  ++m.got;
+  if (m.got == m.fragments && !m.channel.empty()) {
+    if (m.received == m.size) {
+      sink(utime, m.channel, m.data.data(), m.size);
+      ++delivered;
+    } else {
+      ++malformed_;
+    }
+    partial_.erase(key);
+  }
+}
+
+}  // namespace pof::recorder

@@ -1,0 +1,58 @@
+# pof spy as a person uses it: in a terminal (tmux), fed by a small publisher of every pofkit type
+# plus a foreign channel; the screen must show rates, decoded values and fingerprints, and 'q'
+# must quit. Then the --once/--duration snapshot mode for scripts.
+source "$(dirname "$0")/lib.sh"
+# A random port: other test runs on this host (ttl=0 multicast is host-wide) must not cross in.
+PORT=${PORT:-$((20000 + RANDOM % 30000))}
+URL="udpm://239.255.76.67:$PORT?ttl=0"
+PUB="$BIN_DIR/../tests/pof-testpub"
+POF="$BIN_DIR/pof"
+command -v tmux >/dev/null || fail "tmux is missing (it is in ./pofkit PACKAGES)"
+
+sock="$WORK_DIR/tmux.sock"
+tm() { tmux -S "$sock" "$@"; }
+cleanup() { tm kill-server 2>/dev/null || true; [ -n "${pub:-}" ] && kill "$pub" 2>/dev/null || true; }
+trap cleanup EXIT
+
+"$PUB" --lcm-url "$URL" session --duration 12 --suffix _LEFT_KNEE &
+pub=$!
+tm new-session -d -s spy -x 132 -y 50 "'$POF' spy --lcm-url '$URL'; echo SPY-EXITED \$?; sleep 30"
+# Wait until a cycle-statistics row has arrived (every 2 s) and the rates have settled.
+for _ in $(seq 1 40); do
+  sleep 0.25
+  screen=$(tm capture-pane -p -t spy)
+  grep -q "cycle statistics" <<<"$screen" && grep -q "FOREIGN_TELEMETRY" <<<"$screen" && break
+done
+sleep 1.5
+screen=$(tm capture-pane -p -t spy)
+printf '%s\n' "$screen" >screen.txt
+cat screen.txt
+for want in "POF_RAW_LEFT_KNEE" "raw_block_t" "POF_ANGLE_LEFT_KNEE" "angle_t" "POF_STATS_LEFT_KNEE" \
+  "POF_DAQ_STATUS_LEFT_KNEE" "STREAMING (streaming)" "sensor_id LEFT_KNEE" "reference 4.3500 V" \
+  "cycle statistics" "# angle  | reference" "FOREIGN_TELEMETRY" "fp:6e6f74206120706f" "(q quits)"; do
+  grep -qF "$want" screen.txt || fail "spy screen lacks '$want'"
+done
+# POF_ANGLE is published at 100 Hz: the rate column must say so (+-15 %), with no gaps.
+rate=$(awk '$1 == "POF_ANGLE_LEFT_KNEE" && $2 == "angle_t" {print $3}' screen.txt)
+awk -v r="$rate" 'BEGIN { exit !(r > 85 && r < 115) }' || fail "POF_ANGLE rate shown as '$rate', expected ~100/s"
+awk '$1 == "POF_ANGLE_LEFT_KNEE" && $2 == "angle_t" { exit !($6 == 0 && $7 == 0) }' screen.txt ||
+  fail "spy reports sequence gaps on a loss-free loopback stream"
+
+tm send-keys -t spy q
+for _ in $(seq 1 20); do
+  sleep 0.2
+  tm capture-pane -p -t spy | grep -q "SPY-EXITED 0" && break
+done
+tm capture-pane -p -t spy | grep -q "SPY-EXITED 0" || fail "'q' did not quit pof spy with exit 0"
+
+# Snapshot mode: plain text (no escape codes), exits by itself.
+expect_exit 0 "$POF" spy --lcm-url "$URL" --duration 1.5
+grep -q "POF_ANGLE_LEFT_KNEE" <<<"$out" || fail "--duration snapshot lacks the angle channel: $out"
+if grep -q $'\x1b' <<<"$out"; then fail "--duration snapshot contains escape codes"; fi
+# SIGINT ends the live view cleanly too.
+"$POF" spy --lcm-url "$URL" >/dev/null &
+spy=$!
+sleep 0.5
+kill -INT $spy
+wait $spy || fail "pof spy exited $? on SIGINT"
+echo ok

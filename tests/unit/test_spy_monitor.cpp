@@ -1,0 +1,114 @@
+// The model and renderer of `pof spy` (spy/include/pof/spy/monitor.hpp).
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "pof/spy/monitor.hpp"
+
+using pof::spy::Monitor;
+
+namespace {
+
+template <class T>
+std::vector<unsigned char> enc(const T& m) {
+  std::vector<unsigned char> b(static_cast<std::size_t>(m.getEncodedSize()));
+  m.encode(b.data(), 0, static_cast<int>(b.size()));
+  return b;
+}
+
+void feed(Monitor& m, const std::string& ch, const std::vector<unsigned char>& b, int64_t t) {
+  m.on_message(ch, b.data(), b.size(), t);
+}
+
+}  // namespace
+
+TEST(SpyMonitor, RatesCountsAndGaps) {
+  Monitor m;
+  pof::angle_t a{};
+  int64_t t = 1'000'000'000;
+  m.tick(t);
+  for (int64_t i = 0; i < 100; ++i) {
+    a.seq = i < 50 ? i : i + 3;  // one gap of 3 messages
+    feed(m, "POF_ANGLE", enc(a), t);
+    t += 10'000;  // 100 Hz
+    if (i % 25 == 24) m.tick(t);
+  }
+  const auto& c = m.channels().at("POF_ANGLE");
+  EXPECT_EQ(c.count, 100u);
+  EXPECT_EQ(c.seq.gaps, 1u);
+  EXPECT_EQ(c.seq.missing, 3u);
+  EXPECT_NEAR(c.rate_hz, 100.0, 1.0);
+  EXPECT_EQ(c.type, pof::recorder::PofType::kAngle);
+}
+
+TEST(SpyMonitor, RendersDecodedValuesOfOurTypesAndFingerprintsOfOthers) {
+  Monitor m;
+  pof::raw_block_t r{};
+  r.seq = 0;
+  r.sensor_id = "LEFT_KNEE";
+  r.scan_rate_hz = 1000;
+  r.n_channels = 3;
+  r.channel_names = {"sensor", "reference", "pot"};
+  r.channel_units = {"V", "V", "V"};
+  r.n_scans = 1;
+  r.volts = {{4.125f, 4.35f, 1.5f}};
+  r.flags = pof::raw_block_t::FLAG_SIMULATED;
+  feed(m, "POF_RAW_LEFT_KNEE", enc(r), 1);
+  pof::angle_t a{};
+  a.angle_deg = 30.5f;
+  a.angle_ref_deg = 30.0f;
+  a.phase = pof::angle_t::PHASE_FLEXION;
+  a.quality = int32_t{pof::angle_t::QUALITY_GAP} | int32_t{pof::angle_t::QUALITY_SETTLING};
+  feed(m, "POF_ANGLE_LEFT_KNEE", enc(a), 1);
+  pof::cycle_stats_t s{};
+  s.cycle = 7;
+  s.rmse_comp_deg = 1.25f;
+  feed(m, "POF_STATS_LEFT_KNEE", enc(s), 1);
+  pof::daq_status_t d{};
+  d.state = pof::daq_status_t::STATE_DISCONNECTED;
+  d.state_text = "device unplugged";
+  d.device_kind = "usb6008";
+  d.reconnects = 2;
+  feed(m, "POF_DAQ_STATUS_LEFT_KNEE", enc(d), 1);
+  const std::vector<unsigned char> foreign{1, 2, 3, 4, 5, 6, 7, 8, 9, 10};
+  feed(m, "OTHER", foreign, 1);
+
+  pof::spy::RenderOptions o;
+  o.ansi = false;
+  o.now_utime = 2;
+  const std::string text = pof::spy::render(m, o);
+  EXPECT_NE(text.find("sensor 4.1250 V"), std::string::npos) << text;
+  EXPECT_NE(text.find("SIMULATED"), std::string::npos);
+  EXPECT_NE(text.find("30.50 deg"), std::string::npos);
+  EXPECT_NE(text.find("err 0.50 deg"), std::string::npos);
+  EXPECT_NE(text.find("FLEXION"), std::string::npos);
+  EXPECT_NE(text.find("GAP|SETTLING"), std::string::npos);
+  EXPECT_NE(text.find("DISCONNECTED (device unplugged)"), std::string::npos);
+  EXPECT_NE(text.find("reconnects 2"), std::string::npos);
+  EXPECT_NE(text.find("fp:0102030405060708"), std::string::npos);
+  EXPECT_NE(text.find("      7 "), std::string::npos);  // the cycle row
+  EXPECT_EQ(text.find("\x1b["), std::string::npos);      // plain text for --once
+}
+
+TEST(SpyMonitor, CountsUndecodableMessagesOfOurTypes) {
+  Monitor m;
+  pof::raw_block_t r{};
+  r.n_channels = 1;
+  r.channel_names = {"sensor"};
+  r.channel_units = {"V"};
+  r.n_scans = 1;
+  r.volts = {{1.0f}};
+  auto b = enc(r);
+  b.resize(b.size() - 3);  // truncated: fingerprint matches, decode fails
+  feed(m, "POF_RAW", b, 1);
+  EXPECT_EQ(m.channels().at("POF_RAW").decode_errors, 1u);
+  EXPECT_FALSE(m.channels().at("POF_RAW").raw.has_value());
+}
+
+TEST(SpyMonitor, QualityAndPhaseNames) {
+  EXPECT_EQ(pof::spy::quality_names(0), "OK");
+  EXPECT_EQ(pof::spy::quality_names(1 | 4 | 256), "REFERENCE_LOST|INVALID_INPUT|0x100");
+  EXPECT_EQ(pof::spy::phase_name(2), "EXTENSION");
+  EXPECT_EQ(pof::spy::daq_state_name(9), "9");
+}

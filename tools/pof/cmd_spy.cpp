@@ -1,0 +1,186 @@
+// `pof spy`: a terminal live view of the LCM bus (plain ANSI, works over SSH, no Java). The model
+// and renderer are pof_spy (spy/); this file is the loop: one thread poll()s the LCM fd, stdin and a
+// signalfd, so there is no locking and 'q' or SIGINT quit at once.
+#include <poll.h>
+#include <signal.h>
+#include <sys/ioctl.h>
+#include <sys/signalfd.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "commands.hpp"
+#include "pof/io/errors.hpp"
+#include "pof/recorder/udp_socket.hpp"
+#include "pof/spy/monitor.hpp"
+
+namespace pof::cli {
+namespace {
+
+struct SpyArgs {
+  std::string url;
+  std::string channels = ".*";
+  double refresh_hz = 4;
+  double duration_s = 0;
+  bool once = false;
+  int queue_capacity = 100000;
+};
+
+int64_t now_utime() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+// Raw keyboard input while the view runs; restored on every exit path (RAII).
+class RawTerminal {
+ public:
+  RawTerminal() {
+    if (::isatty(STDIN_FILENO) == 0 || ::tcgetattr(STDIN_FILENO, &saved_) != 0) return;
+    termios raw = saved_;
+    raw.c_lflag &= ~static_cast<tcflag_t>(ICANON | ECHO);
+    raw.c_cc[VMIN] = 0;
+    raw.c_cc[VTIME] = 0;
+    active_ = ::tcsetattr(STDIN_FILENO, TCSANOW, &raw) == 0;
+    std::fputs("\x1b[?25l", stdout);  // hide the cursor
+  }
+  ~RawTerminal() {
+    if (!active_) return;
+    ::tcsetattr(STDIN_FILENO, TCSANOW, &saved_);
+    std::fputs("\x1b[?25h", stdout);
+    std::fflush(stdout);
+  }
+  RawTerminal(const RawTerminal&) = delete;
+  RawTerminal& operator=(const RawTerminal&) = delete;
+  [[nodiscard]] bool active() const { return active_; }
+
+ private:
+  termios saved_{};
+  bool active_ = false;
+};
+
+class Handler {
+ public:
+  explicit Handler(spy::Monitor& m) : m_(m) {}
+  void on(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+    m_.on_message(channel, rbuf->data, rbuf->data_size, rbuf->recv_utime);
+  }
+
+ private:
+  spy::Monitor& m_;
+};
+
+int terminal_width() {
+  winsize ws{};
+  if (::ioctl(STDOUT_FILENO, TIOCGWINSZ, &ws) == 0 && ws.ws_col > 0) return ws.ws_col;
+  return 100;
+}
+
+void run_spy(const SpyArgs& a) {
+  std::string url = a.url;
+  if (url.empty()) {
+    const char* env = std::getenv("LCM_DEFAULT_URL");
+    url = env != nullptr && *env != '\0' ? env : "udpm://239.255.76.67:7667?ttl=0";
+  }
+  if (url.rfind("udpm://", 0) == 0 && url.find("recv_buf_size=") == std::string::npos)
+    url += std::string(url.find('?') == std::string::npos ? "?" : "&") + "recv_buf_size=8388608";
+  lcm::LCM lcm(url);
+  if (!lcm.good()) throw io::ConfigError("LCM URL '" + url + "': cannot open (is there a multicast route? see docs/deployment.md)");
+  spy::Monitor monitor;
+  Handler handler(monitor);
+  lcm::Subscription* sub = lcm.subscribe(a.channels, &Handler::on, &handler);
+  if (sub == nullptr) throw io::ConfigError("--channels '" + a.channels + "': LCM refused the subscription");
+  sub->setQueueCapacity(a.queue_capacity);
+  const uint16_t port = recorder::lcm_url_port(url.c_str());
+  const uint64_t drops0 = port != 0 ? recorder::udp_drops(port) : 0;
+
+  sigset_t set;
+  sigemptyset(&set);
+  sigaddset(&set, SIGINT);
+  sigaddset(&set, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &set, nullptr);
+  const int sfd = ::signalfd(-1, &set, SFD_CLOEXEC);
+  if (sfd < 0) throw io::IoError("signalfd failed");
+
+  const bool snapshot = a.once || a.duration_s > 0;
+  // A snapshot collects for --duration (default 1 s for --once) and prints plain text once.
+  const double collect_s = a.duration_s > 0 ? a.duration_s : 1.0;
+  std::unique_ptr<RawTerminal> term;
+  if (!snapshot) term = std::make_unique<RawTerminal>();
+
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto period = std::chrono::duration<double>(1.0 / a.refresh_hz);
+  auto next_frame = t0;
+  const int lcm_fd = lcm.getFileno();
+  bool quit = false;
+  auto draw = [&](bool ansi) {
+    const int64_t now = now_utime();
+    monitor.tick(now);
+    spy::RenderOptions o;
+    o.ansi = ansi;
+    o.width = terminal_width();
+    o.url = url;
+    o.uptime_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    o.kernel_drops = port != 0 ? recorder::udp_drops(port) - drops0 : 0;
+    o.now_utime = now;
+    const std::string text = spy::render(monitor, o);
+    std::fwrite(text.data(), 1, text.size(), stdout);
+    std::fflush(stdout);
+  };
+  while (!quit) {
+    const auto now = std::chrono::steady_clock::now();
+    if (snapshot && std::chrono::duration<double>(now - t0).count() >= collect_s) break;
+    if (now >= next_frame) {
+      if (!snapshot) draw(true);
+      else monitor.tick(now_utime());  // keep the rate window moving
+      next_frame += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+      if (next_frame < now) next_frame = now;
+    }
+    const int wait_ms = static_cast<int>(std::chrono::duration_cast<std::chrono::milliseconds>(next_frame - now).count()) + 1;
+    pollfd fds[3] = {{lcm_fd, POLLIN, 0}, {sfd, POLLIN, 0}, {STDIN_FILENO, POLLIN, 0}};
+    const nfds_t nfds = term && term->active() ? 3 : 2;
+    if (::poll(fds, nfds, wait_ms) < 0) continue;
+    if ((fds[0].revents & POLLIN) != 0) {
+      // Drain what is queued without blocking, but yield to the screen at the frame time.
+      do {
+        if (lcm.handle() != 0) break;
+        pollfd p{lcm_fd, POLLIN, 0};
+        if (::poll(&p, 1, 0) <= 0) break;
+      } while (std::chrono::steady_clock::now() < next_frame);
+    }
+    if ((fds[1].revents & POLLIN) != 0) quit = true;
+    if (nfds == 3 && (fds[2].revents & POLLIN) != 0) {
+      char c = 0;
+      if (::read(STDIN_FILENO, &c, 1) == 1 && (c == 'q' || c == 'Q' || c == 3)) quit = true;
+    }
+  }
+  if (snapshot) draw(false);
+  term.reset();
+  ::close(sfd);
+}
+
+}  // namespace
+
+void add_spy(CLI::App& app) {
+  auto a = std::make_shared<SpyArgs>();
+  auto* cmd = app.add_subcommand("spy",
+                                 "Terminal live view of the LCM bus: channels, rates, sequence gaps, drops and the "
+                                 "latest decoded angle, raw block, cycle statistics and DAQ status (q quits)");
+  cmd->add_option("--lcm-url", a->url, "LCM URL (default $LCM_DEFAULT_URL or udpm://239.255.76.67:7667?ttl=0)");
+  cmd->add_option("-c,--channels", a->channels, "Regex of the channels to show")->capture_default_str();
+  cmd->add_option("--refresh", a->refresh_hz, "Screen refreshes per second")->check(CLI::Range(0.2, 50.0))->capture_default_str();
+  cmd->add_flag("--once", a->once, "Listen for 1 s (or --duration), print one plain-text snapshot and exit");
+  cmd->add_option("--duration", a->duration_s, "Listen this long [s], print one plain-text snapshot and exit")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--queue-capacity", a->queue_capacity, "LCM subscription queue [messages]")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->callback([a] { run_spy(*a); });
+}
+
+}  // namespace pof::cli

@@ -32,15 +32,16 @@ def main() -> int:
     ap.add_argument("trace")
     ap.add_argument("png")
     ap.add_argument("--title", default="")
+    ap.add_argument("--reference-level", type=float, default=0.0,
+                    help="reference voltage at nominal source power [V] (default: median of the first second)")
     a = ap.parse_args()
     d = np.genfromtxt(a.trace, delimiter=",", names=True)
     if d.size < 2:
         print(f"{a.trace}: no data to plot", file=sys.stderr)
         return 65
     t = d["t_s"]
-    ref0 = np.median(d["reference_v"][: max(1, min(len(t), 200))])
-    # Reference-normalised sensor voltage, v = sensor_v * level / reference_v (contract in the brief);
-    # the level is taken from the first second (nominal source power).
+    ref0 = a.reference_level or np.median(d["reference_v"][: max(1, min(len(t), 200))])
+    # Reference-normalised sensor voltage, v = sensor_v * level / reference_v (contract in the brief).
     vnorm = d["sensor_v"] * ref0 / d["reference_v"]
     w = d["velocity_rad_s"]
     moving = d["direction"] != 0

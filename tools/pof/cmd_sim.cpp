@@ -55,9 +55,10 @@ fs::path plot_dir() {
   return POF_PLOT_DIR;
 }
 
-void run_plot(const fs::path& trace_csv, const std::string& png, const std::string& title) {
+void run_plot(const fs::path& trace_csv, const std::string& png, const std::string& title, double reference_level_v) {
   const fs::path script = plot_dir() / "sim_loops.py";
-  std::vector<std::string> args{"/usr/bin/python3", script.string(), trace_csv.string(), png, "--title", title};
+  std::vector<std::string> args{"/usr/bin/python3", script.string(), trace_csv.string(), png, "--title", title,
+                                "--reference-level", std::to_string(reference_level_v)};
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -159,7 +160,7 @@ void run_sim(const SimOptions& o) {
     }
     trace = nullptr;
     if (!o.plot.empty()) {
-      run_plot(trace_for_plot, o.plot, sc.name + " (seed " + std::to_string(o.seed) + ")");
+      run_plot(trace_for_plot, o.plot, sc.name + " (seed " + std::to_string(o.seed) + ")", sc.light.reference_level_v);
       spdlog::info("pof sim: plot -> {}", o.plot);
     }
   }

@@ -27,6 +27,12 @@ def moving_mean(y, n):
     return np.convolve(y, k, mode="same") / np.convolve(np.ones_like(y), k, mode="same")
 
 
+def min_span(ax, centre, half):
+    """Keep at least +-half around centre on ax's y axis (a flat trace is not blown up into noise)."""
+    lo, hi = ax.get_ylim()
+    ax.set_ylim(min(lo, centre - half), max(hi, centre + half))
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("trace")
@@ -105,6 +111,8 @@ def main() -> int:
     q = p.twinx()
     q.plot(t[s], 1e3 * moving_mean(vnorm - d["normalised_v"], fs)[s], lw=0.8, color="tab:green")
     q.set_ylabel("normalised - noise-free sensor voltage [mV], 1 s mean\n(uncancelled power; noise averaged out)", color="tab:green")
+    min_span(p, 1.0, 0.005)
+    min_span(q, 0.0, 2.0)
     p.legend(loc="upper left", fontsize=8)
     p.set_title("light path: what the reference cancels and what it does not")
 

@@ -27,20 +27,27 @@ def moving_mean(y, n):
     return np.convolve(y, k, mode="same") / np.convolve(np.ones_like(y), k, mode="same")
 
 
+def min_span(ax, centre, half):
+    """Keep at least +-half around centre on ax's y axis (a flat trace is not blown up into noise)."""
+    lo, hi = ax.get_ylim()
+    ax.set_ylim(min(lo, centre - half), max(hi, centre + half))
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("trace")
     ap.add_argument("png")
     ap.add_argument("--title", default="")
+    ap.add_argument("--reference-level", type=float, default=0.0,
+                    help="reference voltage at nominal source power [V] (default: median of the first second)")
     a = ap.parse_args()
     d = np.genfromtxt(a.trace, delimiter=",", names=True)
     if d.size < 2:
         print(f"{a.trace}: no data to plot", file=sys.stderr)
         return 65
     t = d["t_s"]
-    ref0 = np.median(d["reference_v"][: max(1, min(len(t), 200))])
-    # Reference-normalised sensor voltage, v = sensor_v * level / reference_v (contract in the brief);
-    # the level is taken from the first second (nominal source power).
+    ref0 = a.reference_level or np.median(d["reference_v"][: max(1, min(len(t), 200))])
+    # Reference-normalised sensor voltage, v = sensor_v * level / reference_v (contract in the brief).
     vnorm = d["sensor_v"] * ref0 / d["reference_v"]
     w = d["velocity_rad_s"]
     moving = d["direction"] != 0
@@ -104,6 +111,8 @@ def main() -> int:
     q = p.twinx()
     q.plot(t[s], 1e3 * moving_mean(vnorm - d["normalised_v"], fs)[s], lw=0.8, color="tab:green")
     q.set_ylabel("normalised - noise-free sensor voltage [mV], 1 s mean\n(uncancelled power; noise averaged out)", color="tab:green")
+    min_span(p, 1.0, 0.005)
+    min_span(q, 0.0, 2.0)
     p.legend(loc="upper left", fontsize=8)
     p.set_title("light path: what the reference cancels and what it does not")
 

@@ -50,8 +50,8 @@ pof::sim::Scenario resolve_scenario(const std::string& arg) {
   throw pof::io::NoInputError(arg + ": no such scenario file, and not a builtin scenario (" + list + ")");
 }
 
-void run_plot(const fs::path& trace_csv, const std::string& png, const std::string& title) {
-  run_plot_script("sim_loops.py", {trace_csv.string(), png, "--title", title});
+void run_plot(const fs::path& trace_csv, const std::string& png, const std::string& title, double reference_level_v) {
+  run_plot_script("sim_loops.py", {trace_csv.string(), png, "--title", title, "--reference-level", std::to_string(reference_level_v)});
 }
 
 void run_sim(const SimOptions& o) {
@@ -139,7 +139,7 @@ void run_sim(const SimOptions& o) {
     }
     trace = nullptr;
     if (!o.plot.empty()) {
-      run_plot(trace_for_plot, o.plot, sc.name + " (seed " + std::to_string(o.seed) + ")");
+      run_plot(trace_for_plot, o.plot, sc.name + " (seed " + std::to_string(o.seed) + ")", sc.light.reference_level_v);
       spdlog::info("pof sim: plot -> {}", o.plot);
     }
   }

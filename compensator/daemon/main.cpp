@@ -1,0 +1,179 @@
+// pof-compensatord: subscribes to raw sample blocks, compensates every scan (Leal-Junior et al.
+// 2017, eqs. (11)/(12)) and publishes the knee angle, per-cycle statistics and its own health.
+//
+//   POF_RAW[_ID] --> Pipeline --> POF_ANGLE[_ID], POF_STATS[_ID]; POF_COMPENSATOR_STATUS[_ID] at 1 Hz
+//
+// One thread: LCM's handle() delivers blocks into the pipeline and the same loop publishes. Signals
+// only set flags (SIGTERM/SIGINT stop, SIGHUP reloads the calibration between blocks: a bad file
+// keeps the old calibration, is counted and named in the status). Under systemd (Type=notify) the
+// loop sends READY once subscribed and feeds the watchdog only while it keeps turning.
+#include <poll.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <optional>
+#include <string>
+
+#include <CLI/CLI.hpp>
+#include <lcm/lcm-cpp.hpp>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include "pipeline.hpp"
+#include "pof/io/calibration_file.hpp"
+#include "pof/io/errors.hpp"
+#include "pof/lcm/subscribe.hpp"
+#include "pof/lcm/url.hpp"
+#include "pof/service/sd_notify.hpp"
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+std::atomic<bool> g_reload{false};
+
+extern "C" void on_signal(int sig) {
+  if (sig == SIGHUP) g_reload = true;
+  else g_stop = true;
+}
+
+std::int64_t now_utime() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+class LcmSink final : public pof::compensatord::Sink {
+ public:
+  LcmSink(lcm::LCM& lc, std::string angle_ch, std::string stats_ch)
+      : lc_(lc), angle_ch_(std::move(angle_ch)), stats_ch_(std::move(stats_ch)) {}
+  void angle(const pof::angle_t& m) override { publish_failures_ += lc_.publish(angle_ch_, &m) != 0; }
+  void cycle(const pof::cycle_stats_t& m) override { publish_failures_ += lc_.publish(stats_ch_, &m) != 0; }
+  std::int64_t publish_failures_ = 0;
+
+ private:
+  lcm::LCM& lc_;
+  std::string angle_ch_, stats_ch_;
+};
+
+struct Options {
+  std::string cal;
+  std::string sensor_id;
+  std::string lcm_url;
+  std::string pot_cal;
+  std::string velocity_source = "sensor";
+  double output_rate_hz = 0;
+  double velocity_window_s = 0.5;
+  int queue_capacity = 10000;
+};
+
+int run(const Options& o) {
+  pof::compensatord::PipelineSettings ps;
+  ps.sensor_id = o.sensor_id;
+  ps.output_rate_hz = o.output_rate_hz;
+  ps.compensator.velocity_window_s = o.velocity_window_s;
+  ps.compensator.velocity_source =
+      o.velocity_source == "reference" ? pof::core::VelocitySource::kReference : pof::core::VelocitySource::kSensor;
+  std::optional<pof::core::PotentiometerCalibration> pot;
+  if (!o.pot_cal.empty()) pot = pof::io::load_potentiometer(o.pot_cal);
+
+  pof::compensatord::Pipeline pipeline(pof::io::load_calibration(o.cal), o.cal, ps, pot);
+
+  const std::string url = pof::lcmutil::resolve_url(o.lcm_url);
+  lcm::LCM lc(url);
+  if (!lc.good()) throw pof::io::ConfigError("LCM URL '" + url + "': cannot open (is there a multicast route? see docs/deployment.md)");
+  const std::string raw_ch = pof::lcmutil::channel("POF_RAW", o.sensor_id);
+  LcmSink sink(lc, pof::lcmutil::channel("POF_ANGLE", o.sensor_id), pof::lcmutil::channel("POF_STATS", o.sensor_id));
+  const std::string status_ch = pof::lcmutil::channel("POF_COMPENSATOR_STATUS", o.sensor_id);
+
+  auto sub = pof::lcmutil::subscribe<pof::raw_block_t>(
+      lc, raw_ch, [&](const pof::raw_block_t& b, const lcm::ReceiveBuffer&, const std::string&) {
+        pipeline.on_block(b, now_utime(), sink);  // noexcept: nothing crosses LCM's C callback
+      });
+  // LCM keeps 30 messages per subscription and drops the rest silently (../shared/notes/lcm.md).
+  sub->get()->setQueueCapacity(o.queue_capacity);
+
+  std::signal(SIGTERM, on_signal);
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGHUP, on_signal);
+
+  pof::service::ServiceNotifier notifier;
+  notifier.ready("compensating " + raw_ch + " with " + o.cal);
+  spdlog::info("{} -> {} on {} (calibration {}, output {})", raw_ch, pof::lcmutil::channel("POF_ANGLE", o.sensor_id),
+               url, o.cal, o.output_rate_hz > 0 ? std::to_string(o.output_rate_hz) + " Hz" : std::string("every scan"));
+
+  std::int64_t status_seq = 0;
+  auto next_status = std::chrono::steady_clock::now();
+  const int fd = lc.getFileno();
+  while (!g_stop) {
+    pollfd p{fd, POLLIN, 0};
+    const int r = ::poll(&p, 1, 100);
+    if (r > 0 && (p.revents & POLLIN)) lc.handle();
+
+    if (g_reload.exchange(false)) {
+      try {
+        pipeline.replace_calibration(pof::io::load_calibration(o.cal), o.cal);
+        spdlog::info("reloaded calibration {}", o.cal);
+      } catch (const std::exception& e) {
+        pipeline.note_reload_failure(e.what());
+        spdlog::error("calibration reload failed, keeping the previous one: {}", e.what());
+      }
+    }
+    const auto now = std::chrono::steady_clock::now();
+    if (now >= next_status) {
+      pof::compensator_status_t st = pipeline.status(now_utime());
+      st.seq = status_seq++;
+      lc.publish(status_ch, &st);
+      next_status = now + std::chrono::seconds(1);
+    }
+    notifier.watchdog_if_due();
+  }
+  notifier.stopping("stopping");
+  spdlog::info("stopped: {} blocks, {} scans, {} lost scans, {} angles, {} cycles", pipeline.status(0).blocks,
+               pipeline.status(0).scans, pipeline.status(0).lost_scans, pipeline.status(0).angles,
+               pipeline.status(0).cycles);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  spdlog::set_default_logger(spdlog::stderr_color_mt("pof-compensatord"));
+  spdlog::set_pattern("pof-compensatord: %^%l%$: %v");
+  CLI::App app{"pof-compensatord: compensates POF_RAW blocks into POF_ANGLE and POF_STATS"};
+  Options o;
+  app.add_option("--cal", o.cal, "Calibration file (TOML, from `pof calibrate`); SIGHUP reloads it")
+      ->required();
+  app.add_option("--sensor-id", o.sensor_id, "Sensor id suffixing every channel, e.g. LEFT_KNEE -> POF_RAW_LEFT_KNEE");
+  app.add_option("--lcm-url", o.lcm_url, "LCM URL (default: $LCM_DEFAULT_URL, else udpm on this host, ttl=0)");
+  app.add_option("--pot-cal", o.pot_cal, "Potentiometer calibration (TOML) when blocks carry `pot` volts and the calibration has none");
+  app.add_option("--velocity-source", o.velocity_source, "Where velocity and direction come from: sensor | reference")
+      ->capture_default_str();
+  app.add_option("--output-rate", o.output_rate_hz, "Published angle rate [Hz] (boxcar decimation); 0 = every scan")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--velocity-window", o.velocity_window_s, "Velocity estimator window [s]")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--queue-capacity", o.queue_capacity, "LCM subscription queue [messages]")
+      ->check(CLI::Range(1, 1000000))->capture_default_str();
+  try {
+    app.parse(argc, argv);
+    if (o.velocity_source != "sensor" && o.velocity_source != "reference")
+      throw CLI::ValidationError("--velocity-source", "expected 'sensor' or 'reference', got '" + o.velocity_source + "'");
+  } catch (const CLI::ParseError& e) {
+    const int rc = app.exit(e);
+    return rc == 0 ? 0 : pof::io::kExitUsage;
+  }
+  try {
+    return run(o);
+  } catch (const pof::io::Error& e) {
+    spdlog::error("{}", e.what());
+    return e.code();
+  } catch (const std::invalid_argument& e) {
+    spdlog::error("{}", e.what());
+    return pof::io::kExitConfig;
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+    return pof::io::kExitIoErr;
+  }
+}

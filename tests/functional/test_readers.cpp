@@ -201,6 +201,14 @@ TEST(LcmLogReader, MissingChannelsAreNamed) {
   }
   const std::string e = error_of([&] { pof::io::read_lcmlog(p); });
   EXPECT_NE(e.find("[sensor,pot]; expected \"sensor\" and \"reference\""), std::string::npos) << e;
+  const auto q = d.path("order.lcmlog");
+  {
+    lcm::LogFile log(q, "w");
+    write_block(log, "POF_RAW", 2'000'000, 10, {"sensor", "reference", "angle_ref"}, 10, 0.0);
+    write_block(log, "POF_RAW", 1'950'000, 0, {"sensor", "reference", "angle_ref"}, 10, 0.0);
+  }
+  const std::string e3 = error_of([&] { pof::io::read_lcmlog(q); });
+  EXPECT_NE(e3.find("event 2 on POF_RAW: block utime 1950000 does not follow"), std::string::npos) << e3;
   const std::string e2 = error_of([&] { pof::io::read_lcmlog(p, "POF_RAW_RIGHT_KNEE"); });
   EXPECT_NE(e2.find("no pof.raw_block_t events on channel POF_RAW_RIGHT_KNEE"), std::string::npos) << e2;
 }

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Stock lcm-spy with pofkit's message types (raw_block_t, angle_t, cycle_stats_t, daq_status_t).
+# Stock lcm-spy with pofkit's message types (lcmtypes/*.lcm).
 #
 #   tools/lcm-spy.sh [--lcm-url URL]          (installed as pof-lcm-spy)
 #

@@ -66,6 +66,9 @@ Recording read_csv(const std::string& path) {
     if (line.empty() || line[0] == '#') continue;
     const auto f = split(line);
     const std::string where = path + ":" + std::to_string(lineno) + ": ";
+    // Every writer we know ends rows with a newline; a last row without one was cut off mid-write
+    // and may hold a shortened number that would otherwise parse.
+    if (in.eof()) throw DataError(where + "last line has no newline: the file is truncated");
     if (!have_header) {
       have_header = true;
       n_fields = f.size();
@@ -85,7 +88,7 @@ Recording read_csv(const std::string& path) {
     }
     if (f.size() != n_fields)
       throw DataError(where + "expected " + std::to_string(n_fields) + " fields as in the header, got " +
-                      std::to_string(f.size()) + (in.eof() ? " (truncated last line?)" : ""));
+                      std::to_string(f.size()));
     for (int c = 0; c < kNCols; ++c) {
       if (idx[c] < 0) continue;
       const std::string_view s = f[static_cast<std::size_t>(idx[c])];

@@ -85,10 +85,14 @@ Recording read_lcmlog(const std::string& path, const std::string& channel) {
     } else if (b.channel_names != names0) {
       throw DataError(path + ": event " + std::to_string(n_events) + " on " + chan + ": channel names changed mid-recording");
     }
+    const double tb = static_cast<double>(b.utime - utime0) * 1e-6;
+    if (!t.empty() && b.n_scans > 0 && !(tb > t.back()))
+      throw DataError(path + ": event " + std::to_string(n_events) + " on " + chan + ": block utime " +
+                      std::to_string(b.utime) + " does not follow the previous block (scans out of order or repeated)");
     for (int k = 0; k < b.n_scans; ++k) {
       const auto& row = b.volts[static_cast<std::size_t>(k)];
       auto at = [&](int c) { return static_cast<double>(row[static_cast<std::size_t>(c)]); };
-      t.push_back(static_cast<double>(b.utime - utime0) * 1e-6 + k / b.scan_rate_hz);
+      t.push_back(tb + k / b.scan_rate_hz);
       sensor.push_back(at(c_sensor));
       ref.push_back(at(c_ref));
       if (has_pot) pot.push_back(at(c_pot));

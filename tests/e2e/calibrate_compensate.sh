@@ -51,6 +51,17 @@ assert o["rmse_comp_deg"] < o["rmse_uncomp_deg"], o
 assert o["hysteresis_comp_pct"] < 0.5 * o["hysteresis_uncomp_pct"], o
 PYEOF
 
+# --- the same from LCM logs (pof.raw_block_t on POF_RAW, channels by name)
+"$GEN" cal.lcmlog calibration
+"$GEN" val.lcmlog validation
+expect_exit 0 "$POF" calibrate cal.lcmlog -o cal_lcm.toml
+expect_exit 0 "$POF" compensate val.lcmlog --cal cal_lcm.toml --json stats_lcm.json
+"$PY" -c 'import json,sys; s=json.load(open("stats_lcm.json")); assert len(s["cycles"]) == 15; assert s["overall"]["rmse_comp_deg"] < s["overall"]["rmse_uncomp_deg"]' ||
+  fail "LCM log recording: unexpected statistics"
+head -c 50123 val.lcmlog >trunc.lcmlog   # events are 500 bytes: cut inside one
+expect_exit 65 "$POF" compensate trunc.lcmlog --cal cal.toml
+grep -q "trunc.lcmlog: byte [0-9]*: truncated or corrupt LCM event" <<<"$err" || fail "truncated LCM log: $err"
+
 # --- potentiometer-only recordings need --pot-cal (78 otherwise)
 expect_exit 78 "$POF" calibrate cal_pot.csv -o pot_cal.toml
 grep -q "pot-cal" <<<"$err" || fail "no hint about --pot-cal: $err"

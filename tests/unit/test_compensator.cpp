@@ -8,6 +8,7 @@
 
 #include "paper_protocol.hpp"
 #include "pof/core/compensator.hpp"
+#include "pof/core/offline.hpp"
 
 using pof::core::CompensatedScan;
 using pof::core::Direction;
@@ -261,4 +262,24 @@ TEST(Compensator, RejectsSettingsThatCannotWork) {
   s = {};
   s.scan_rate_hz = 0;
   EXPECT_THROW(OnlineCompensator(paper_calibration(), s), std::invalid_argument);
+}
+
+// The offline path (pof compensate) is the online one scan by scan; a time gap resets the
+// estimator like the daemon does on FLAG_GAP.
+TEST(Compensator, OfflineRecordingResetsAtGapsAndFlagsThem) {
+  auto p = noiseless();
+  p.quasi_static = false;
+  p.velocities_rad_s = {0.1047};
+  auto g = pof::testing::paper_recording(p);
+  const Eigen::Index cut = g.size() / 2;
+  g.t_s.tail(g.size() - cut).array() += 1.0;  // one second of scans lost
+  const auto r = pof::core::compensate_recording(g.t_s, g.sensor_v, g.reference_v, g.angle_ref_deg,
+                                                 paper_calibration(p.reference_level_v));
+  EXPECT_NEAR(r.scan_rate_hz, 200, 1e-6);
+  EXPECT_EQ(r.resets, 1);
+  EXPECT_TRUE(r.quality[static_cast<std::size_t>(cut)] & quality::kGap);
+  EXPECT_TRUE(r.quality[static_cast<std::size_t>(cut + 1)] & quality::kSettling);
+  EXPECT_FALSE(r.quality[static_cast<std::size_t>(cut + 1)] & quality::kGap);
+  EXPECT_EQ(r.angle_deg.size(), g.size());
+  EXPECT_EQ(r.phase.size(), static_cast<std::size_t>(g.size()));
 }

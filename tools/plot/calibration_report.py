@@ -115,7 +115,8 @@ def fig7(rep, out):
     ax2.set_ylabel("b$_x$ [V]")
     lines = ax.get_legend_handles_labels()
     lines2 = ax2.get_legend_handles_labels()
-    ax.legend(lines[0] + lines2[0], lines[1] + lines2[1], fontsize=8, loc="best")
+    ax.legend(lines[0] + lines2[0], lines[1] + lines2[1], fontsize=8, loc="upper center",
+              bbox_to_anchor=(0.5, -0.13), ncol=4, frameon=False)
     ax.set_title("f2: regression terms against hysteresis (fig. 7b)", fontsize=10)
     ax.grid(alpha=0.3)
     fig.tight_layout()

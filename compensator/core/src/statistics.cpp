@@ -1,6 +1,7 @@
 #include "pof/core/statistics.hpp"
 
 #include <cmath>
+#include <numbers>
 
 namespace pof::core {
 
@@ -31,7 +32,7 @@ bool CycleStatistics::add(double t_s, const CompensatedScan& scan, double angle_
   cur_.uncomp[k].add(angle_ref_deg, scan.angle_uncomp_deg);
   cur_.sq_comp += ec * ec;
   cur_.sq_uncomp += eu * eu;
-  if (std::isfinite(scan.velocity_rad_s)) cur_.sum_w += std::abs(scan.velocity_rad_s);
+  cur_.speed[k].add(t_s, angle_ref_deg);
   if (std::abs(ec) > cur_.max_err) {
     cur_.max_err = std::abs(ec);
     cur_.max_err_angle = angle_ref_deg;
@@ -60,7 +61,9 @@ bool CycleStatistics::close() noexcept {
   st.t_start_s = c.t_start;
   st.t_end_s = c.t_end;
   const double n = static_cast<double>(c.n);
-  st.velocity_rad_s = c.sum_w / n;
+  // The commanded speed of the sweeps (table 3's velocity), from the reference: a line through
+  // each sweep, so the estimator's lag and the ramps at the ends barely move it.
+  st.velocity_rad_s = 0.5 * (std::abs(c.speed[0].slope()) + std::abs(c.speed[1].slope())) * std::numbers::pi / 180.0;
   st.rmse_comp_deg = std::sqrt(c.sq_comp / n);
   st.rmse_uncomp_deg = std::sqrt(c.sq_uncomp / n);
   st.hysteresis_comp_pct = std::abs(hc.pct);
@@ -71,7 +74,7 @@ bool CycleStatistics::close() noexcept {
   last_ = st;
   tot_sq_comp_ += c.sq_comp;
   tot_sq_uncomp_ += c.sq_uncomp;
-  tot_w_ += c.sum_w;
+  tot_w_ += st.velocity_rad_s;
   tot_n_ += c.n;
   tot_h_comp_ += st.hysteresis_comp_pct;
   tot_h_uncomp_ += st.hysteresis_uncomp_pct;
@@ -88,7 +91,7 @@ CycleStats CycleStatistics::overall() const noexcept {
     return o;
   }
   const double n = static_cast<double>(tot_n_);
-  o.velocity_rad_s = tot_w_ / n;
+  o.velocity_rad_s = tot_w_ / kept_;
   o.rmse_comp_deg = std::sqrt(tot_sq_comp_ / n);
   o.rmse_uncomp_deg = std::sqrt(tot_sq_uncomp_ / n);
   o.hysteresis_comp_pct = tot_h_comp_ / kept_;

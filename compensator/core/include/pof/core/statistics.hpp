@@ -26,7 +26,7 @@ struct StatisticsSettings {
 struct CycleStats {
   int cycle = 0;                 // from 1
   double t_start_s = 0, t_end_s = 0;
-  double velocity_rad_s = 0;     // mean |velocity| over the cycle's sweeps
+  double velocity_rad_s = 0;     // mean of the two sweeps' |slope| of reference angle against time
   double rmse_comp_deg = 0, rmse_uncomp_deg = 0;
   double hysteresis_comp_pct = 0, hysteresis_uncomp_pct = 0;  // |eq. (1)|
   double max_error_deg = 0;      // max |compensated - reference|
@@ -56,7 +56,7 @@ class CycleStatistics {
   bool finish() noexcept;
 
   [[nodiscard]] const CycleStats& last() const noexcept { return last_; }
-  /// Over every kept cycle: RMSE and velocity pooled over their scans, hysteresis the mean of the
+  /// Over every kept cycle: RMSE pooled over their scans, velocity and hysteresis the mean of the
   /// cycles', max error the largest; cycle = number of cycles kept.
   [[nodiscard]] CycleStats overall() const noexcept;
   [[nodiscard]] const ErrorProfile& profile() const noexcept { return profile_; }
@@ -66,7 +66,8 @@ class CycleStatistics {
  private:
   struct Current {
     LineAccumulator comp[2], uncomp[2];  // [0] flexion, [1] extension: y = angle, x = reference
-    double sq_comp = 0, sq_uncomp = 0, sum_w = 0, max_err = 0, max_err_angle = 0;
+    LineAccumulator speed[2];            // x = t, y = reference angle: the sweep's velocity
+    double sq_comp = 0, sq_uncomp = 0, max_err = 0, max_err_angle = 0;
     double t_start = 0, t_end = 0;
     std::int64_t n = 0;
     bool seen_extension = false;

@@ -1,0 +1,78 @@
+// Per-scan cost of the online compensation (issue 3), against a baseline measured in the same run:
+// the bare quasi-static line f5 on the normalised voltage (what an uncompensated sensor costs).
+// Input: the paper-like calibration protocol from tests/support (200 Hz, USB-6008 noise and
+// quantisation), replayed scan by scan; items/s = scans/s.
+#include <benchmark/benchmark.h>
+
+#include "paper_protocol.hpp"
+#include "pof/core/compensator.hpp"
+#include "pof/core/normalise.hpp"
+#include "pof/core/statistics.hpp"
+
+namespace {
+
+const pof::testing::Generated& data() {
+  static const auto g = pof::testing::paper_recording();
+  return g;
+}
+
+pof::core::Calibration calibration() {
+  pof::core::Calibration c;
+  c.model = pof::core::paper_coefficients();
+  c.reference_level_v = 4.0;
+  return c;
+}
+
+// Baseline: reference guard + normalisation + f5 (no velocity, no direction, no eq. 11/12).
+void BM_BaselineF5(benchmark::State& state) {
+  const auto& g = data();
+  const auto cal = calibration();
+  pof::core::ReferenceGuard guard;
+  guard.level_v = cal.reference_level_v;
+  const Eigen::Index n = g.size();
+  Eigen::Index i = 0;
+  for (auto _ : state) {
+    const auto v = pof::core::normalise(g.sensor_v(i), g.reference_v(i), guard);
+    double a = pof::core::quasi_static_angle(cal.model, v.v);
+    benchmark::DoNotOptimize(a);
+    if (++i == n) i = 0;
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_BaselineF5);
+
+// The full online path of one scan: guard, f5, causal velocity, dead-band direction, eq. (11)/(12),
+// quality flags.
+void BM_OnlineCompensatorStep(benchmark::State& state) {
+  const auto& g = data();
+  pof::core::OnlineCompensator comp(calibration());
+  const Eigen::Index n = g.size();
+  Eigen::Index i = 0;
+  for (auto _ : state) {
+    auto s = comp.step(g.sensor_v(i), g.reference_v(i));
+    benchmark::DoNotOptimize(s);
+    if (++i == n) i = 0;
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_OnlineCompensatorStep);
+
+// What pof-compensatord does per scan with statistics on: step + table-3 cycle statistics.
+void BM_OnlineCompensatorStepWithStatistics(benchmark::State& state) {
+  const auto& g = data();
+  pof::core::OnlineCompensator comp(calibration());
+  pof::core::CycleStatistics stats;
+  const Eigen::Index n = g.size();
+  Eigen::Index i = 0;
+  for (auto _ : state) {
+    const auto s = comp.step(g.sensor_v(i), g.reference_v(i));
+    benchmark::DoNotOptimize(stats.add(g.t_s(i), s, g.angle_ref_deg(i)));
+    if (++i == n) i = 0;
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_OnlineCompensatorStepWithStatistics);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,314 @@
+// Recording readers (CSV, LCM log), the calibration TOML and atomic writes, on temporary files.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include <lcm/lcm-cpp.hpp>
+#include <pof/raw_block_t.hpp>
+
+#include "paper_protocol.hpp"
+#include "pof/core/calibration.hpp"
+#include "pof/io/atomic_file.hpp"
+#include "pof/io/calibration_file.hpp"
+#include "pof/io/errors.hpp"
+#include "pof/io/recording_reader.hpp"
+
+namespace fs = std::filesystem;
+using pof::io::ConfigError;
+using pof::io::DataError;
+
+namespace {
+
+class TempDir {
+ public:
+  TempDir() {
+    path_ = fs::temp_directory_path() / ("pof_readers_" + std::to_string(::getpid()) + "_" + std::to_string(counter_++));
+    fs::create_directories(path_);
+  }
+  ~TempDir() { fs::remove_all(path_); }
+  std::string file(const std::string& name, const std::string& content) const {
+    const auto p = (path_ / name).string();
+    std::ofstream(p, std::ios::binary) << content;
+    return p;
+  }
+  std::string path(const std::string& name) const { return (path_ / name).string(); }
+
+ private:
+  fs::path path_;
+  static inline int counter_ = 0;
+};
+
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const pof::io::Error& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+}  // namespace
+
+TEST(CsvReader, ReadsColumnsByNameIgnoringExtrasCommentsAndCrlf) {
+  TempDir d;
+  const auto p = d.file("a.csv",
+                        "# written by a test\r\n"
+                        "angle_true_deg,reference_v,extra,t_s,sensor_v,angle_ref_deg\r\n"
+                        "1.5,4.0,x,0.000,3.0,1.0\r\n"
+                        "\r\n"
+                        "2.5,4.1,y,0.005,nan,2.0\r\n");
+  const auto r = pof::io::read_csv(p);
+  ASSERT_EQ(r.size(), 2);
+  EXPECT_DOUBLE_EQ(r.t_s(1), 0.005);
+  EXPECT_DOUBLE_EQ(r.reference_v(1), 4.1);
+  EXPECT_TRUE(std::isnan(r.sensor_v(1))) << "a dropout the compensator flags";
+  EXPECT_DOUBLE_EQ(r.angle_ref_deg(0), 1.0);
+  EXPECT_DOUBLE_EQ(r.angle_true_deg(1), 2.5);
+  EXPECT_EQ(r.pot_v.size(), 0);
+  const auto q = pof::io::read_csv(d.file("b.csv", "t_s,sensor_v,reference_v,pot_v\n0,1,2,3\n"));
+  EXPECT_DOUBLE_EQ(q.pot_v(0), 3);
+  EXPECT_EQ(q.angle_ref_deg.size(), 0);
+}
+
+TEST(CsvReader, BadInputNamesFileLineAndColumn) {
+  TempDir d;
+  const std::string h = "t_s,sensor_v,reference_v,angle_ref_deg\n";
+  EXPECT_NE(error_of([&] { pof::io::read_csv(d.file("a.csv", h + "0,1,2,3\n0.1,1,zz,3\n")); }).find("a.csv:3: column reference_v: expected a number, got 'zz'"), std::string::npos);
+  EXPECT_NE(error_of([&] { pof::io::read_csv(d.file("b.csv", h + "0,1,2,3\n0.1,1,2\n")); }).find("b.csv:3: expected 4 fields"), std::string::npos);
+  EXPECT_NE(error_of([&] { pof::io::read_csv(d.file("c.csv", h + "0,1,2,3\n0.1,1,2,3")); }).find("c.csv:3: last line has no newline"), std::string::npos);
+  EXPECT_NE(error_of([&] { pof::io::read_csv(d.file("d.csv", h + "0.1,1,2,3\n0.1,1,2,3\n")); }).find("d.csv:3: column t_s: time 0.1 does not increase"), std::string::npos);
+  EXPECT_NE(error_of([&] { pof::io::read_csv(d.file("e.csv", "t_s,sensor_v,angle_ref_deg\n")); }).find("e.csv:1: header has no column 'reference_v'"), std::string::npos);
+  EXPECT_NE(error_of([&] { pof::io::read_csv(d.file("f.csv", "")); }).find("f.csv:1: empty file"), std::string::npos);
+  EXPECT_NE(error_of([&] { pof::io::read_csv(d.file("g.csv", h)); }).find("no data rows"), std::string::npos);
+  EXPECT_NE(error_of([&] { pof::io::read_csv(d.file("h.csv", "t_s,sensor_v,reference_v\n")); }).find("neither 'angle_ref_deg' nor 'pot_v'"), std::string::npos);
+  EXPECT_NE(error_of([&] { pof::io::read_csv(d.file("i.csv", h + "0,1,inf,3\n")); }).find("i.csv:2: column reference_v: expected a finite number"), std::string::npos);
+  EXPECT_THROW(pof::io::read_csv(d.path("missing.csv")), pof::io::NoInputError);
+}
+
+// Property: any single corrupted byte or any truncation of a valid file either still parses or is
+// a DataError naming the file and a line; never a crash or another exception.
+TEST(CsvReader, CorruptedAndTruncatedFilesAreDataErrorsWithALine) {
+  TempDir d;
+  std::string good = "t_s,sensor_v,reference_v,angle_ref_deg,angle_true_deg\n";
+  for (int i = 0; i < 200; ++i) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "%.3f,%.5f,%.5f,%.4f,%.4f\n", i * 0.005, 4.3 - i * 0.001, 4.0, i * 0.05, i * 0.05);
+    good += buf;
+  }
+  std::mt19937_64 rng(42);
+  std::uniform_int_distribution<std::size_t> pos(0, good.size() - 1);
+  const char junk[] = {'x', ',', '\n', '-', '.', 'e', ' ', '\0', '9'};
+  int errors = 0;
+  for (int trial = 0; trial < 150; ++trial) {
+    std::string s = good;
+    if (trial % 2 == 0) s[pos(rng)] = junk[trial % static_cast<int>(sizeof junk)];
+    else s.resize(pos(rng));
+    const auto p = d.file("x.csv", s);
+    try {
+      (void)pof::io::read_csv(p);
+    } catch (const DataError& e) {
+      ++errors;
+      EXPECT_EQ(std::string(e.what()).rfind(p + ":", 0), 0u) << e.what();
+      EXPECT_EQ(e.code(), 65);
+    }
+  }
+  EXPECT_GT(errors, 100);
+}
+
+namespace {
+
+void write_block(lcm::LogFile& log, const std::string& channel, std::int64_t utime, std::int64_t first_scan,
+                 const std::vector<std::string>& names, int n_scans, double offset) {
+  pof::raw_block_t b{};
+  b.utime = utime;
+  b.publish_utime = utime + 1000;
+  b.seq = first_scan / n_scans;
+  b.first_scan = first_scan;
+  b.scan_rate_hz = 200;
+  b.sensor_id = "LEFT_KNEE";
+  b.n_channels = static_cast<std::int16_t>(names.size());
+  b.channel_names = names;
+  b.channel_units.assign(names.size(), "V");
+  b.n_scans = n_scans;
+  b.volts.assign(static_cast<std::size_t>(n_scans), std::vector<float>(names.size()));
+  for (int k = 0; k < n_scans; ++k)
+    for (std::size_t c = 0; c < names.size(); ++c)
+      b.volts[static_cast<std::size_t>(k)][c] = static_cast<float>(offset + static_cast<double>(c) + 0.001 * static_cast<double>(first_scan + k));
+  b.flags = pof::raw_block_t::FLAG_SIMULATED;
+  std::vector<std::uint8_t> buf(static_cast<std::size_t>(b.getEncodedSize()));
+  b.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  lcm::LogEvent ev{};
+  ev.eventnum = 0;
+  ev.timestamp = utime;
+  ev.channel = channel;
+  ev.datalen = static_cast<std::int32_t>(buf.size());
+  ev.data = buf.data();
+  ASSERT_EQ(log.writeEvent(&ev), 0);
+}
+
+}  // namespace
+
+TEST(LcmLogReader, MapsChannelsByNameAndTimesFromTheBlocks) {
+  TempDir d;
+  const auto p = d.path("rec.lcmlog");
+  {
+    lcm::LogFile log(p, "w");
+    ASSERT_TRUE(log.good());
+    const std::vector<std::string> names = {"pot", "reference", "extra", "sensor", "angle_true"};
+    for (int b = 0; b < 5; ++b) {
+      write_block(log, "POF_RAW", 1'700'000'000'000'000 + b * 50'000, b * 10, names, 10, 0.0);
+      write_block(log, "POF_DAQ_STATUS", 1'700'000'000'000'000 + b * 50'000, 0, {"x"}, 1, 0.0);  // not a raw block: other channel, skipped
+    }
+  }
+  const auto r = pof::io::read_recording(p);  // sniffed as an LCM log
+  ASSERT_EQ(r.size(), 50);
+  EXPECT_NEAR(r.t_s(0), 0.0, 1e-12);
+  EXPECT_NEAR(r.t_s(49), 0.245, 1e-9);
+  EXPECT_NEAR(r.pot_v(13), 0.0 + 0.013, 1e-6);
+  EXPECT_NEAR(r.reference_v(13), 1.0 + 0.013, 1e-6);
+  EXPECT_NEAR(r.sensor_v(13), 3.0 + 0.013, 1e-6);
+  EXPECT_NEAR(r.angle_true_deg(13), 4.0 + 0.013, 1e-6);
+  EXPECT_EQ(r.angle_ref_deg.size(), 0);
+
+  // Truncated: every cut inside the last event is a DataError naming a byte offset.
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  const std::string all = ss.str();
+  for (std::size_t cut : {all.size() - 1, all.size() - 30, all.size() - 200}) {
+    const auto t = d.file("cut.lcmlog", all.substr(0, cut));
+    const std::string e = error_of([&] { pof::io::read_lcmlog(t); });
+    EXPECT_NE(e.find("truncated or corrupt LCM event"), std::string::npos) << e;
+  }
+  // Garbage between events.
+  std::string g = all;
+  g.insert(200, "garbage");
+  const std::string e = error_of([&] { pof::io::read_lcmlog(d.file("garbage.lcmlog", g)); });
+  EXPECT_NE(e.find("corrupt"), std::string::npos) << e;
+}
+
+TEST(LcmLogReader, MissingChannelsAreNamed) {
+  TempDir d;
+  const auto p = d.path("rec.lcmlog");
+  {
+    lcm::LogFile log(p, "w");
+    write_block(log, "POF_RAW_LEFT_KNEE", 1'000'000, 0, {"sensor", "pot"}, 4, 0.0);
+  }
+  const std::string e = error_of([&] { pof::io::read_lcmlog(p); });
+  EXPECT_NE(e.find("[sensor,pot]; expected \"sensor\" and \"reference\""), std::string::npos) << e;
+  const auto q = d.path("order.lcmlog");
+  {
+    lcm::LogFile log(q, "w");
+    write_block(log, "POF_RAW", 2'000'000, 10, {"sensor", "reference", "angle_ref"}, 10, 0.0);
+    write_block(log, "POF_RAW", 1'950'000, 0, {"sensor", "reference", "angle_ref"}, 10, 0.0);
+  }
+  const std::string e3 = error_of([&] { pof::io::read_lcmlog(q); });
+  EXPECT_NE(e3.find("event 2 on POF_RAW: block utime 1950000 does not follow"), std::string::npos) << e3;
+  const std::string e2 = error_of([&] { pof::io::read_lcmlog(p, "POF_RAW_RIGHT_KNEE"); });
+  EXPECT_NE(e2.find("no pof.raw_block_t events on channel POF_RAW_RIGHT_KNEE"), std::string::npos) << e2;
+}
+
+namespace {
+
+const pof::core::CalibrationResult& fitted() {
+  static const auto r = [] {
+    const auto g = pof::testing::paper_recording();
+    return pof::core::calibrate(g.t_s, g.sensor_v, g.reference_v, g.angle_ref_deg);
+  }();
+  return r;
+}
+
+}  // namespace
+
+TEST(CalibrationFile, RoundTripsExactly) {
+  auto f = pof::io::make_calibration_file(fitted(), "LEFT \"knee\"", "cal.csv", "2026-11-21T00:00:00Z");
+  f.potentiometer = pof::core::PotentiometerCalibration{18.0, 0.1, {{0, 0.5}, {90, -0.5}}};
+  const auto g = pof::io::parse_calibration(pof::io::to_toml(f), "mem.toml");
+  EXPECT_EQ(g.sensor_id, "LEFT \"knee\"");
+  EXPECT_EQ(g.cal.model.c1, f.cal.model.c1);
+  EXPECT_EQ(g.cal.model.extension.c8, f.cal.model.extension.c8);
+  EXPECT_EQ(g.cal.reference_level_v, f.cal.reference_level_v);
+  EXPECT_EQ(g.cal.velocity_max_rad_s, f.cal.velocity_max_rad_s);
+  EXPECT_EQ(g.quality.n_velocity_tests, 9);
+  ASSERT_TRUE(g.potentiometer);
+  EXPECT_EQ(g.potentiometer->offsets.size(), 2u);
+  EXPECT_EQ(g.equation_flexion, f.equation_flexion);
+}
+
+// Property: removing any one required key of a valid file is a ConfigError that names that key.
+TEST(CalibrationFile, EveryMissingKeyIsNamed) {
+  const auto text = pof::io::to_toml(pof::io::make_calibration_file(fitted(), "S", "cal.csv", "2026-11-21T00:00:00Z"));
+  std::istringstream in(text);
+  std::vector<std::string> lines;
+  for (std::string l; std::getline(in, l);) lines.push_back(l);
+  std::string table;
+  int checked = 0;
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    const std::string& l = lines[i];
+    if (!l.empty() && l[0] == '[') {
+      table = l.substr(1, l.find(']') - 1);
+      continue;
+    }
+    const auto eq = l.find(" = ");
+    if (l.empty() || l[0] == '#' || eq == std::string::npos || table == "equations") continue;
+    const std::string key = (table.empty() ? "" : table + ".") + l.substr(0, eq);
+    std::string mutilated;
+    for (std::size_t j = 0; j < lines.size(); ++j)
+      if (j != i) mutilated += lines[j] + "\n";
+    try {
+      (void)pof::io::parse_calibration(mutilated, "cal.toml");
+      ADD_FAILURE() << "accepted without " << key;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("key '" + key + "'"), std::string::npos) << e.what();
+      EXPECT_EQ(e.code(), 78);
+    }
+    ++checked;
+  }
+  EXPECT_GE(checked, 30);
+}
+
+TEST(CalibrationFile, InvalidValuesAreNamed) {
+  const auto text = pof::io::to_toml(pof::io::make_calibration_file(fitted(), "S", "cal.csv", "2026-11-21T00:00:00Z"));
+  auto with = [&](const std::string& line_start, const std::string& replacement) {
+    std::istringstream in(text);
+    std::string out;
+    bool done = false;
+    for (std::string l; std::getline(in, l);) {
+      if (!done && l.rfind(line_start, 0) == 0) {
+        l = replacement;
+        done = true;
+      }
+      out += l + "\n";
+    }
+    return error_of([&] { pof::io::parse_calibration(out, "cal.toml"); });
+  };
+  EXPECT_NE(with("c1 = ", "c1 = -1.0").find("key 'model.c1': expected a number > 0"), std::string::npos);
+  EXPECT_NE(with("c2 = ", "c2 = inf").find("key 'model.c2': expected a finite number"), std::string::npos);
+  EXPECT_NE(with("c3 = ", "c3 = [1]").find("key 'model.flexion.c3': expected a number, got an array"), std::string::npos);
+  EXPECT_NE(with("c4 = ", "c4 = -5.0").find("key 'model.flexion.c4': f2 gives a"), std::string::npos);
+  EXPECT_NE(with("angle_max_deg", "angle_max_deg = -5.0").find("key 'range.angle_max_deg'"), std::string::npos);
+  EXPECT_NE(with("reference_level_v", "reference_level_v = 0").find("key 'reference_level_v': expected a number > 0"), std::string::npos);
+  EXPECT_NE(with("n_holds", "n_holds = 2.5").find("key 'fit_quality.n_holds': expected an integer"), std::string::npos);
+  EXPECT_NE(with("sensor_id", "sensor_id = 3").find("key 'sensor_id': expected a string"), std::string::npos);
+  const std::string pot = text + "\n[potentiometer]\ndeg_per_volt = 18.0\nzero_v = 0.0\noffsets = [[10.0, 1.0], [5.0, 0.0]]\n";
+  EXPECT_NE(error_of([&] { pof::io::parse_calibration(pot, "cal.toml"); }).find("key 'potentiometer.offsets[1]': angles must increase"), std::string::npos);
+}
+
+TEST(AtomicWrite, ReplacesWholeFilesAndLeavesNothingOnFailure) {
+  TempDir d;
+  const auto p = d.file("out.txt", "old");
+  pof::io::write_file_atomic(p, "new content");
+  std::ifstream in(p);
+  std::string s;
+  std::getline(in, s);
+  EXPECT_EQ(s, "new content");
+  EXPECT_THROW(pof::io::write_file_atomic(d.path("no_dir/out.txt"), "x"), pof::io::IoError);
+  int files = 0;
+  for (const auto& e : fs::directory_iterator(fs::path(p).parent_path())) files += e.is_regular_file() ? 1 : 0;
+  EXPECT_EQ(files, 1) << "no temporary file left behind";
+}

@@ -38,6 +38,11 @@ function(pof_lcm_types)
   # SYSTEM: generated code is not ours to warn about (it trips -Wold-style-cast and friends).
   target_include_directories(${ARG_TARGET} SYSTEM INTERFACE ${hpath})
   target_link_libraries(${ARG_TARGET} INTERFACE PkgConfig::LCM)
+  # LCM 1.3.1's lcm_coretypes.h decodes float/double by casting float* to int32_t* (and double* to
+  # int64_t*): a strict-aliasing violation. GCC 12 at -O2 then drops the stores, and decoded floats
+  # read back as 0 (seen: `pof export` printed every angle_t angle as 0 while the bytes were right).
+  # Every user of the generated headers gets -fno-strict-aliasing; the e2e replay test catches it.
+  target_compile_options(${ARG_TARGET} INTERFACE -fno-strict-aliasing)
 
   if(Java_JAVAC_EXECUTABLE AND Java_JAR_EXECUTABLE AND LCM_JAR)
     set(classes ${CMAKE_CURRENT_BINARY_DIR}/lcmgen/classes)

@@ -12,5 +12,6 @@ void add_compensate(CLI::App& app);
 void add_sim(CLI::App& app);
 void add_record(CLI::App& app);
 void add_spy(CLI::App& app);
+void add_export(CLI::App& app);
 
 }  // namespace pof::cli

@@ -15,11 +15,13 @@ inline const char* phase_name(pof::core::Direction d) {
 inline std::string compensation_csv(const Eigen::VectorXd& t_s, const Eigen::VectorXd& angle_ref_deg,
                                      const pof::core::OfflineResult& r) {
   std::string out = "t_s,angle_deg,angle_uncomp_deg,angle_ref_deg,velocity_rad_s,phase\n";
-  out.reserve(out.size() + static_cast<std::size_t>(t_s.size()) * 64);
+  out.reserve(out.size() + static_cast<std::size_t>(t_s.size()) * 96);
   char buf[160];
   for (Eigen::Index i = 0; i < t_s.size(); ++i) {
     const double ref = angle_ref_deg.size() == t_s.size() ? angle_ref_deg(i) : std::nan("");
-    std::snprintf(buf, sizeof buf, "%.6f,%.5f,%.5f,%.5f,%.6f,%s\n", t_s(i), r.angle_deg(i), r.angle_uncomp_deg(i), ref,
+    // %.17g: the angles read back to the very double the compensator produced, so a file can be
+    // compared bit for bit with the daemon's POF_ANGLE (float) stream (tests/e2e/compensatord_replay.sh).
+    std::snprintf(buf, sizeof buf, "%.6f,%.17g,%.17g,%.9g,%.9g,%s\n", t_s(i), r.angle_deg(i), r.angle_uncomp_deg(i), ref,
                   r.velocity_rad_s(i), phase_name(r.phase[static_cast<std::size_t>(i)]));
     out += buf;
   }

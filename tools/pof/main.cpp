@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
   pof::cli::add_sim(app);
   pof::cli::add_record(app);
   pof::cli::add_spy(app);
+  pof::cli::add_export(app);
 
   try {
     app.parse(argc, argv);

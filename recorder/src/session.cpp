@@ -190,6 +190,10 @@ void Session::start() {
     }
   }
   if (!open_next_file()) throw io::IoError(error_);
+  // The hand-off arena never reallocates (a realloc would copy up to handoff_bytes inside the
+  // receive thread's critical section while datagrams pile up in the kernel). Reserving is virtual
+  // memory only: pages are touched as the queue first fills.
+  pending_.reserve(opt_.handoff_bytes);
   write_manifest("recording");
   started_ = true;
   writer_thread_ = std::thread([this] { writer_loop(); });
@@ -292,6 +296,7 @@ void Session::write_manifest_noexcept(const char* status) noexcept {
 
 void Session::writer_loop() {
   std::vector<unsigned char> batch;
+  batch.reserve(opt_.handoff_bytes);  // swapped with pending_: both stay at full capacity
   auto last_sync = std::chrono::steady_clock::now();
   bool failed = false;
   for (;;) {
@@ -462,10 +467,12 @@ void Session::write_manifest(const char* status) {
   for (const auto& [k, v] : opt_.manifest_extra.items()) m[k] = v;
   m["attachments"] = attachments_;
   SessionStats s;
+  std::size_t peak = 0;
   {
     std::lock_guard lk(mu_);
     s.received = received_;
     s.dropped_handoff = dropped_;
+    peak = peak_bytes_;
   }
   nlohmann::json files = nlohmann::json::array();
   nlohmann::json chans = nlohmann::json::object();
@@ -496,7 +503,8 @@ void Session::write_manifest(const char* status) {
                    {"written", s.written},
                    {"dropped_handoff", s.dropped_handoff},
                    {"udp_kernel_drops", final_udp_drops_},
-                   {"udp_rcvbuf_bytes", final_rcvbuf_}};
+                   {"udp_rcvbuf_bytes", final_rcvbuf_},
+                   {"handoff_peak_bytes", peak}};
   write_text_atomically(manifest_path_, m.dump(2) + "\n");
 }
 

@@ -10,12 +10,12 @@
 #include <cstring>
 #include <ctime>
 #include <fstream>
-#include <regex>
 
 #include <lcm/lcm-cpp.hpp>
 #include <spdlog/spdlog.h>
 
 #include "pof/io/errors.hpp"
+#include "pof/recorder/channel_filter.hpp"
 #include "pof/recorder/udp_socket.hpp"
 #include "pof/recorder/udpm_receiver.hpp"
 
@@ -39,7 +39,6 @@ std::string iso_utc(int64_t utime) {
   return out;
 }
 
-// lcm-logger -c semantics: the regex must match the whole channel name.
 bool url_has_option(const std::string& url, const std::string& key) {
   const auto q = url.find('?');
   if (q == std::string::npos) return false;
@@ -86,11 +85,7 @@ const char* outcome_name(Outcome o) {
 
 Session::Session(SessionOptions options) : opt_(std::move(options)) {
   if (opt_.output.empty()) throw io::ConfigError("pof record: no output file given (--output)");
-  try {
-    std::regex check(opt_.channels);
-  } catch (const std::regex_error& e) {
-    throw io::ConfigError("--channels '" + opt_.channels + "': not a valid regular expression: " + e.what());
-  }
+  { ChannelFilter check(opt_.channels); }  // a bad regex fails here, before anything is created
   if (opt_.rotate_seconds < 0 || opt_.sync_interval_s <= 0)
     throw io::ConfigError("--rotate-seconds must be >= 0 and --sync-interval > 0");
   // The output: a directory gets a timestamped file (the service records into /var/lib/pof).
@@ -167,8 +162,7 @@ void Session::start() {
   }
 
   if (url_.rfind("udpm://", 0) == 0 && !opt_.use_liblcm) {
-    // lcm-logger -c semantics: the regex must match the whole channel name (std::regex_match).
-    channel_re_ = std::make_unique<std::regex>(opt_.channels, std::regex::optimize);
+    channel_filter_ = std::make_unique<ChannelFilter>(opt_.channels);
     direct_ = std::make_unique<UdpmReceiver>(parse_udpm_url(url_));
   } else {
     lcm_ = std::make_unique<lcm::LCM>(url_);
@@ -205,15 +199,6 @@ void Session::on_message(const lcm::ReceiveBuffer* rbuf, const std::string& chan
   enqueue(rbuf->recv_utime, channel, rbuf->data, rbuf->data_size);
 }
 
-bool Session::channel_wanted(std::string_view channel) {
-  auto it = wanted_.find(channel);
-  if (it == wanted_.end()) {
-    if (wanted_.size() > 4096) wanted_.clear();  // bounded: a storm of random channel names
-    it = wanted_.emplace(std::string(channel), std::regex_match(channel.begin(), channel.end(), *channel_re_)).first;
-  }
-  return it->second;
-}
-
 void Session::enqueue(int64_t utime, std::string_view channel, const void* data, uint32_t data_size) {
   const std::size_t size = kRecordHeader + channel.size() + data_size;
   std::lock_guard lk(mu_);
@@ -240,7 +225,7 @@ void Session::lcm_loop() {
   if (direct_) {
     const UdpmReceiver::Sink sink = [this](int64_t utime, std::string_view channel, const unsigned char* data,
                                            uint32_t size) {
-      if (channel_wanted(channel)) enqueue(utime, channel, data, size);
+      if (channel_filter_->matches(channel)) enqueue(utime, channel, data, size);
     };
     while (!stop_lcm_.load()) {
       direct_->receive(50, sink);

@@ -24,7 +24,6 @@
 #include <map>
 #include <memory>
 #include <mutex>
-#include <regex>
 #include <string_view>
 #include <string>
 #include <thread>
@@ -115,7 +114,6 @@ class Session {
 
   void on_message(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
   void enqueue(int64_t utime, std::string_view channel, const void* data, uint32_t size);
-  bool channel_wanted(std::string_view channel);
   void lcm_loop();
   void writer_loop();
   bool open_next_file();
@@ -132,8 +130,7 @@ class Session {
   nlohmann::json attachments_ = nlohmann::json::array();
   std::unique_ptr<lcm::LCM> lcm_;
   std::unique_ptr<class UdpmReceiver> direct_;
-  std::unique_ptr<std::regex> channel_re_;
-  std::map<std::string, bool, std::less<>> wanted_;  // regex verdict per channel name (receive thread)
+  std::unique_ptr<class ChannelFilter> channel_filter_;  // receive thread only
   uint16_t port_ = 0;
   uint64_t udp_drops_at_start_ = 0;
   int64_t start_utime_ = 0;

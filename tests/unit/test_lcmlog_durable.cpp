@@ -17,6 +17,7 @@
 #include <pof/raw_block_t.hpp>
 
 #include "pof/io/errors.hpp"
+#include "pof/recorder/channel_filter.hpp"
 #include "pof/recorder/lcmlog_durable.hpp"
 #include "pof/recorder/pof_messages.hpp"
 
@@ -277,4 +278,18 @@ TEST(SeqTracker, CountsGapsMissingAndRestarts) {
   EXPECT_EQ(t.missing, 5u);
   EXPECT_EQ(t.restarts, 1u);
   EXPECT_EQ(t.last, 1);
+}
+
+TEST(ChannelFilter, WholeNameMatchLikeLcmSubscribe) {
+  ChannelFilter f("POF_.*");
+  EXPECT_TRUE(f.matches("POF_RAW"));
+  EXPECT_TRUE(f.matches("POF_ANGLE_LEFT_KNEE"));
+  EXPECT_FALSE(f.matches("XPOF_RAW"));
+  EXPECT_TRUE(f.matches("POF_RAW"));  // cached verdict
+  ChannelFilter exact("POF_RAW");
+  EXPECT_FALSE(exact.matches("POF_RAW_LEFT_KNEE"));
+  ChannelFilter alt("POF_(ANGLE|STATS)_\\w+");  // PCRE syntax, as lcm-logger -c accepts
+  EXPECT_TRUE(alt.matches("POF_STATS_RIGHT_KNEE"));
+  EXPECT_FALSE(alt.matches("POF_RAW_RIGHT_KNEE"));
+  EXPECT_THROW(ChannelFilter("(unclosed"), pof::io::ConfigError);
 }

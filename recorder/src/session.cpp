@@ -2,6 +2,7 @@
 #include "pof/recorder/session.hpp"
 
 #include <fcntl.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -222,6 +223,10 @@ void Session::enqueue(int64_t utime, std::string_view channel, const void* data,
 }
 
 void Session::lcm_loop() {
+  // The receive thread is the one that must never starve (the kernel buffer holds ~0.2 s at
+  // 100k msg/s); the writer can lag by the whole hand-off queue. Raise its priority when allowed
+  // (root or CAP_SYS_NICE; the unit can grant Nice= instead); failure is harmless.
+  if (opt_.receive_nice != 0) ::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), opt_.receive_nice);
   if (direct_) {
     const UdpmReceiver::Sink sink = [this](int64_t utime, std::string_view channel, const unsigned char* data,
                                            uint32_t size) {

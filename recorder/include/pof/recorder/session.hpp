@@ -58,6 +58,7 @@ struct SessionOptions {
   // udpm:// is received by UdpmReceiver (recvmmsg batches; udpm_receiver.hpp says why) unless
   // use_liblcm is set; other providers (memq://, file://) always go through liblcm.
   bool use_liblcm = false;
+  int receive_nice = -10;              // nice value of the receive thread (0: leave it)
   nlohmann::json manifest_extra = nlohmann::json::object();  // versions, command line, config
 };
 

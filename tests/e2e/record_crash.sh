@@ -94,6 +94,28 @@ expect_exit 0 "$POF" record --check replay.lcmlog
 grep -q "replay.lcmlog: $before_n complete events" <<<"$out" ||
   fail "lcm-logplayer replay of the repaired log: expected $before_n events, got: $out"
 
+# --- time rotation, channel selection, graceful stop ----------------------------------------------
+"$PUB" --lcm-url "$URL" session --duration 3 --suffix _RIGHT_KNEE &
+pub=$!
+"$POF" record -q -o timed.lcmlog --lcm-url "$URL" -c 'POF_(ANGLE|STATS)_.*' --rotate-seconds 0.7 --duration 2.6 2>timed.err ||
+  fail "time-rotated recording failed: $(cat timed.err)"
+wait $pub
+ls timed.*.lcmlog >timed.txt
+[ "$(wc -l <timed.txt)" -ge 3 ] || fail "--rotate-seconds 0.7 over 2.6 s made only $(wc -l <timed.txt) files"
+"$POF" record --check $(cat timed.txt) >timed.check || fail "time-rotated files are not clean: $(cat timed.check)"
+grep -q "POF_ANGLE_RIGHT_KNEE" timed.check || fail "selected channel missing: $(cat timed.check)"
+if grep -qE "POF_RAW|POF_DAQ_STATUS|FOREIGN" timed.check; then fail "--channels did not exclude POF_RAW/DAQ_STATUS/FOREIGN"; fi
+/usr/bin/python3 - <<'PY' || fail "manifest of the time-rotated session is wrong"
+import json
+m = json.load(open("timed.manifest.json"))
+assert m["status"] == "stopped", m["status"]
+assert len(m["files"]) >= 3
+ev = sum(f["events"] for f in m["files"])
+ch = m["channels"]["POF_ANGLE_RIGHT_KNEE"]
+assert ch["type"] == "angle_t" and ch["seq"]["gaps"] == 0, ch
+assert m["counters"]["written"] == ev == m["counters"]["received"], m["counters"]
+PY
+
 # --- disk full ----------------------------------------------------------------------------------
 mkdir -p full
 if mount -t tmpfs -o size=2m tmpfs full 2>/dev/null; then

@@ -293,3 +293,17 @@ TEST(ChannelFilter, WholeNameMatchLikeLcmSubscribe) {
   EXPECT_FALSE(alt.matches("POF_RAW_RIGHT_KNEE"));
   EXPECT_THROW(ChannelFilter("(unclosed"), pof::io::ConfigError);
 }
+
+TEST(RepairLog, RefusesAFileARecorderIsStillWriting) {
+  TempDir d;
+  const fs::path p = d / "live.lcmlog";
+  DurableLogWriter w(p);
+  const auto data = payload(50, 1);
+  w.append(1, "POF_RAW", data.data(), data.size());
+  w.flush();
+  EXPECT_TRUE(log_is_being_written(p));
+  EXPECT_THROW(repair_log(p), pof::io::IoError);
+  w.close();
+  EXPECT_FALSE(log_is_being_written(p));
+  EXPECT_FALSE(repair_log(p).changed);
+}

@@ -177,11 +177,12 @@ void Session::start() {
   if (port_ != 0) {
     const auto socks = udp_sockets(port_);
     for (const auto& so : socks) udp_drops_at_start_ += so.drops;
-    if (!socks.empty() && socks.front().rcvbuf_bytes < opt_.recv_buf_bytes) {
-      // SO_RCVBUF reports twice the request when granted; below the request means rmem_max capped it.
+    // SO_RCVBUF reads back twice what was granted (the kernel's bookkeeping allowance, socket(7));
+    // less than asked means net.core.rmem_max capped it.
+    if (!socks.empty() && socks.front().rcvbuf_bytes / 2 < opt_.recv_buf_bytes) {
       spdlog::warn("the kernel granted a UDP receive buffer of {} bytes (asked {}; net.core.rmem_max = {}): "
                    "bursts may be lost; install deploy/sysctl.d/60-pof-lcm.conf",
-                   socks.front().rcvbuf_bytes, opt_.recv_buf_bytes, rmem_max());
+                   socks.front().rcvbuf_bytes / 2, opt_.recv_buf_bytes, rmem_max());
     }
   }
   if (!open_next_file()) throw io::IoError(error_);

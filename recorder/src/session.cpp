@@ -169,9 +169,9 @@ void Session::start() {
     lcm_ = std::make_unique<lcm::LCM>(url_);
     if (!lcm_->good())
       throw io::ConfigError("LCM URL '" + url_ + "': cannot open (is there a multicast route? see docs/deployment.md)");
-    lcm::Subscription* sub = lcm_->subscribe(opt_.channels, &Session::on_message, this);
+    lcm_subscription_t* sub = lcm_subscribe(lcm_->getUnderlyingLCM(), opt_.channels.c_str(), &Session::on_lcm_message, this);
     if (sub == nullptr) throw io::ConfigError("--channels '" + opt_.channels + "': LCM refused the subscription");
-    sub->setQueueCapacity(opt_.lcm_queue_capacity);
+    lcm_subscription_set_queue_capacity(sub, opt_.lcm_queue_capacity);
   }
 
   if (port_ != 0) {
@@ -197,8 +197,8 @@ void Session::start() {
 }
 
 // LCM thread: copy and hand off, nothing else (no disk, no logging).
-void Session::on_message(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-  enqueue(rbuf->recv_utime, channel, rbuf->data, rbuf->data_size);
+void Session::on_lcm_message(const lcm_recv_buf_t* rbuf, const char* channel, void* self) {
+  static_cast<Session*>(self)->enqueue(rbuf->recv_utime, channel, rbuf->data, rbuf->data_size);
 }
 
 void Session::enqueue(int64_t utime, std::string_view channel, const void* data, uint32_t data_size) {

@@ -36,8 +36,8 @@
 
 namespace lcm {
 class LCM;
-struct ReceiveBuffer;
 }  // namespace lcm
+struct _lcm_recv_buf_t;
 
 namespace pof::recorder {
 
@@ -113,7 +113,8 @@ class Session {
   // i64 utime, u32 channel length, u32 data length (host order), channel bytes, data bytes.
   static constexpr std::size_t kRecordHeader = 16;
 
-  void on_message(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
+  // liblcm's C callback (the C++ template wrappers of lcm-cpp-impl.hpp trip UBSan's vptr check).
+  static void on_lcm_message(const struct _lcm_recv_buf_t* rbuf, const char* channel, void* self);
   void enqueue(int64_t utime, std::string_view channel, const void* data, uint32_t size);
   void lcm_loop();
   void writer_loop();

@@ -3,6 +3,7 @@
 #include "pof/recorder/lcmlog_durable.hpp"
 
 #include <fcntl.h>
+#include <sys/file.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -93,6 +94,9 @@ DurableLogWriter::DurableLogWriter(std::filesystem::path path, Options options)
   // O_EXCL: a recorder never overwrites an earlier recording.
   fd_ = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
   if (fd_ < 0) throw io::IoError(path_.string() + ": cannot create the log file: " + errstr(errno));
+  // Advisory lock for as long as we write: repair_log() refuses a file that is being recorded,
+  // and check_log() says its tail may still be in flight.
+  ::flock(fd_, LOCK_EX | LOCK_NB);
   // The directory entry must survive a power loss too, or the whole log vanishes.
   if (const int err = fsync_dir(path_.parent_path()); err != 0)
     throw io::IoError(path_.parent_path().string() + ": cannot fsync the directory: " + errstr(err));
@@ -268,7 +272,17 @@ std::filesystem::path free_name(const std::filesystem::path& want) {
 
 }  // namespace
 
+bool log_is_being_written(const std::filesystem::path& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  const bool busy = ::flock(fd, LOCK_SH | LOCK_NB) != 0 && errno == EWOULDBLOCK;
+  ::close(fd);
+  return busy;
+}
+
 RepairResult repair_log(const std::filesystem::path& path) {
+  if (log_is_being_written(path))
+    throw io::IoError(path.string() + ": a recorder is still writing this file (it holds its lock); stop it before --repair");
   RepairResult r;
   r.before = check_log(path);
   const LogCheck& c = r.before;

@@ -2,6 +2,7 @@
 #include "pof/recorder/session.hpp"
 
 #include <fcntl.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -10,12 +11,12 @@
 #include <cstring>
 #include <ctime>
 #include <fstream>
-#include <regex>
 
 #include <lcm/lcm-cpp.hpp>
 #include <spdlog/spdlog.h>
 
 #include "pof/io/errors.hpp"
+#include "pof/recorder/channel_filter.hpp"
 #include "pof/recorder/udp_socket.hpp"
 #include "pof/recorder/udpm_receiver.hpp"
 
@@ -39,7 +40,6 @@ std::string iso_utc(int64_t utime) {
   return out;
 }
 
-// lcm-logger -c semantics: the regex must match the whole channel name.
 bool url_has_option(const std::string& url, const std::string& key) {
   const auto q = url.find('?');
   if (q == std::string::npos) return false;
@@ -86,11 +86,7 @@ const char* outcome_name(Outcome o) {
 
 Session::Session(SessionOptions options) : opt_(std::move(options)) {
   if (opt_.output.empty()) throw io::ConfigError("pof record: no output file given (--output)");
-  try {
-    std::regex check(opt_.channels);
-  } catch (const std::regex_error& e) {
-    throw io::ConfigError("--channels '" + opt_.channels + "': not a valid regular expression: " + e.what());
-  }
+  { ChannelFilter check(opt_.channels); }  // a bad regex fails here, before anything is created
   if (opt_.rotate_seconds < 0 || opt_.sync_interval_s <= 0)
     throw io::ConfigError("--rotate-seconds must be >= 0 and --sync-interval > 0");
   // The output: a directory gets a timestamped file (the service records into /var/lib/pof).
@@ -167,29 +163,33 @@ void Session::start() {
   }
 
   if (url_.rfind("udpm://", 0) == 0 && !opt_.use_liblcm) {
-    // lcm-logger -c semantics: the regex must match the whole channel name (std::regex_match).
-    channel_re_ = std::make_unique<std::regex>(opt_.channels, std::regex::optimize);
+    channel_filter_ = std::make_unique<ChannelFilter>(opt_.channels);
     direct_ = std::make_unique<UdpmReceiver>(parse_udpm_url(url_));
   } else {
     lcm_ = std::make_unique<lcm::LCM>(url_);
     if (!lcm_->good())
       throw io::ConfigError("LCM URL '" + url_ + "': cannot open (is there a multicast route? see docs/deployment.md)");
-    lcm::Subscription* sub = lcm_->subscribe(opt_.channels, &Session::on_message, this);
+    lcm_subscription_t* sub = lcm_subscribe(lcm_->getUnderlyingLCM(), opt_.channels.c_str(), &Session::on_lcm_message, this);
     if (sub == nullptr) throw io::ConfigError("--channels '" + opt_.channels + "': LCM refused the subscription");
-    sub->setQueueCapacity(opt_.lcm_queue_capacity);
+    lcm_subscription_set_queue_capacity(sub, opt_.lcm_queue_capacity);
   }
 
   if (port_ != 0) {
     const auto socks = udp_sockets(port_);
     for (const auto& so : socks) udp_drops_at_start_ += so.drops;
-    if (!socks.empty() && socks.front().rcvbuf_bytes < opt_.recv_buf_bytes) {
-      // SO_RCVBUF reports twice the request when granted; below the request means rmem_max capped it.
+    // SO_RCVBUF reads back twice what was granted (the kernel's bookkeeping allowance, socket(7));
+    // less than asked means net.core.rmem_max capped it.
+    if (!socks.empty() && socks.front().rcvbuf_bytes / 2 < opt_.recv_buf_bytes) {
       spdlog::warn("the kernel granted a UDP receive buffer of {} bytes (asked {}; net.core.rmem_max = {}): "
                    "bursts may be lost; install deploy/sysctl.d/60-pof-lcm.conf",
-                   socks.front().rcvbuf_bytes, opt_.recv_buf_bytes, rmem_max());
+                   socks.front().rcvbuf_bytes / 2, opt_.recv_buf_bytes, rmem_max());
     }
   }
   if (!open_next_file()) throw io::IoError(error_);
+  // The hand-off arena never reallocates (a realloc would copy up to handoff_bytes inside the
+  // receive thread's critical section while datagrams pile up in the kernel). Reserving is virtual
+  // memory only: pages are touched as the queue first fills.
+  pending_.reserve(opt_.handoff_bytes);
   write_manifest("recording");
   started_ = true;
   writer_thread_ = std::thread([this] { writer_loop(); });
@@ -197,17 +197,8 @@ void Session::start() {
 }
 
 // LCM thread: copy and hand off, nothing else (no disk, no logging).
-void Session::on_message(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-  enqueue(rbuf->recv_utime, channel, rbuf->data, rbuf->data_size);
-}
-
-bool Session::channel_wanted(std::string_view channel) {
-  auto it = wanted_.find(channel);
-  if (it == wanted_.end()) {
-    if (wanted_.size() > 4096) wanted_.clear();  // bounded: a storm of random channel names
-    it = wanted_.emplace(std::string(channel), std::regex_match(channel.begin(), channel.end(), *channel_re_)).first;
-  }
-  return it->second;
+void Session::on_lcm_message(const lcm_recv_buf_t* rbuf, const char* channel, void* self) {
+  static_cast<Session*>(self)->enqueue(rbuf->recv_utime, channel, rbuf->data, rbuf->data_size);
 }
 
 void Session::enqueue(int64_t utime, std::string_view channel, const void* data, uint32_t data_size) {
@@ -233,10 +224,14 @@ void Session::enqueue(int64_t utime, std::string_view channel, const void* data,
 }
 
 void Session::lcm_loop() {
+  // The receive thread is the one that must never starve (the kernel buffer holds ~0.2 s at
+  // 100k msg/s); the writer can lag by the whole hand-off queue. Raise its priority when allowed
+  // (root or CAP_SYS_NICE; the unit can grant Nice= instead); failure is harmless.
+  if (opt_.receive_nice != 0) ::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), opt_.receive_nice);
   if (direct_) {
     const UdpmReceiver::Sink sink = [this](int64_t utime, std::string_view channel, const unsigned char* data,
                                            uint32_t size) {
-      if (channel_wanted(channel)) enqueue(utime, channel, data, size);
+      if (channel_filter_->matches(channel)) enqueue(utime, channel, data, size);
     };
     while (!stop_lcm_.load()) {
       direct_->receive(50, sink);
@@ -292,6 +287,7 @@ void Session::write_manifest_noexcept(const char* status) noexcept {
 
 void Session::writer_loop() {
   std::vector<unsigned char> batch;
+  batch.reserve(opt_.handoff_bytes);  // swapped with pending_: both stay at full capacity
   auto last_sync = std::chrono::steady_clock::now();
   bool failed = false;
   for (;;) {
@@ -462,10 +458,12 @@ void Session::write_manifest(const char* status) {
   for (const auto& [k, v] : opt_.manifest_extra.items()) m[k] = v;
   m["attachments"] = attachments_;
   SessionStats s;
+  std::size_t peak = 0;
   {
     std::lock_guard lk(mu_);
     s.received = received_;
     s.dropped_handoff = dropped_;
+    peak = peak_bytes_;
   }
   nlohmann::json files = nlohmann::json::array();
   nlohmann::json chans = nlohmann::json::object();
@@ -496,7 +494,8 @@ void Session::write_manifest(const char* status) {
                    {"written", s.written},
                    {"dropped_handoff", s.dropped_handoff},
                    {"udp_kernel_drops", final_udp_drops_},
-                   {"udp_rcvbuf_bytes", final_rcvbuf_}};
+                   {"udp_rcvbuf_bytes", final_rcvbuf_},
+                   {"handoff_peak_bytes", peak}};
   write_text_atomically(manifest_path_, m.dump(2) + "\n");
 }
 

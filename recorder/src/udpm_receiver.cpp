@@ -83,7 +83,11 @@ UdpmReceiver::UdpmReceiver(const UdpmUrl& url) {
   const int one = 1;
   const int zero = 0;
   if (::setsockopt(fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one) != 0) fail("SO_REUSEADDR");
-  if (url.recv_buf_size > 0) ::setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &url.recv_buf_size, sizeof url.recv_buf_size);
+  // SO_RCVBUFFORCE passes net.core.rmem_max when we hold CAP_NET_ADMIN (root, or a unit granting
+  // it); otherwise SO_RCVBUF, capped at rmem_max (deploy/sysctl.d/60-pof-lcm.conf raises that).
+  if (url.recv_buf_size > 0 &&
+      ::setsockopt(fd_, SOL_SOCKET, SO_RCVBUFFORCE, &url.recv_buf_size, sizeof url.recv_buf_size) != 0)
+    ::setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &url.recv_buf_size, sizeof url.recv_buf_size);
   if (::setsockopt(fd_, SOL_SOCKET, SO_TIMESTAMP, &one, sizeof one) != 0) fail("SO_TIMESTAMP");
   ::setsockopt(fd_, IPPROTO_IP, IP_MULTICAST_ALL, &zero, sizeof zero);
   sockaddr_in addr{};

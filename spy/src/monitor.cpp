@@ -204,8 +204,8 @@ std::string render(const Monitor& m, const RenderOptions& o) {
       const int pr = pos(static_cast<double>(a.angle_ref_deg));
       const int pa = pos(static_cast<double>(a.angle_deg));
       if (pr >= 0) b[static_cast<std::size_t>(pr)] = '|';
-      if (pa >= 0) b[static_cast<std::size_t>(pa)] = '#';
-      s += "   0 [" + b + "] 120 deg   # angle  | reference\n";
+      if (pa >= 0) b[static_cast<std::size_t>(pa)] = pa == pr ? '*' : '#';
+      s += "   0 [" + b + "] 120 deg   # angle  | reference  * both\n";
     }
     if (!c.stats.empty()) {
       s += "\n" + heading(o, fmt("%s  cycle statistics (table 3 of the paper)", name.c_str())) + "\n";

@@ -22,6 +22,14 @@ grep -q "^ExecStart=$prefix/bin/pof record " "$prefix/lib/systemd/system/pof-rec
   fail "units do not name the binaries under the install prefix: $(grep ExecStart "$prefix/lib/systemd/system/pof-record.service")"
 grep -q "@POF_" "$prefix"/lib/systemd/system/* && fail "unsubstituted @POF_...@ in the installed units"
 grep -q '^net.core.rmem_max = ' "$prefix/lib/sysctl.d/60-pof-lcm.conf" || fail "sysctl lacks rmem_max"
+# The sysusers entry creates the user and group in a scratch root (never on this host).
+if command -v systemd-sysusers >/dev/null; then
+  mkdir -p sysroot/etc
+  systemd-sysusers --root="$WORK_DIR/sysroot" "$prefix/lib/sysusers.d/pof.conf" >sysusers.out 2>&1 ||
+    fail "systemd-sysusers rejected pof.conf: $(cat sysusers.out)"
+  grep -q '^pof:x:[0-9]*:[0-9]*:.*:/var/lib/pof:/usr/sbin/nologin$' sysroot/etc/passwd ||
+    fail "sysusers did not create the system user pof: $(cat sysroot/etc/passwd)"
+fi
 
 # systemd-analyze verify needs every ExecStart binary to exist. Daemons not built in this tree
 # (e.g. before pof-compensatord lands) are replaced by /bin/true in a copy, and said so.

@@ -17,19 +17,29 @@ rmem=$(cat /proc/sys/net/core/rmem_max)
 rec=$!
 lcm-logger -q -c 'POF_BURST' --lcm-url="$URL" stock.lcmlog 2>logger.err &
 stock=$!
-trap 'kill $rec $stock 2>/dev/null || true' EXIT
+# LIBLCM=1 (BENCHMARKS.md): a third listener, pof record on liblcm's receive path (--liblcm).
+lib=
+if [ "${LIBLCM:-0}" = 1 ]; then
+  "$BIN_DIR/pof" record -q --liblcm -o liblcm.lcmlog --lcm-url "$URL" -c 'POF_BURST' 2>liblcm.err &
+  lib=$!
+fi
+trap 'kill $rec $stock $lib 2>/dev/null || true' EXIT
 sleep 1
 "$PUB" --lcm-url "$URL" burst --channel POF_BURST --count "$COUNT" --rate "$RATE" | tee pub.out
 sleep 1
-kill -INT $rec $stock
+kill -INT $rec $stock $lib
 wait $rec || fail "pof record exited $?: $(cat record.err)"
 wait $stock || true
+[ -z "$lib" ] || wait $lib || true
 trap - EXIT
 
 expect_exit 0 "$BIN_DIR/pof" record --check pof.lcmlog
 echo "$out"
-grep -q "POF_BURST .* $COUNT events  seq 0..$((COUNT - 1)), 0 gaps (0 missing)" <<<"$out" ||
+pof_n=$(awk '/complete events/ {print $2; exit}' <<<"$out")
+if ! grep -q "POF_BURST .* $COUNT events  seq 0..$((COUNT - 1)), 0 gaps (0 missing)" <<<"$out"; then
+  echo "RESULT rate_requested=$RATE count=$COUNT pof_record=$pof_n ($(awk -v n="$pof_n" -v c="$COUNT" 'BEGIN { printf "%.2f", 100 * (c - n) / c }') % lost)"
   fail "pof record lost messages at $RATE msg/s: $out"
+fi
 /usr/bin/python3 - "$COUNT" <<'PY' || fail "manifest counters disagree with the log"
 import json, sys
 c = json.load(open("pof.manifest.json"))["counters"]
@@ -45,4 +55,12 @@ set -e
 stock_n=$(awk '/complete events/ {print $2; exit}' stock.check)
 loss=$(awk -v n="$stock_n" -v c="$COUNT" 'BEGIN { printf "%.2f", 100 * (c - n) / c }')
 sent_rate=$(awk '{print $(NF-1)}' pub.out | tr -d '(')
-echo "RESULT rate_requested=$RATE rate_sent=$sent_rate count=$COUNT pof_record=$COUNT (0.00 % lost) lcm_logger=$stock_n ($loss % lost)"
+lib_result=
+if [ -n "$lib" ]; then
+  set +e
+  "$BIN_DIR/pof" record --check liblcm.lcmlog >liblcm.check
+  set -e
+  lib_n=$(awk '/complete events/ {print $2; exit}' liblcm.check)
+  lib_result=" pof_record_liblcm=$lib_n ($(awk -v n="$lib_n" -v c="$COUNT" 'BEGIN { printf "%.2f", 100 * (c - n) / c }') % lost)"
+fi
+echo "RESULT rate_requested=$RATE rate_sent=$sent_rate count=$COUNT pof_record=$COUNT (0.00 % lost) lcm_logger=$stock_n ($loss % lost)$lib_result"

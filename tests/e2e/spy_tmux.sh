@@ -29,7 +29,7 @@ printf '%s\n' "$screen" >screen.txt
 cat screen.txt
 for want in "POF_RAW_LEFT_KNEE" "raw_block_t" "POF_ANGLE_LEFT_KNEE" "angle_t" "POF_STATS_LEFT_KNEE" \
   "POF_DAQ_STATUS_LEFT_KNEE" "STREAMING (streaming)" "sensor_id LEFT_KNEE" "reference 4.3500 V" \
-  "cycle statistics" "# angle  | reference" "FOREIGN_TELEMETRY" "fp:6e6f74206120706f" "(q quits)"; do
+  "cycle statistics" "# angle  | reference  * both" "FOREIGN_TELEMETRY" "fp:6e6f74206120706f" "(q quits)"; do
   grep -qF "$want" screen.txt || fail "spy screen lacks '$want'"
 done
 # POF_ANGLE is published at 100 Hz: the rate column must say so (+-15 %), with no gaps.

@@ -17,6 +17,7 @@
 #include <pof/raw_block_t.hpp>
 
 #include "pof/io/errors.hpp"
+#include "pof/recorder/channel_filter.hpp"
 #include "pof/recorder/lcmlog_durable.hpp"
 #include "pof/recorder/pof_messages.hpp"
 
@@ -277,4 +278,32 @@ TEST(SeqTracker, CountsGapsMissingAndRestarts) {
   EXPECT_EQ(t.missing, 5u);
   EXPECT_EQ(t.restarts, 1u);
   EXPECT_EQ(t.last, 1);
+}
+
+TEST(ChannelFilter, WholeNameMatchLikeLcmSubscribe) {
+  ChannelFilter f("POF_.*");
+  EXPECT_TRUE(f.matches("POF_RAW"));
+  EXPECT_TRUE(f.matches("POF_ANGLE_LEFT_KNEE"));
+  EXPECT_FALSE(f.matches("XPOF_RAW"));
+  EXPECT_TRUE(f.matches("POF_RAW"));  // cached verdict
+  ChannelFilter exact("POF_RAW");
+  EXPECT_FALSE(exact.matches("POF_RAW_LEFT_KNEE"));
+  ChannelFilter alt("POF_(ANGLE|STATS)_\\w+");  // PCRE syntax, as lcm-logger -c accepts
+  EXPECT_TRUE(alt.matches("POF_STATS_RIGHT_KNEE"));
+  EXPECT_FALSE(alt.matches("POF_RAW_RIGHT_KNEE"));
+  EXPECT_THROW(ChannelFilter("(unclosed"), pof::io::ConfigError);
+}
+
+TEST(RepairLog, RefusesAFileARecorderIsStillWriting) {
+  TempDir d;
+  const fs::path p = d / "live.lcmlog";
+  DurableLogWriter w(p);
+  const auto data = payload(50, 1);
+  w.append(1, "POF_RAW", data.data(), data.size());
+  w.flush();
+  EXPECT_TRUE(log_is_being_written(p));
+  EXPECT_THROW(repair_log(p), pof::io::IoError);
+  w.close();
+  EXPECT_FALSE(log_is_being_written(p));
+  EXPECT_FALSE(repair_log(p).changed);
 }

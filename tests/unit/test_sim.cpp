@@ -102,7 +102,7 @@ std::vector<std::pair<std::size_t, std::size_t>> holds(const SimRun& r, std::siz
 // ------------------------------------------------------------------------------ scenarios
 TEST(SimScenario, BuiltinsLoadAndMatchThePaperProtocol) {
   const auto names = pof::sim::builtin_scenario_names();
-  ASSERT_EQ(names.size(), 2u);
+  ASSERT_EQ(names, (std::vector<std::string>{"paper", "validation", "realistic"}));
   const Scenario p = pof::sim::builtin_scenario("paper");
   EXPECT_EQ(p.name, "paper");
   EXPECT_EQ(p.daq.scan_rate_hz, 200.0);
@@ -112,6 +112,11 @@ TEST(SimScenario, BuiltinsLoadAndMatchThePaperProtocol) {
   EXPECT_EQ(p.trajectory[0].kind, pof::sim::SegmentKind::kQuasiStatic);
   EXPECT_EQ(p.trajectory[1].velocities_rad_s.size(), 9u);
   EXPECT_DOUBLE_EQ(p.trajectory[1].velocities_rad_s[4], 0.0898);
+  const Scenario v = pof::sim::builtin_scenario("validation");
+  ASSERT_EQ(v.trajectory.size(), 2u);
+  EXPECT_EQ(v.trajectory[0].kind, pof::sim::SegmentKind::kCycles);  // the table-3 preset
+  EXPECT_EQ(v.trajectory[0].velocities_rad_s, (std::vector<double>{0.05, 0.10, 0.16, 0.21, 0.26}));
+  EXPECT_EQ(v.trajectory[1].kind, pof::sim::SegmentKind::kSubject);
   const Scenario r = pof::sim::builtin_scenario("realistic");
   EXPECT_TRUE(r.sensor.creep.enabled);
   EXPECT_EQ(r.sensor.creep.terms.size(), 2u);

@@ -81,6 +81,8 @@ bool check_one(const std::string& file) {
                   static_cast<unsigned long long>(s->second.restarts));
     std::printf("\n");
   }
+  if (rec::log_is_being_written(file))
+    std::printf("  (being recorded right now: the tail may still be in flight)\n");
   if (c.clean()) {
     std::printf("  clean: ends on a complete event\n");
   } else if (c.events_after_damage == 0) {

@@ -64,16 +64,10 @@ class RawTerminal {
   bool active_ = false;
 };
 
-class Handler {
- public:
-  explicit Handler(spy::Monitor& m) : m_(m) {}
-  void on(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-    m_.on_message(channel, rbuf->data, rbuf->data_size, rbuf->recv_utime);
-  }
-
- private:
-  spy::Monitor& m_;
-};
+// liblcm's C callback: the C++ template wrappers of lcm-cpp-impl.hpp trip UBSan's vptr check.
+void on_lcm_message(const lcm_recv_buf_t* rbuf, const char* channel, void* monitor) {
+  static_cast<spy::Monitor*>(monitor)->on_message(channel, rbuf->data, rbuf->data_size, rbuf->recv_utime);
+}
 
 int terminal_width() {
   winsize ws{};
@@ -92,10 +86,9 @@ void run_spy(const SpyArgs& a) {
   lcm::LCM lcm(url);
   if (!lcm.good()) throw io::ConfigError("LCM URL '" + url + "': cannot open (is there a multicast route? see docs/deployment.md)");
   spy::Monitor monitor;
-  Handler handler(monitor);
-  lcm::Subscription* sub = lcm.subscribe(a.channels, &Handler::on, &handler);
+  lcm_subscription_t* sub = lcm_subscribe(lcm.getUnderlyingLCM(), a.channels.c_str(), &on_lcm_message, &monitor);
   if (sub == nullptr) throw io::ConfigError("--channels '" + a.channels + "': LCM refused the subscription");
-  sub->setQueueCapacity(a.queue_capacity);
+  lcm_subscription_set_queue_capacity(sub, a.queue_capacity);
   const uint16_t port = recorder::lcm_url_port(url.c_str());
   const uint64_t drops0 = port != 0 ? recorder::udp_drops(port) : 0;
 

@@ -139,6 +139,9 @@ LogCheck check_log(const std::filesystem::path& path);
 /// check_log() + the events themselves (for tests and small files).
 std::vector<LogEvent> read_log(const std::filesystem::path& path, LogCheck* check = nullptr);
 
+/// True while a DurableLogWriter holds the file open (advisory flock).
+bool log_is_being_written(const std::filesystem::path& path);
+
 struct RepairResult {
   LogCheck before;
   bool changed = false;

@@ -24,7 +24,6 @@
 #include <map>
 #include <memory>
 #include <mutex>
-#include <regex>
 #include <string_view>
 #include <string>
 #include <thread>
@@ -37,14 +36,17 @@
 
 namespace lcm {
 class LCM;
-struct ReceiveBuffer;
 }  // namespace lcm
+struct _lcm_recv_buf_t;
 
 namespace pof::recorder {
 
 struct SessionOptions {
   std::string lcm_url;                 // "" = LCM's default (LCM_DEFAULT_URL or udpm://239.255.76.67:7667)
-  int recv_buf_bytes = 8 << 20;        // added to a udpm:// URL that has no recv_buf_size
+  // Added to a udpm:// URL that has no recv_buf_size: 16 MiB holds ~1/4 s of 100k msg/s of
+  // 300-byte messages (kernel accounting ~1 KB per datagram), enough to ride out scheduling stalls
+  // on a loaded 2-core host.
+  int recv_buf_bytes = 16 << 20;
   std::string channels = ".*";         // LCM channel regex (whole-name match, as lcm-logger -c)
   std::filesystem::path output;        // log file, or a directory (a timestamped name is chosen in it)
   uint64_t rotate_bytes = 0;           // start a new file when the next event would exceed this (0: never)
@@ -56,6 +58,7 @@ struct SessionOptions {
   // udpm:// is received by UdpmReceiver (recvmmsg batches; udpm_receiver.hpp says why) unless
   // use_liblcm is set; other providers (memq://, file://) always go through liblcm.
   bool use_liblcm = false;
+  int receive_nice = -10;              // nice value of the receive thread (0: leave it)
   nlohmann::json manifest_extra = nlohmann::json::object();  // versions, command line, config
 };
 
@@ -110,9 +113,9 @@ class Session {
   // i64 utime, u32 channel length, u32 data length (host order), channel bytes, data bytes.
   static constexpr std::size_t kRecordHeader = 16;
 
-  void on_message(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
+  // liblcm's C callback (the C++ template wrappers of lcm-cpp-impl.hpp trip UBSan's vptr check).
+  static void on_lcm_message(const struct _lcm_recv_buf_t* rbuf, const char* channel, void* self);
   void enqueue(int64_t utime, std::string_view channel, const void* data, uint32_t size);
-  bool channel_wanted(std::string_view channel);
   void lcm_loop();
   void writer_loop();
   bool open_next_file();
@@ -129,8 +132,7 @@ class Session {
   nlohmann::json attachments_ = nlohmann::json::array();
   std::unique_ptr<lcm::LCM> lcm_;
   std::unique_ptr<class UdpmReceiver> direct_;
-  std::unique_ptr<std::regex> channel_re_;
-  std::map<std::string, bool, std::less<>> wanted_;  // regex verdict per channel name (receive thread)
+  std::unique_ptr<class ChannelFilter> channel_filter_;  // receive thread only
   uint16_t port_ = 0;
   uint64_t udp_drops_at_start_ = 0;
   int64_t start_utime_ = 0;

@@ -267,14 +267,17 @@ class Usb600xBackend final : public Backend {
   }
 
   bool start_segment(bool continuous, std::string& why) {
+    std::int64_t sent_us = 0;
     for (const auto& f : ni::start_frames(seg_scans_, n_ch_)) {
+      sent_us = now_us();
       if (command(f, cfg_.command_timeout_ms, why) != OpenStatus::kOk) {
         sink_->on_usb_error();
         return false;
       }
     }
-    // Sampling starts with the last start command's acknowledgement (protocol [8]).
-    sink_->on_segment_start(now_us(), continuous);
+    // Sampling starts when the device gets the last start command (10/03, protocol [8]): between
+    // sending it and its acknowledgement. The midpoint halves the unobservable offset (ScanClock).
+    sink_->on_segment_start(sent_us + (now_us() - sent_us) / 2, continuous);
     received_ = 0;
     requested_ = 0;
     carry_n_ = 0;

@@ -21,10 +21,12 @@ class ScanSink {
   ScanSink() = default;
   ScanSink(const ScanSink&) = delete;
   ScanSink& operator=(const ScanSink&) = delete;
-  /// The device's scan clock (re)started at about host time `host_us` [us, CLOCK_REALTIME].
+  /// The device's scan clock (re)started between host times `earliest_us` and `latest_us`
+  /// [us, CLOCK_REALTIME] (sending the start command and its acknowledgement).
   /// `continuous`: the scan index carries over (a re-armed segment, ni_usb600x.hpp [10]);
   /// otherwise scans since the last one received were lost (reconnect, error recovery).
-  virtual void on_segment_start(std::int64_t host_us, bool continuous) noexcept = 0;
+  virtual void on_segment_start(std::int64_t earliest_us, std::int64_t latest_us,
+                                bool continuous) noexcept = 0;
   /// `n_scans` scans, channel-interleaved volts in the configured channel order, whose newest scan
   /// arrived at host time `arrival_us`. `flags`: raw_block_t FLAG_* bits for these scans.
   virtual void on_scans(const float* volts, std::size_t n_scans, std::int64_t arrival_us,

@@ -61,7 +61,8 @@ class SimBackend final : public Backend {
   StreamEnd stream(ScanSink& sink, const std::atomic<bool>& stop, std::string& why) override {
     timespec t0{};
     clock_gettime(CLOCK_MONOTONIC, &t0);
-    sink.on_segment_start(now_us(), false);
+    const std::int64_t t_start = now_us();
+    sink.on_segment_start(t_start, t_start, false);
     std::uint64_t sent = 0;
     while (!stop.load(std::memory_order_relaxed)) {
       // Sleep until the chunk's last scan exists (absolute deadline: no accumulated drift).

@@ -88,11 +88,12 @@ class Usb1208lsBackend final : public Backend {
     carry_n_ = 0;
     while (!stop.load(std::memory_order_relaxed)) {
       const auto count = static_cast<std::uint16_t>(burst_samples_);
+      const std::int64_t sent_us = now_us();
       if (!write(mcc::ain_scan_report(count, *timer_, 0x1 /* single execution [6] */), why)) {
         sink.on_usb_error();
         return StreamEnd::kError;
       }
-      sink.on_segment_start(now_us(), continuous);
+      sink.on_segment_start(sent_us, now_us(), continuous);
       continuous = true;
       std::uint16_t expect = 1;
       std::size_t got = 0;

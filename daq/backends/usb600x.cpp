@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <vector>
 
@@ -276,8 +277,8 @@ class Usb600xBackend final : public Backend {
       }
     }
     // Sampling starts when the device gets the last start command (10/03, protocol [8]): between
-    // sending it and its acknowledgement. The midpoint halves the unobservable offset (ScanClock).
-    sink_->on_segment_start(sent_us + (now_us() - sent_us) / 2, continuous);
+    // sending it and its acknowledgement; ScanClock narrows that interval from the data.
+    sink_->on_segment_start(sent_us, now_us(), continuous);
     received_ = 0;
     requested_ = 0;
     carry_n_ = 0;

@@ -18,12 +18,16 @@ Acquisition::Acquisition(const DaqConfig& cfg, double device_rate_hz, SpscQueue<
       wake_(wake),
       clock_(device_rate_hz) {}
 
-void Acquisition::on_segment_start(std::int64_t host_us, bool continuous) noexcept {
+void Acquisition::on_segment_start(std::int64_t earliest_us, std::int64_t latest_us,
+                                   bool continuous) noexcept {
+  const std::int64_t host_us = latest_us;
   if (started_ && !continuous) {
     // Scans were lost (unplug, error recovery): publish what we have, then advance the index by
     // the time that passed, so the gap shows in first_scan (issue 5) and is flagged.
     flush_block();
-    in_window_ = 0;
+    in_window_ = 0;  // a partial decimation window from before the gap is dropped
+    window_flags_ = 0;
+    for (auto& v : sum_) v = 0;
     const double expected_us = static_cast<double>(clock_.time_of(static_cast<double>(device_index_)));
     const double lost = std::max(0.0, (static_cast<double>(host_us) - expected_us) * device_rate_hz_ / 1e6);
     std::int64_t next = device_index_ + std::llround(lost);
@@ -33,7 +37,7 @@ void Acquisition::on_segment_start(std::int64_t host_us, bool continuous) noexce
     pending_flags_ |= int32_t{pof::raw_block_t::FLAG_GAP};
   }
   started_ = true;
-  clock_.anchor(device_index_ - in_window_, host_us);
+  clock_.anchor(device_index_ - in_window_, earliest_us, latest_us);
 }
 
 void Acquisition::on_scans(const float* volts, std::size_t n_scans, std::int64_t arrival_us,

@@ -39,7 +39,8 @@ class Acquisition final : public ScanSink {
   Acquisition(const DaqConfig& cfg, double device_rate_hz, SpscQueue<Block>& queue,
               Counters& counters, std::counting_semaphore<>& wake);
 
-  void on_segment_start(std::int64_t host_us, bool continuous) noexcept override;
+  void on_segment_start(std::int64_t earliest_us, std::int64_t latest_us,
+                        bool continuous) noexcept override;
   void on_scans(const float* volts, std::size_t n_scans, std::int64_t arrival_us,
                 std::int32_t flags) noexcept override;
   void on_usb_error() noexcept override;

@@ -11,9 +11,11 @@ ScanClock::ScanClock(double rate_hz, double window_s)
       period_us_(1e6 / rate_hz),
       window_us_(static_cast<std::int64_t>(window_s * 1e6)) {}
 
-void ScanClock::anchor(std::int64_t index, std::int64_t host_us) {
+void ScanClock::anchor(std::int64_t index, std::int64_t earliest_us, std::int64_t latest_us) {
   anchor_index_ = index;
-  anchor_us_ = static_cast<double>(host_us);
+  anchor_us_ = static_cast<double>(latest_us);
+  floor_us_ = static_cast<double>(earliest_us);
+  floor_valid_ = true;
   window_open_ = false;
   have_prev_ = false;  // the slope is measured within one segment
   shifts_us_ = 0;
@@ -27,12 +29,14 @@ double ScanClock::time_of_exact(double index) const {
 std::int64_t ScanClock::time_of(double index) const { return std::llround(time_of_exact(index)); }
 
 void ScanClock::observe(std::int64_t last_index, std::int64_t arrival_us) {
-  const double pred = time_of_exact(static_cast<double>(last_index));
+  const double pred = time_of_exact(static_cast<double>(last_index)) + period_us_;
   double residual = static_cast<double>(arrival_us) - pred;
   if (residual < 0) {  // causality: the scan existed before it arrived; move the anchor back
-    anchor_us_ += residual;
-    shifts_us_ += residual;
-    residual = 0;
+    double shift = residual;
+    if (floor_valid_ && anchor_us_ + shift < floor_us_) shift = floor_us_ - anchor_us_;
+    anchor_us_ += shift;
+    shifts_us_ += shift;
+    residual -= shift;
   }
   // Against the prediction without the causality shifts, so that they do not bias the slope.
   const double consistent = residual + shifts_us_;
@@ -52,6 +56,7 @@ void ScanClock::observe(std::int64_t last_index, std::int64_t arrival_us) {
     // Rebase at the newest scan so that changing the drift does not move past predictions.
     anchor_us_ = time_of_exact(static_cast<double>(last_index));
     anchor_index_ = last_index;
+    floor_valid_ = false;
     drift_ = std::clamp(drift_ - 0.5 * slope, -1e-3, 1e-3);
   }
   have_prev_ = true;

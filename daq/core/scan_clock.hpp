@@ -4,13 +4,16 @@
 //
 // Model: t(i) = anchor_us + (i - anchor_index) * period_us * (1 - drift), one anchor per device
 // segment (the scan clock restarts at every finite-scan start, ni_usb600x.hpp [10]).
-// Correction: a scan cannot arrive before it was taken, so arrival - t(last scan of a transfer)
-// is >= 0 plus transport latency. Its minimum over each window (default 1 s) is the lower envelope:
-//  - a negative minimum means the anchor is late: it moves back by that much at once (causality);
-//  - the slope of successive minima is the device clock's rate error against the host: the drift
-//    estimate follows it with gain 0.5 per window, clamped to +-1000 ppm (crystals are ~50 ppm).
-// A constant offset equal to the minimum transport latency cannot be observed and stays (< 1 ms on
-// full-speed USB; measured in the e2e tests).
+// Anchor: the device started between sending the start command and its acknowledgement
+// [earliest, latest]; the anchor starts at `latest`.
+// Correction: scan i is complete one period after it starts and cannot arrive before that, so
+// arrival - (t(last scan of a transfer) + period) >= 0 (+ transport latency):
+//  - a negative value means the anchor is late: it moves back at once (causality), never before
+//    `earliest` while the segment's first anchor holds;
+//  - the slope of the per-window (default 1 s) minimum of that value is the device clock's rate
+//    error against the host: the drift estimate follows it with gain 0.5 per window, clamped to
+//    +-1000 ppm (crystals are ~50 ppm), re-anchoring at the newest scan so past times stay put.
+// What remains unobservable is the minimum transport latency (measured in the e2e tests).
 #include <cstdint>
 
 namespace pof::daq {
@@ -19,10 +22,10 @@ class ScanClock {
  public:
   explicit ScanClock(double rate_hz, double window_s = 1.0);
 
-  /// The device's scan clock (re)started with scan `index` at about host time `host_us`.
-  /// The drift estimate is kept (same crystal).
-  void anchor(std::int64_t index, std::int64_t host_us);
-  /// Host time [us] of scan `index` (fractional indices allowed for decimated scans).
+  /// The device's scan clock (re)started with scan `index` between host times `earliest_us` and
+  /// `latest_us`. The drift estimate is kept (same crystal).
+  void anchor(std::int64_t index, std::int64_t earliest_us, std::int64_t latest_us);
+  /// Host time [us] of the start of scan `index` (fractional indices: decimated scans).
   [[nodiscard]] std::int64_t time_of(double index) const;
   /// A transfer whose newest scan is `last_index` arrived at host time `arrival_us`.
   void observe(std::int64_t last_index, std::int64_t arrival_us);
@@ -38,6 +41,8 @@ class ScanClock {
   std::int64_t window_us_;
   std::int64_t anchor_index_ = 0;
   double anchor_us_ = 0;
+  double floor_us_ = 0;       // earliest possible anchor while the segment's anchor holds
+  bool floor_valid_ = false;
   double shifts_us_ = 0;      // sum of causality corrections in this segment [us]
   double drift_ = 0;          // fractional: device clock fast by drift -> periods shorter
   double window_min_ = 0;     // min residual in the current window [us]

@@ -70,9 +70,9 @@ void Daemon::set_state(State s, const std::string& why) {
     if (s == state_ && why == state_text_) return;
     state_ = s;
     state_text_ = why;
+    state_events_.emplace_back(s, why);
   }
   spdlog::info("state {}: {}", state_name(s), why);
-  state_seq_.fetch_add(1);
   wake_.release();
 }
 
@@ -140,11 +140,10 @@ void Daemon::publisher_main() {
   std::vector<std::uint8_t> buf(static_cast<std::size_t>(msg.getEncodedSize()));
   std::int64_t seq = 0;
   std::int64_t status_seq = 0;
-  int seen_state = -1;
   const bool simulated = cfg_.device_kind.rfind("sim:", 0) == 0;
   const DeviceIdentity id = backend_->identity();
 
-  auto publish_status = [&] {
+  auto publish_status = [&](State state, const std::string& text) {
     pof::daq_status_t s;
     s.utime = now_us();
     s.seq = status_seq++;
@@ -153,11 +152,8 @@ void Daemon::publisher_main() {
     s.vendor_id = id.vendor_id;
     s.product_id = id.product_id;
     s.serial = id.serial;
-    {
-      std::lock_guard lock(state_mu_);
-      s.state = static_cast<std::int8_t>(state_);
-      s.state_text = state_text_;
-    }
+    s.state = static_cast<std::int8_t>(state);
+    s.state_text = text;
     s.scan_rate_hz = cfg_.published_rate_hz();
     s.n_channels = n_ch;
     s.scans = counters_.scans.load();
@@ -192,18 +188,24 @@ void Daemon::publisher_main() {
       if (len > 0) lcm_->lcm.publish(raw_channel, buf.data(), static_cast<unsigned>(len));
       counters_.blocks.fetch_add(1, std::memory_order_relaxed);
     }
-    const int st = state_seq_.load();
+    std::deque<std::pair<State, std::string>> events;
+    State state;
+    std::string text;
+    {
+      std::lock_guard lock(state_mu_);
+      events.swap(state_events_);
+      state = state_;
+      text = state_text_;
+    }
+    for (const auto& [st, why] : events) publish_status(st, why);
     const auto now = std::chrono::steady_clock::now();
-    if (st != seen_state || now >= next_status) {
-      seen_state = st;
-      publish_status();
-      if (now >= next_status) {
-        next_status += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
-        if (next_status < now) next_status = now;
-      }
+    if (now >= next_status) {
+      if (events.empty()) publish_status(state, text);
+      next_status += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+      if (next_status < now) next_status = now;
     }
     if (publisher_stop_.load() && queue_.front() == nullptr) {
-      publish_status();  // final state (stopping) with the final counters
+      publish_status(state, text);  // final state (stopping) with the final counters
       break;
     }
   }

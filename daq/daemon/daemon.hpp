@@ -2,6 +2,8 @@
 // pof-daqd's lifecycle: the acquisition thread (state machine + the one libusb event loop) and
 // the publisher thread (LCM: POF_RAW blocks, POF_DAQ_STATUS at 1 Hz and on every state change).
 #include <atomic>
+#include <deque>
+#include <utility>
 #include <memory>
 #include <mutex>
 #include <semaphore>
@@ -51,10 +53,12 @@ class Daemon {
   std::counting_semaphore<> wake_{0};
   std::atomic<bool> stop_{false};
   std::atomic<bool> publisher_stop_{false};
-  std::atomic<int> state_seq_{0};  // bumped on every state change
+  // State changes, queued so that the publisher sends one status per change even when several
+  // happen between two of its wake-ups (control path: allocation is fine here).
   std::mutex state_mu_;
   State state_ = State::kStarting;
   std::string state_text_ = "starting";
+  std::deque<std::pair<State, std::string>> state_events_;
   std::thread acq_thread_;
   std::thread pub_thread_;
 };

@@ -255,7 +255,7 @@ int main(int argc, char** argv) {
   long segment_scans = 0;
   std::string byte_order = "big";
   double clock_ppm = 0;
-  int lcm_port = 7667;
+  int lcm_port = 0;
   int short_every = 7;
   int transfers = 4;
   // checks
@@ -283,7 +283,8 @@ int main(int argc, char** argv) {
   app.add_option("--segment-scans", segment_scans, "0 = the daemon's default");
   app.add_option("--byte-order", byte_order)->check(CLI::IsMember({"big", "little"}));
   app.add_option("--clock-ppm", clock_ppm, "device clock error [ppm]");
-  app.add_option("--lcm-port", lcm_port);
+  app.add_option("--lcm-port", lcm_port, "0 = pick one from the process id (parallel tests and other "
+                                         "LCM users on the host must not cross-talk)");
   app.add_option("--short-every", short_every, "scenario short: every Nth data URB is 2 bytes short");
   app.add_option("--transfers", transfers, "acquisition.transfers_in_flight");
   app.add_option("--max-dropped", max_dropped);
@@ -295,7 +296,11 @@ int main(int argc, char** argv) {
   app.add_option("--max-ts-error-us", max_ts_error_us, "bound on |utime - true scan time| (p99)");
   app.add_option("--min-rate-ratio", min_rate_ratio, "measured/published scan rate lower bound");
   app.add_option("extra", extra, "extra pof-daqd arguments (after --)");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // usage errors exit 2 (brief), whatever CLI11's code
+  }
 
   const char* preload = std::getenv("LD_PRELOAD");
   if (preload == nullptr || std::string(preload).find("umockdev-preload") == std::string::npos) {
@@ -331,7 +336,9 @@ int main(int argc, char** argv) {
     }
   }
 
-  const std::string url = "udpm://239.255.76.67:" + std::to_string(lcm_port) + "?ttl=0&recv_buf_size=4194304";
+  if (lcm_port == 0) lcm_port = 30000 + static_cast<int>(getpid() % 30000);
+  // A group of our own as well as a port: other projects' tests use 239.255.76.67.
+  const std::string url = "udpm://239.255.77.67:" + std::to_string(lcm_port) + "?ttl=0&recv_buf_size=4194304";
   lcm::LCM lcm(url);
   if (!lcm.good()) {
     std::fprintf(stderr, "pof-vdaq: LCM %s unusable (multicast route? ./pofkit setup)\n", url.c_str());

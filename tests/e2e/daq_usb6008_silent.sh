@@ -1,0 +1,9 @@
+# A device that never answers a command, and no device at all: the daemon publishes `fault`
+# (naming the command and the timeout) or `disconnected`, retries, never exits on its own, and
+# stops cleanly with exit 0 on SIGTERM.
+source "$(dirname "$0")/daq_lib.sh"
+vdaq --model 6008 --scenario silent --duration 2 --expect-no-data --expect-state 3
+report 'r["states_seen"]' | grep -q "did not answer" || fail "fault text: $(report 'r["states_seen"]')"
+vdaq --model 6008 --scenario absent --duration 1.5 --expect-no-data --expect-state 2
+report 'r["states_seen"]' | grep -q "no NI USB-6008" || fail "disconnected text: $(report 'r["states_seen"]')"
+echo ok

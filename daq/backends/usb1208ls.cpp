@@ -27,13 +27,6 @@ std::int64_t now_us() {
       .count();
 }
 
-std::string narrow(const wchar_t* w) {
-  std::string s;
-  if (w == nullptr) return s;
-  for (; *w != 0; ++w) s += static_cast<char>(*w < 128 ? *w : '?');
-  return s;
-}
-
 class Usb1208lsBackend final : public Backend {
  public:
   explicit Usb1208lsBackend(const DaqConfig& cfg) : cfg_(cfg) {
@@ -105,7 +98,9 @@ class Usb1208lsBackend final : public Backend {
         const int n = hid_get_feature_report(dev_, buf.data(), buf.size());
         if (n < 0) {
           sink.on_usb_error();
-          why = "MCC USB-1208LS: feature report: " + narrow(hid_error(dev_));
+          // hidapi-libusb 0.13 has no hid_error text; a failing control read means the device
+          // went away (or was reset): re-open, which tells absent from faulty.
+          why = "MCC USB-1208LS: reading a scan report failed (device removed?)";
           return StreamEnd::kDisconnected;
         }
         if (static_cast<std::size_t>(n) != buf.size()) {
@@ -155,7 +150,9 @@ class Usb1208lsBackend final : public Backend {
   bool write(const mcc::OutReport& r, std::string& why) {
     if (dev_ == nullptr) return false;
     if (hid_write(dev_, r.data(), r.size()) != static_cast<int>(r.size())) {
-      why = "MCC USB-1208LS: hid_write of command 0x" + std::to_string(r[1]) + ": " + narrow(hid_error(dev_));
+      char cmd[8];
+      std::snprintf(cmd, sizeof cmd, "0x%02X", r[1]);
+      why = std::string("MCC USB-1208LS: writing command ") + cmd + " failed (device removed or not answering)";
       return false;
     }
     return true;

@@ -10,6 +10,7 @@ namespace pof::vusb {
 namespace mcc = pof::daq::mcc;
 
 void Usb1208lsModel::power_cycle() {
+  std::fill(last_report_.begin(), last_report_.end(), 0);  // RAM does not survive power loss
   running_ = false;
   queue_loaded_ = false;
   replies_.clear();
@@ -61,6 +62,7 @@ void Usb1208lsModel::command(std::span<const std::uint8_t> r, std::int64_t now_u
         queue_loaded_ = false;
       }
       ++bursts;
+      std::fill(last_report_.begin(), last_report_.end(), 0);  // a new scan starts from index 0
       start_us_ = now_us;
       last_index_ = 0;
       running_ = true;

@@ -173,7 +173,17 @@ struct Checker {
     }
     next_first = b.first_scan + b.n_scans;
     scans += b.n_scans;
-    if (ni == nullptr && mcc == nullptr) {
+    if (ni == nullptr && mcc == nullptr) {  // sim backend: no device truth, use its own times
+      if (recv >= warmup_end_us) {
+        const double period = 1e6 / b.scan_rate_hz;
+        const double t_last = static_cast<double>(b.utime) + (b.n_scans - 1) * period;
+        age_publish_us.push_back(static_cast<double>(b.publish_utime) - (t_last + period));
+        age_receive_us.push_back(static_cast<double>(recv) - (t_last + period));
+        if (first_recv_us < 0) first_recv_us = recv;
+        last_recv_us = recv;
+        scans_after_warmup += b.n_scans;
+      }
+      simulated = (b.flags & int32_t{pof::raw_block_t::FLAG_SIMULATED}) != 0;
       local += b.n_scans;
       return;
     }
@@ -268,7 +278,8 @@ int main(int argc, char** argv) {
   double max_ts_error_us = -1;
   double min_rate_ratio = 0.99;
   std::vector<std::string> extra;
-  app.add_option("--model", model)->check(CLI::IsMember({"6008", "6009", "1208ls"}));
+  app.add_option("--model", model, "6008, 6009, 1208ls, or sim (pof-daqd's sim:synthetic backend, no USB)")
+      ->check(CLI::IsMember({"6008", "6009", "1208ls", "sim"}));
   app.add_option("--scenario", scenario)
       ->check(CLI::IsMember({"normal", "unplug", "stall", "short", "garbage", "padding", "silent", "absent"}));
   app.add_option("--daemon", daemon, "path of pof-daqd");
@@ -312,14 +323,15 @@ int main(int argc, char** argv) {
   std::unique_ptr<Ni600xModel> ni;
   std::unique_ptr<pof::vusb::Usb1208lsModel> mcc;
   std::unique_ptr<pof::vusb::UsbdevfsDevice> dev;
-  const bool is_ni = model != "1208ls";
+  const bool is_ni = model == "6008" || model == "6009";
+  const bool is_sim = model == "sim";
   NiOptions no;
   no.usb6009 = model == "6009";
   no.order = byte_order == "big" ? pof::daq::ni::ByteOrder::kBig : pof::daq::ni::ByteOrder::kLittle;
   no.clock_ppm = clock_ppm;
   no.silent = scenario == "silent";
   no.short_every = scenario == "short" ? short_every : 0;
-  if (scenario != "absent") {
+  if (scenario != "absent" && !is_sim) {
     if (is_ni) {
       ni = std::make_unique<Ni600xModel>(no);
       // Interface 0, vendor class, 3 bulk endpoints of 64 bytes: 0x01 OUT, 0x81 IN, 0x82 IN.
@@ -359,7 +371,7 @@ int main(int argc, char** argv) {
 
   std::vector<std::string> args = {daemon,
                                    "--config", "/dev/null",
-                                   "--device", is_ni ? "usb" + model : "usb1208ls",
+                                   "--device", is_sim ? "sim:synthetic" : is_ni ? "usb" + model : "usb1208ls",
                                    "--lcm-url", url,
                                    "--rate", std::to_string(rate),
                                    "--decimate", std::to_string(decimate),
@@ -513,6 +525,7 @@ int main(int argc, char** argv) {
                  {"dropped_scans", s.dropped_scans}, {"usb_errors", s.usb_errors}, {"overruns", s.overruns},
                  {"reconnects", s.reconnects}, {"last_state", s.state}, {"last_text", s.state_text}};
   r["states_seen"] = checker.state_texts;
+  if (is_sim && !checker.simulated) failures.push_back("sim blocks without FLAG_SIMULATED");
   if (!checker.first_error.empty()) r["first_error"] = checker.first_error;
 
   if (code != 0) failures.push_back("pof-daqd exited " + std::to_string(code) + " (expected 0 on SIGTERM)");

@@ -49,7 +49,10 @@ void ScanClock::observe(std::int64_t last_index, std::int64_t arrival_us) {
   window_min_ = std::min(window_min_, consistent);
   if (arrival_us - window_start_us_ < window_us_) return;
   const std::int64_t mid = window_start_us_ + (arrival_us - window_start_us_) / 2;
-  if (have_prev_ && mid > prev_mid_us_) {
+  // A change of the minimum larger than the largest drift allowed (1000 ppm of the window) is
+  // not a clock: the host or the bus stalled for a whole window. Skip it; re-sync the reference.
+  const double max_step = 1e-3 * static_cast<double>(mid - prev_mid_us_);
+  if (have_prev_ && mid > prev_mid_us_ && std::abs(window_min_ - prev_min_) <= max_step) {
     // The residual growing by `slope` us per us means the device clock is slower than modelled
     // (scans come later than predicted): longer periods, drift goes down.
     const double slope = (window_min_ - prev_min_) / static_cast<double>(mid - prev_mid_us_);

@@ -12,7 +12,8 @@
 //    `earliest` while the segment's first anchor holds;
 //  - the slope of the per-window (default 1 s) minimum of that value is the device clock's rate
 //    error against the host: the drift estimate follows it with gain 0.5 per window, clamped to
-//    +-1000 ppm (crystals are ~50 ppm), re-anchoring at the newest scan so past times stay put.
+//    +-1000 ppm (crystals are ~50 ppm), re-anchoring at the newest scan so past times stay put;
+//    a window whose minimum moved by more than 1000 ppm is a host/bus stall and is skipped.
 // What remains unobservable is the minimum transport latency (measured in the e2e tests).
 #include <cstdint>
 

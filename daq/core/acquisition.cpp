@@ -25,14 +25,16 @@ void Acquisition::on_segment_start(std::int64_t earliest_us, std::int64_t latest
     // Scans were lost (unplug, error recovery): publish what we have, then advance the index by
     // the time that passed, so the gap shows in first_scan (issue 5) and is flagged.
     flush_block();
-    in_window_ = 0;  // a partial decimation window from before the gap is dropped
+    // A partial decimation window from before the gap is dropped with the lost scans.
+    const std::int64_t window_start = device_index_ - in_window_;
+    in_window_ = 0;
     window_flags_ = 0;
     for (auto& v : sum_) v = 0;
     const double expected_us = static_cast<double>(clock_.time_of(static_cast<double>(device_index_)));
     const double lost = std::max(0.0, (static_cast<double>(host_us) - expected_us) * device_rate_hz_ / 1e6);
     std::int64_t next = device_index_ + std::llround(lost);
     next = (next + decimate_ - 1) / decimate_ * decimate_;  // keep published indices integral
-    counters_.dropped_scans.fetch_add((next - device_index_) / decimate_, std::memory_order_relaxed);
+    counters_.dropped_scans.fetch_add((next - window_start) / decimate_, std::memory_order_relaxed);
     device_index_ = next;
     pending_flags_ |= int32_t{pof::raw_block_t::FLAG_GAP};
   }

@@ -111,7 +111,9 @@ class Usb600xBackend final : public Backend {
     if (matches > 1 && cfg_.serial.empty()) {
       why = std::to_string(matches) + " devices match; using " + where() + " (set device.serial)";
     }
-    (void)libusb_set_auto_detach_kernel_driver(h_, 1);
+    // Detach a kernel driver only when one is bound (no driver claims these IDs on stock
+    // kernels). Not auto-detach: its DISCONNECT_CLAIM ioctl is one a capture replay cannot answer.
+    if (libusb_kernel_driver_active(h_, 0) == 1) (void)libusb_detach_kernel_driver(h_, 0);
     rc = libusb_claim_interface(h_, 0);
     if (rc != 0) {
       why = where() + ": claim interface 0: " + libusb_error_name(rc);

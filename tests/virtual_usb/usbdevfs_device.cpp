@@ -39,7 +39,98 @@ UsbdevfsDevice::UsbdevfsDevice(UMockdevTestbed* testbed, const UsbIds& ids, Devi
   }
 }
 
+void UsbdevfsDevice::replay(UMockdevTestbed* testbed, const UsbIds& ids, const std::string& pcap_path) {
+  struct Null final : DeviceModel {
+    void on_out(std::uint8_t, std::span<const std::uint8_t>, std::int64_t) override {}
+    InResult on_in(std::uint8_t, std::span<std::uint8_t>, std::int64_t) override { return {}; }
+  } null_model;
+  UsbdevfsDevice record_only(testbed, ids, null_model, false);
+  GError* err = nullptr;
+  if (!umockdev_testbed_load_pcap(testbed, record_only.sysfs_path_.c_str(), pcap_path.c_str(), &err)) {
+    std::string msg = "umockdev_testbed_load_pcap(" + pcap_path + "): " + (err ? err->message : "?");
+    if (err) g_error_free(err);
+    throw std::runtime_error(msg);
+  }
+}
+
+UsbdevfsDevice::UsbdevfsDevice(UMockdevTestbed* testbed, const UsbIds& ids, DeviceModel& model, bool)
+    : testbed_(testbed), ids_(ids), model_(model) {
+  add_record();
+}
+
+void UsbdevfsDevice::record_pcap(const std::string& path) {
+  std::lock_guard lock(mu_);
+  pcap_ = std::fopen(path.c_str(), "wb");
+  if (pcap_ == nullptr) throw std::runtime_error("cannot write " + path);
+  // pcap global header: magic, v2.4, tz 0, sigfigs 0, snaplen, DLT_USB_LINUX_MMAPPED (220).
+  const guint32 magic = 0xa1b2c3d4;
+  const guint16 major = 2;
+  const guint16 minor = 4;
+  const gint32 zone = 0;
+  const guint32 sigfigs = 0;
+  const guint32 snaplen = 65535;
+  const guint32 linktype = 220;
+  std::fwrite(&magic, 4, 1, pcap_);
+  std::fwrite(&major, 2, 1, pcap_);
+  std::fwrite(&minor, 2, 1, pcap_);
+  std::fwrite(&zone, 4, 1, pcap_);
+  std::fwrite(&sigfigs, 4, 1, pcap_);
+  std::fwrite(&snaplen, 4, 1, pcap_);
+  std::fwrite(&linktype, 4, 1, pcap_);
+}
+
+// One usbmon event: the 64-byte mmapped header (linux/usb/mon, pcap-usb-linux-common) + data.
+void UsbdevfsDevice::pcap_event(const Urb& u, char type, int status, int length, bool with_data) {
+  if (pcap_ == nullptr) return;
+  struct __attribute__((packed)) Header {
+    guint64 id;
+    char event_type;
+    guint8 transfer_type;
+    guint8 endpoint;
+    guint8 device;
+    guint16 bus;
+    char setup_flag;
+    char data_flag;
+    gint64 ts_sec;
+    gint32 ts_usec;
+    gint32 status;
+    guint32 urb_len;
+    guint32 data_len;
+    guint8 setup[8];
+    gint32 interval;
+    gint32 start_frame;
+    guint32 xfer_flags;
+    guint32 ndesc;
+  } h{};
+  static_assert(sizeof(Header) == 64, "usbmon mmapped header is 64 bytes");
+  const std::int64_t now = g_get_real_time();
+  h.id = u.urb->client_addr;
+  h.event_type = type;
+  h.transfer_type = u.type;
+  h.endpoint = u.ep;
+  h.device = 2;
+  h.bus = 1;
+  h.setup_flag = '-';
+  h.data_flag = with_data ? 0 : '<';
+  h.ts_sec = now / 1000000;
+  h.ts_usec = static_cast<gint32>(now % 1000000);
+  h.status = status;
+  h.urb_len = static_cast<guint32>(length);
+  h.data_len = with_data ? static_cast<guint32>(length) : 0U;
+  const guint32 caplen = 64U + h.data_len;
+  const guint32 ts_sec = static_cast<guint32>(h.ts_sec);
+  const guint32 ts_usec = static_cast<guint32>(h.ts_usec);
+  std::fwrite(&ts_sec, 4, 1, pcap_);
+  std::fwrite(&ts_usec, 4, 1, pcap_);
+  std::fwrite(&caplen, 4, 1, pcap_);
+  std::fwrite(&caplen, 4, 1, pcap_);
+  std::fwrite(&h, sizeof h, 1, pcap_);
+  if (h.data_len > 0) std::fwrite(u.buf->data, 1, h.data_len, pcap_);
+  std::fflush(pcap_);
+}
+
 UsbdevfsDevice::~UsbdevfsDevice() {
+  if (pcap_ != nullptr) std::fclose(pcap_);
   if (handler_ != nullptr) {
     GError* err = nullptr;
     (void)umockdev_testbed_detach_ioctl(testbed_, kDevNode, &err);
@@ -97,6 +188,7 @@ gboolean UsbdevfsDevice::on_ioctl_cb(UMockdevIoctlBase*, UMockdevIoctlClient* cl
 }
 
 void UsbdevfsDevice::finish(Urb& u, int status, int actual) {
+  pcap_event(u, 'C', status, actual, (u.ep & 0x80) != 0 && actual > 0);
   usbdevfs_urb copy = read_urb(u.urb);
   copy.status = status;
   copy.actual_length = actual;
@@ -122,6 +214,7 @@ void UsbdevfsDevice::submit(UMockdevIoctlClient* client) {
     return;
   }
   Urb q{g_object_ref(urb), g_object_ref(buf), u.endpoint, u.type, u.buffer_length};
+  pcap_event(q, 'S', -EINPROGRESS, u.buffer_length, (u.endpoint & 0x80) == 0 && u.type != USBDEVFS_URB_TYPE_CONTROL);
   const std::int64_t now = g_get_real_time();
   if (u.type == USBDEVFS_URB_TYPE_CONTROL) {
     std::span<std::uint8_t> data(buf->data + 8, static_cast<std::size_t>(std::max(0, u.buffer_length - 8)));

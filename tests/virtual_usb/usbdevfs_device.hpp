@@ -11,6 +11,7 @@
 #include <umockdev.h>
 
 #include <cstdint>
+#include <cstdio>
 #include <deque>
 #include <mutex>
 #include <span>
@@ -54,6 +55,12 @@ class UsbdevfsDevice {
  public:
   /// Adds the device to `testbed` and attaches the ioctl handler. Throws std::runtime_error.
   UsbdevfsDevice(UMockdevTestbed* testbed, const UsbIds& ids, DeviceModel& model);
+  /// Adds the sysfs record only and lets umockdev replay a usbmon capture on it
+  /// (umockdev_testbed_load_pcap; DLT_USB_LINUX_MMAPPED, bus 1 device 2). Throws on error.
+  static void replay(UMockdevTestbed* testbed, const UsbIds& ids, const std::string& pcap_path);
+  /// Writes every URB submission and completion from now on to `path` as a usbmon capture
+  /// (pcap, DLT_USB_LINUX_MMAPPED), the format a real device's Wireshark/usbmon capture has.
+  void record_pcap(const std::string& path);
   ~UsbdevfsDevice();
   UsbdevfsDevice(const UsbdevfsDevice&) = delete;
   UsbdevfsDevice& operator=(const UsbdevfsDevice&) = delete;
@@ -78,6 +85,7 @@ class UsbdevfsDevice {
     int length = 0;
   };
 
+  UsbdevfsDevice(UMockdevTestbed* testbed, const UsbIds& ids, DeviceModel& model, bool no_handler);
   static gboolean on_ioctl_cb(UMockdevIoctlBase* base, UMockdevIoctlClient* client, gpointer self);
   static gboolean on_deferred_reap(gpointer data);
   gboolean on_ioctl(UMockdevIoctlClient* client);
@@ -86,6 +94,7 @@ class UsbdevfsDevice {
   bool deliver_ready(UMockdevIoctlClient* client);
   void finish(Urb& u, int status, int actual);
   void add_record();
+  void pcap_event(const Urb& u, char type, int status, int length, bool with_data);
 
   UMockdevTestbed* testbed_;
   UsbIds ids_;
@@ -100,6 +109,7 @@ class UsbdevfsDevice {
   int inject_ep_ = -1;
   int inject_status_ = 0;
   long reaps_ = 0;
+  std::FILE* pcap_ = nullptr;
 };
 
 }  // namespace pof::vusb

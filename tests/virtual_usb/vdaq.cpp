@@ -277,6 +277,8 @@ int main(int argc, char** argv) {
   long min_usb_errors = 0;
   double max_ts_error_us = -1;
   double min_rate_ratio = 0.99;
+  std::string record_pcap;
+  std::string replay_pcap;
   std::vector<std::string> extra;
   app.add_option("--model", model, "6008, 6009, 1208ls, or sim (pof-daqd's sim:synthetic backend, no USB)")
       ->check(CLI::IsMember({"6008", "6009", "1208ls", "sim"}));
@@ -306,6 +308,10 @@ int main(int argc, char** argv) {
   app.add_option("--min-usb-errors", min_usb_errors);
   app.add_option("--max-ts-error-us", max_ts_error_us, "bound on |utime - true scan time| (p99)");
   app.add_option("--min-rate-ratio", min_rate_ratio, "measured/published scan rate lower bound");
+  app.add_option("--record-pcap", record_pcap, "write the session as a usbmon capture (pcap)");
+  app.add_option("--replay-pcap", replay_pcap,
+                 "serve a recorded usbmon capture (umockdev pcap replay) instead of the model; the "
+                 "values are checked against the model when the capture came from it");
   app.add_option("extra", extra, "extra pof-daqd arguments (after --)");
   try {
     app.parse(argc, argv);
@@ -331,7 +337,17 @@ int main(int argc, char** argv) {
   no.clock_ppm = clock_ppm;
   no.silent = scenario == "silent";
   no.short_every = scenario == "short" ? short_every : 0;
-  if (scenario != "absent" && !is_sim) {
+  std::mutex replay_mu;
+  if (!replay_pcap.empty()) {
+    // The model only computes what the recorded device sent (same scan-index function); the
+    // bytes come from the capture.
+    ni = std::make_unique<Ni600xModel>(no);
+    const std::string ifc = "09040000" "03ff0000" "00" "0705010240" "0000" "0705810240" "0000" "0705820240" "0000";
+    pof::vusb::UsbdevfsDevice::replay(
+        testbed, pof::vusb::UsbIds{0x3923, static_cast<std::uint16_t>(no.usb6009 ? 0x717b : 0x717a),
+                                   descriptors(0x3923, no.usb6009 ? 0x717b : 0x717a, ifc, 9 + 21)},
+        replay_pcap);
+  } else if (scenario != "absent" && !is_sim) {
     if (is_ni) {
       ni = std::make_unique<Ni600xModel>(no);
       // Interface 0, vendor class, 3 bulk endpoints of 64 bytes: 0x01 OUT, 0x81 IN, 0x82 IN.
@@ -359,7 +375,8 @@ int main(int argc, char** argv) {
   Checker checker;
   checker.ni = ni.get();
   checker.mcc = mcc.get();
-  checker.dev_mu = dev ? &dev->mutex() : nullptr;
+  checker.dev_mu = dev ? &dev->mutex() : &replay_mu;
+  if (dev && !record_pcap.empty()) dev->record_pcap(record_pcap);
   checker.decimate = decimate;
   Handler h{&checker};
   lcm.subscribe("POF_RAW", &Handler::raw, &h)->setQueueCapacity(100000);

@@ -17,9 +17,11 @@ class SampleSource {
   virtual std::size_t next(std::span<float> out) = 0;
 };
 
-/// Deterministic synthetic knee cycle: sensor = 4.35 V at 0 deg to 2.38 V at 90 deg (the paper's
-/// f5 end points, brief "Contracts"), reference 5.0 V, pot 0.5..4.5 V, 0.5 Hz. Throws
-/// pof::io::ConfigError for an unknown scenario name.
+/// `synthetic`: a deterministic knee cycle without physics: sensor = 4.35 V at 0 deg to 2.38 V at
+/// 90 deg (the paper's f5 end points, brief "Contracts"), reference 5.0 V, pot 0.5..4.5 V, 0.5 Hz.
+/// Anything else: the physics simulator (pof::sim) with a built-in scenario ("paper",
+/// "realistic") or a scenario file path. Throws pof::io::ConfigError for an unknown scenario,
+/// naming the choices.
 std::unique_ptr<SampleSource> make_sample_source(const std::string& scenario, double scan_rate_hz,
                                                  bool has_reference, bool has_pot);
 

@@ -13,6 +13,8 @@
 #include "backends/sample_source.hpp"
 #include "core/config.hpp"
 #include "pof/io/errors.hpp"
+#include "pof/sim/scenario.hpp"
+#include "pof/sim/simulator.hpp"
 
 namespace pof::daq {
 namespace {
@@ -45,6 +47,32 @@ class SyntheticSource final : public SampleSource {
   bool ref_;
   bool pot_;
   std::uint64_t i_ = 0;
+};
+
+// The physics simulator (sim/, docs/simulator.md) behind the same interface. The scans are
+// already quantised by the simulated converter; the seed is fixed so that runs repeat.
+class SimulatorSource final : public SampleSource {
+ public:
+  SimulatorSource(const pof::sim::Scenario& sc, double rate, bool ref, bool pot)
+      : sim_(sc, 1, rate), ref_(ref), pot_(pot), scans_(4096) {}
+  std::size_t next(std::span<float> out) override {
+    const std::size_t n_ch = 1U + (ref_ ? 1U : 0U) + (pot_ ? 1U : 0U);
+    const std::size_t want = std::min(out.size() / n_ch, scans_.size());
+    const std::size_t n = sim_.next(std::span(scans_.data(), want));
+    for (std::size_t k = 0; k < n; ++k) {
+      std::size_t c = k * n_ch;
+      out[c++] = static_cast<float>(scans_[k].sensor_v);
+      if (ref_) out[c++] = static_cast<float>(scans_[k].reference_v);
+      if (pot_) out[c++] = static_cast<float>(scans_[k].pot_v);
+    }
+    return n;
+  }
+
+ private:
+  pof::sim::Simulator sim_;
+  bool ref_;
+  bool pot_;
+  std::vector<pof::sim::Scan> scans_;
 };
 
 class SimBackend final : public Backend {
@@ -103,11 +131,20 @@ class SimBackend final : public Backend {
 
 std::unique_ptr<SampleSource> make_sample_source(const std::string& scenario, double rate,
                                                  bool has_reference, bool has_pot) {
-  if (scenario != "synthetic" && scenario != "default") {
-    throw pof::io::ConfigError("device.kind: unknown simulator scenario '" + scenario +
-                               "' (available: synthetic, default)");
+  if (scenario == "synthetic") return std::make_unique<SyntheticSource>(rate, has_reference, has_pot);
+  // A path (has a '/' or ends in .toml) or a built-in scenario name of the simulator.
+  const bool is_path = scenario.find('/') != std::string::npos ||
+                       (scenario.size() > 5 && scenario.substr(scenario.size() - 5) == ".toml");
+  pof::sim::Scenario sc;
+  try {
+    sc = is_path ? pof::sim::load_scenario(scenario) : pof::sim::builtin_scenario(scenario);
+  } catch (const pof::io::NoInputError& e) {
+    std::string names = "synthetic";
+    for (const auto& n : pof::sim::builtin_scenario_names()) names += ", " + n;
+    throw pof::io::ConfigError("device.kind: 'sim:" + scenario + "': " + e.what() +
+                               " (built-in: " + names + ", or a scenario file path)");
   }
-  return std::make_unique<SyntheticSource>(rate, has_reference, has_pot);
+  return std::make_unique<SimulatorSource>(sc, rate, has_reference, has_pot);
 }
 
 std::unique_ptr<Backend> make_sim_backend(const DaqConfig& cfg) {

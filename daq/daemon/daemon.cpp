@@ -107,7 +107,10 @@ void Daemon::acquisition_main() {
     set_state(State::kStreaming, "streaming from " + cfg_.device_kind);
     const StreamEnd end = backend_->stream(*acq, stop_, why);
     backend_->close();
-    if (end == StreamEnd::kStopped) break;
+    if (end == StreamEnd::kStopped) {
+      if (!stop_.load()) set_state(State::kStopping, why);  // e.g. a finite simulator scenario
+      break;
+    }
     lost_session = had_session;
     if (end == StreamEnd::kDisconnected) {
       set_state(State::kDisconnected, why);
@@ -117,7 +120,7 @@ void Daemon::acquisition_main() {
     }
   }
   backend_->close();
-  set_state(State::kStopping, "stopped on request");
+  if (stop_.load()) set_state(State::kStopping, "stopped on request");
 }
 
 void Daemon::publisher_main() {

@@ -1,4 +1,4 @@
-# A device that never answers a command, and no device at all: the daemon publishes `fault`
+# A device that never answers a command, no device at all, and not the device asked for: the daemon publishes `fault`
 # (naming the command and the timeout) or `disconnected`, retries, never exits on its own, and
 # stops cleanly with exit 0 on SIGTERM.
 source "$(dirname "$0")/daq_lib.sh"
@@ -6,4 +6,8 @@ vdaq --model 6008 --scenario silent --duration 2 --expect-no-data --expect-state
 report 'r["states_seen"]' | grep -q "did not answer" || fail "fault text: $(report 'r["states_seen"]')"
 vdaq --model 6008 --scenario absent --duration 1.5 --expect-no-data --expect-state 2
 report 'r["states_seen"]' | grep -q "no NI USB-6008" || fail "disconnected text: $(report 'r["states_seen"]')"
+# A serial that is not attached: the one device present is not used, and the status says why.
+vdaq --model 6008 --scenario normal --duration 1.5 --expect-no-data --expect-state 2 -- --serial ABC123
+report 'r["states_seen"]' | grep -q "with serial 'ABC123' attached (1 with other serials)" ||
+  fail "serial text: $(report 'r["states_seen"]')"
 echo ok

@@ -52,6 +52,7 @@ void Ni600xModel::on_out(std::uint8_t ep, std::span<const std::uint8_t> data, st
     return;  // a real device would not answer either
   }
   const auto& p = f->params;
+  last_command = std::string(oc->name);
   switch (oc->cmd) {
     case ni::Cmd::kHello:
       ++hellos;

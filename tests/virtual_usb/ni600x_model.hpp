@@ -6,6 +6,7 @@
 // first index, rate) so that timestamps and the seam between segments can be measured.
 #include <cstdint>
 #include <mutex>
+#include <string>
 #include <vector>
 
 #include "protocol/ni_usb600x.hpp"
@@ -53,6 +54,7 @@ class Ni600xModel final : public DeviceModel {
   std::vector<std::int64_t> seams_us;  // idle time between back-to-back segments
   int protocol_errors = 0;
   int hellos = 0;
+  std::string last_command;  // name of the last command received (the stop sequence ends in 0D/00)
   std::size_t n_channels() const { return n_ch_; }
 
  private:

@@ -175,6 +175,7 @@ void UsbdevfsDevice::replug() {
   ready_.clear();
   add_record();
   unplugged_ = false;
+  claimed_ = 0;  // a fresh device
 }
 
 void UsbdevfsDevice::inject_in_error(std::uint8_t ep, int status) {
@@ -368,6 +369,9 @@ gboolean UsbdevfsDevice::on_ioctl(UMockdevIoctlClient* client) {
     }
     case USBDEVFS_CLAIMINTERFACE:
     case USBDEVFS_RELEASEINTERFACE:
+      if (!unplugged_) claimed_ += req == USBDEVFS_CLAIMINTERFACE ? 1 : -1;
+      umockdev_ioctl_client_complete(client, unplugged_ ? -1 : 0, unplugged_ ? ENODEV : 0);
+      return TRUE;
     case USBDEVFS_SETINTERFACE:
     case USBDEVFS_SETCONFIGURATION:
     case USBDEVFS_RESETEP:

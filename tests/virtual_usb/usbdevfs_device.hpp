@@ -75,6 +75,7 @@ class UsbdevfsDevice {
 
   std::mutex& mutex() { return mu_; }  // held while the model is called
   long reaps() const { return reaps_; }
+  int claimed() const { return claimed_; }  // interfaces claimed and not released
 
  private:
   struct Urb {
@@ -109,6 +110,7 @@ class UsbdevfsDevice {
   int inject_ep_ = -1;
   int inject_status_ = 0;
   long reaps_ = 0;
+  int claimed_ = 0;
   std::FILE* pcap_ = nullptr;
 };
 

@@ -303,7 +303,9 @@ int main(int argc, char** argv) {
   app.add_option("--max-dropped", max_dropped);
   app.add_flag("--expect-gap", expect_gap);
   app.add_flag("--expect-no-data", expect_no_data);
-  app.add_option("--expect-state", expect_states, "daq_status_t state that must be seen (repeatable)");
+  app.add_option("--expect-state", expect_states, "daq_status_t state that must be seen (repeatable)")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   app.add_option("--min-reconnects", min_reconnects);
   app.add_option("--min-usb-errors", min_usb_errors);
   app.add_option("--max-ts-error-us", max_ts_error_us, "bound on |utime - true scan time| (p99)");
@@ -312,9 +314,19 @@ int main(int argc, char** argv) {
   app.add_option("--replay-pcap", replay_pcap,
                  "serve a recorded usbmon capture (umockdev pcap replay) instead of the model; the "
                  "values are checked against the model when the capture came from it");
-  app.add_option("extra", extra, "extra pof-daqd arguments (after --)");
+  app.footer("Arguments after -- go to pof-daqd unchanged.");
+  // Everything after the first "--" is pof-daqd's (split here: CLI11 lets a "--" right after a
+  // vector option end that option instead of the option list).
+  int own_argc = argc;
+  for (int i = 1; i < argc; ++i) {
+    if (std::string(argv[i]) == "--") {
+      own_argc = i;
+      for (int j = i + 1; j < argc; ++j) extra.emplace_back(argv[j]);
+      break;
+    }
+  }
   try {
-    app.parse(argc, argv);
+    app.parse(own_argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;  // usage errors exit 2 (brief), whatever CLI11's code
   }
@@ -534,6 +546,13 @@ int main(int argc, char** argv) {
       r["seam_us"] = stats(seams);
       r["device_protocol_errors"] = ni->protocol_errors;
       r["device_hellos"] = ni->hellos;
+      r["device_last_command"] = ni->last_command;
+      r["device_interfaces_claimed_at_exit"] = dev->claimed();
+      // SIGTERM must stop the scan and release the device (issue 5), unless it never answered.
+      if (!no.silent && ni->hellos > 0 && ni->last_command != "session 0D") {
+        failures.push_back("the last command was '" + ni->last_command + "', not the stop sequence's 0D/00");
+      }
+      if (dev->claimed() != 0) failures.push_back("interface still claimed after pof-daqd exited");
       if (ni->protocol_errors != 0) failures.push_back("the daemon sent frames the device did not understand");
     }
   }

@@ -6,6 +6,7 @@
 // answers a feature request with its last report, per the public driver's polling loop [7]).
 // hidapi is synchronous: the acquisition thread polls with a 1 ms pause between empty answers.
 #include <hidapi/hidapi.h>
+#include <time.h>
 
 #include <array>
 #include <chrono>
@@ -36,6 +37,7 @@ class Usb1208lsBackend final : public Backend {
     // The device scans the queue at the timer rate: the aggregate sample rate is rate x channels.
     timer_ = mcc::scan_timer(cfg.scan_rate_hz * static_cast<double>(n_ch_));
     rate_hz_ = timer_ ? timer_->actual_rate_hz / static_cast<double>(n_ch_) : cfg.scan_rate_hz;
+    if (cfg.mcc_single_reads) rate_hz_ = cfg.scan_rate_hz;  // host-paced
     // A burst: whole reports and whole scans, ~1 s of data, within the 16-bit count.
     const std::size_t unit = mcc::kSamplesPerScanReport * n_ch_;
     std::size_t burst = static_cast<std::size_t>(rate_hz_ * static_cast<double>(n_ch_)) / unit * unit;
@@ -48,7 +50,7 @@ class Usb1208lsBackend final : public Backend {
 
   OpenStatus open(std::string& why) override {
     close();
-    if (!timer_) {
+    if (!timer_ && !cfg_.mcc_single_reads) {
       why = "acquisition.scan_rate_hz x channels must be within 100-8191 samples/s on the USB-1208LS";
       return OpenStatus::kFault;
     }
@@ -77,6 +79,7 @@ class Usb1208lsBackend final : public Backend {
   }
 
   StreamEnd stream(ScanSink& sink, const std::atomic<bool>& stop, std::string& why) override {
+    if (cfg_.mcc_single_reads) return stream_single(sink, stop, why);
     bool continuous = false;
     carry_n_ = 0;
     while (!stop.load(std::memory_order_relaxed)) {
@@ -127,6 +130,50 @@ class Usb1208lsBackend final : public Backend {
         got += mcc::kSamplesPerScanReport;
         deliver(sink, s, buf[1 + 97] != 0);
       }
+    }
+    return StreamEnd::kStopped;
+  }
+
+  // Single AIn reads [3][5], one per channel per scan, paced by the host clock (absolute
+  // deadlines, so the rate does not drift). For slow rates and for checking a channel.
+  StreamEnd stream_single(ScanSink& sink, const std::atomic<bool>& stop, std::string& why) {
+    timespec t0{};
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    const std::int64_t start = now_us();
+    sink.on_segment_start(start, start, false);
+    const bool differential = cfg_.terminal == ni::Terminal::kDifferential;
+    for (std::uint64_t k = 0; !stop.load(std::memory_order_relaxed); ++k) {
+      const auto ns = static_cast<long long>(static_cast<double>(k + 1) / rate_hz_ * 1e9);
+      timespec due = t0;
+      due.tv_sec += static_cast<time_t>(ns / 1000000000LL);
+      due.tv_nsec += static_cast<long>(ns % 1000000000LL);
+      if (due.tv_nsec >= 1000000000L) {
+        due.tv_nsec -= 1000000000L;
+        ++due.tv_sec;
+      }
+      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &due, nullptr);
+      std::int32_t flags = 0;
+      for (std::size_t c = 0; c < n_ch_; ++c) {
+        if (!write(mcc::ain_report(ai_[c], gain_), why)) {
+          sink.on_usb_error();
+          return StreamEnd::kDisconnected;
+        }
+        std::array<std::uint8_t, mcc::kInReportBytes> in{};
+        const int n = hid_read_timeout(dev_, in.data(), in.size(), 1500);  // [2]
+        if (n < 2) {
+          sink.on_usb_error();
+          why = n < 0 ? "MCC USB-1208LS: reading an AIn reply failed (device removed?)"
+                      : "MCC USB-1208LS: no AIn reply within 1.5 s";
+          return n < 0 ? StreamEnd::kDisconnected : StreamEnd::kError;
+        }
+        const std::int16_t counts = differential ? mcc::decode_ain_differential(in[0], in[1])
+                                                 : mcc::decode_ain_single_ended(in[0], in[1]);
+        if (counts <= (differential ? -2048 : -1024) || counts >= (differential ? 2047 : 1023)) {
+          flags |= int32_t{pof::raw_block_t::FLAG_OVER_RANGE};
+        }
+        volts_[c] = static_cast<float>(mcc::counts_to_volts(counts, gain_));
+      }
+      sink.on_scans(volts_.data(), 1, now_us(), flags);
     }
     return StreamEnd::kStopped;
   }

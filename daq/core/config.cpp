@@ -222,6 +222,7 @@ DaqConfig config_from_table(const toml::table& root, const std::string& source) 
     c.sample_byte_order = a.choice("sample_byte_order", "big", {"big", "little"}) == "big"
                               ? ni::ByteOrder::kBig
                               : ni::ByteOrder::kLittle;
+    c.mcc_single_reads = a.choice("mcc_mode", "scan", {"scan", "single"}) == "single";
     c.command_timeout_ms = a.integer("command_timeout_ms", c.command_timeout_ms, 10, 60000);
     c.data_timeout_ms = a.integer("data_timeout_ms", c.data_timeout_ms, 10, 60000);
     a.finish();
@@ -273,6 +274,14 @@ DaqConfig config_from_table(const toml::table& root, const std::string& source) 
          << " S/s aggregate)";
     bad(source, "acquisition.scan_rate_hz", want.str(), std::to_string(c.scan_rate_hz));
   }
+  // Single AIn reads cost an output and an input report each (~2 ms on the 1208LS's HID
+  // endpoint): a conservative 200 reads/s.
+  if (c.mcc_single_reads && aggregate > 200.0) {
+    bad(source, "acquisition.scan_rate_hz",
+        "at most " + std::to_string(200.0 / static_cast<double>(chans.size())) +
+            " scans/s with acquisition.mcc_mode = 'single' (200 AIn reads/s)",
+        std::to_string(c.scan_rate_hz));
+  }
   if (c.segment_scans != 0 && c.segment_scans % static_cast<std::uint32_t>(c.decimate) != 0) {
     bad(source, "acquisition.segment_scans", "0 or a multiple of acquisition.decimate",
         std::to_string(c.segment_scans));
@@ -296,6 +305,7 @@ std::string to_toml(const DaqConfig& c) {
                    {"transfer_bytes", c.transfer_bytes},
                    {"segment_scans", static_cast<std::int64_t>(c.segment_scans)},
                    {"sample_byte_order", c.sample_byte_order == ni::ByteOrder::kBig ? "big" : "little"},
+                   {"mcc_mode", c.mcc_single_reads ? "single" : "scan"},
                    {"command_timeout_ms", c.command_timeout_ms},
                    {"data_timeout_ms", c.data_timeout_ms}}},
       {"lcm", toml::table{{"url", c.lcm_url}, {"sensor_id", c.sensor_id}, {"queue_blocks", c.queue_blocks}}},

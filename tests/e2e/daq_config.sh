@@ -35,6 +35,8 @@ expect_exit 78 "$d" --config "$WORK_DIR/daq.toml" -s acquisition.transfer_bytes=
 grep -q "acquisition.transfer_bytes" <<<"$err" || fail "$err"
 expect_exit 78 "$d" --config "$WORK_DIR/daq.toml" -s schema_version=7 --print-config
 grep -q "schema_version" <<<"$err" || fail "$err"
+expect_exit 78 "$d" --config "$WORK_DIR/daq.toml" --device usb1208ls --rate 100 -s 'acquisition.mcc_mode="single"' --print-config
+grep -q "acquisition.scan_rate_hz" <<<"$err" || fail "$err"
 printf 'schema_version = 1\n[acquisition\n' >"$WORK_DIR/syntax.toml"
 expect_exit 78 "$d" --config "$WORK_DIR/syntax.toml"
 grep -q "syntax.toml:2" <<<"$err" || fail "TOML syntax error without file:line: $err"

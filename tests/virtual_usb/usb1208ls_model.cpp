@@ -33,6 +33,18 @@ double Usb1208lsModel::volts_sent(std::int64_t idx, std::size_t ch) const {
   return mcc::scan_counts_to_volts(counts(idx * n + static_cast<std::int64_t>(ch)), gain_);
 }
 
+std::int16_t Usb1208lsModel::se_counts(std::int64_t idx, std::size_t ch) const {
+  const double t = static_cast<double>(idx) / 50.0;
+  const double v = ch == 0 ? 3.3 + 1.0 * std::sin(2 * std::numbers::pi * 0.5 * t)
+                 : ch == 1 ? 5.0 - 0.01 * static_cast<double>(idx % 7)
+                           : 2.5 + 2.0 * std::cos(2 * std::numbers::pi * 0.5 * t);
+  return static_cast<std::int16_t>(std::clamp(std::round(v / 10.0 * 0x3FF), -1024.0, 1023.0));
+}
+
+double Usb1208lsModel::volts_single(std::int64_t idx, std::size_t ch) const {
+  return mcc::counts_to_volts(se_counts(idx, ch), mcc::kSe10V);
+}
+
 void Usb1208lsModel::command(std::span<const std::uint8_t> r, std::int64_t now_us) {
   if (r.empty()) return;
   switch (r[0]) {
@@ -68,10 +80,18 @@ void Usb1208lsModel::command(std::span<const std::uint8_t> r, std::int64_t now_u
       running_ = true;
       break;
     }
-    case mcc::kAIn: {
+    case mcc::kAIn: {  // single read: 11-bit single-ended reply {lo, hi} [5]
+      if (queue_loaded_) {  // first read after a (re)configuration: a new session
+        ++sessions;
+        std::fill(reads_.begin(), reads_.end(), 0);
+        queue_loaded_ = false;
+      }
+      single_reads_seen = true;
+      const std::size_t ch = r.size() > 1 ? (r[1] & 7U) : 0;
+      const auto raw = static_cast<unsigned>(se_counts(reads_[ch]++, ch) + 0x400);
       std::vector<std::uint8_t> reply(8, 0);
-      reply[0] = 0x00;
-      reply[1] = 0x08;
+      reply[0] = static_cast<std::uint8_t>(raw & 0x0F);
+      reply[1] = static_cast<std::uint8_t>(raw >> 4);
       replies_.push_back(reply);
       break;
     }

@@ -28,6 +28,9 @@ class Usb1208lsModel final : public DeviceModel {
 
   /// The volts of scan `idx`, channel `ch` of a session as the device digitised them.
   [[nodiscard]] double volts_sent(std::int64_t idx, std::size_t ch) const;
+  /// Single AIn reads: the volts of read `idx` of channel `ch` (11-bit single-ended coding).
+  [[nodiscard]] double volts_single(std::int64_t idx, std::size_t ch) const;
+  bool single_reads_seen = false;
   void power_cycle();
 
   int sessions = 0;
@@ -49,6 +52,8 @@ class Usb1208lsModel final : public DeviceModel {
   std::int64_t session_sample_ = 0;  // first sample of the current burst within the session
   std::vector<std::uint8_t> last_report_ = std::vector<std::uint8_t>(pof::daq::mcc::kScanReportBytes, 0);
   std::deque<std::vector<std::uint8_t>> replies_;
+  std::vector<std::int64_t> reads_ = std::vector<std::int64_t>(8, 0);  // AIn reads per channel
+  [[nodiscard]] std::int16_t se_counts(std::int64_t idx, std::size_t ch) const;
 };
 
 }  // namespace pof::vusb

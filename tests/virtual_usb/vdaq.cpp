@@ -196,7 +196,8 @@ struct Checker {
         for (int d = 0; d < decimate; ++d) {
           const std::int64_t idx = j * decimate + d;
           want += ni ? pof::daq::ni::code_to_volts(ni->code(idx, static_cast<std::size_t>(c)), ni->bits(), range_v)
-                     : mcc->volts_sent(idx, static_cast<std::size_t>(c));
+                     : mcc->single_reads_seen ? mcc->volts_single(idx, static_cast<std::size_t>(c))
+                                              : mcc->volts_sent(idx, static_cast<std::size_t>(c));
         }
         want /= decimate;
         const double err = std::abs(static_cast<double>(b.volts[static_cast<std::size_t>(k)][static_cast<std::size_t>(c)]) - want);

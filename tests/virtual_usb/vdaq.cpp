@@ -179,9 +179,12 @@ struct Checker {
         const double t_last = static_cast<double>(b.utime) + (b.n_scans - 1) * period;
         age_publish_us.push_back(static_cast<double>(b.publish_utime) - (t_last + period));
         age_receive_us.push_back(static_cast<double>(recv) - (t_last + period));
-        if (first_recv_us < 0) first_recv_us = recv;
+        if (first_recv_us < 0) {
+          first_recv_us = recv;  // the span starts here: this block's scans are before it
+        } else {
+          scans_after_warmup += b.n_scans;
+        }
         last_recv_us = recv;
-        scans_after_warmup += b.n_scans;
       }
       simulated = (b.flags & int32_t{pof::raw_block_t::FLAG_SIMULATED}) != 0;
       local += b.n_scans;
@@ -225,9 +228,12 @@ struct Checker {
       }
     }
     if (recv >= warmup_end_us) {
-      if (first_recv_us < 0) first_recv_us = recv;
+      if (first_recv_us < 0) {
+        first_recv_us = recv;  // the span starts here: this block's scans are before it
+      } else {
+        scans_after_warmup += b.n_scans;
+      }
       last_recv_us = recv;
-      scans_after_warmup += b.n_scans;
     }
     local += b.n_scans;
   }

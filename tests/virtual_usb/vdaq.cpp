@@ -248,11 +248,14 @@ struct Checker {
   }
 };
 
-struct Handler {
-  Checker* c;
-  void raw(const lcm::ReceiveBuffer*, const std::string&, const pof::raw_block_t* m) { c->on_raw(*m); }
-  void status(const lcm::ReceiveBuffer*, const std::string&, const pof::daq_status_t* m) { c->on_status(*m); }
-};
+// Plain-function handlers (subscribeFunction): lcm's pointer-to-member path trips a GCC 12 UBSan
+// false positive (see tests/functional/test_lcmtypes_roundtrip.cpp on main).
+void on_raw(const lcm::ReceiveBuffer*, const std::string&, const pof::raw_block_t* m, Checker* c) {
+  c->on_raw(*m);
+}
+void on_status(const lcm::ReceiveBuffer*, const std::string&, const pof::daq_status_t* m, Checker* c) {
+  c->on_status(*m);
+}
 
 }  // namespace
 
@@ -397,9 +400,8 @@ int main(int argc, char** argv) {
   checker.dev_mu = dev ? &dev->mutex() : &replay_mu;
   if (dev && !record_pcap.empty()) dev->record_pcap(record_pcap);
   checker.decimate = decimate;
-  Handler h{&checker};
-  lcm.subscribe("POF_RAW", &Handler::raw, &h)->setQueueCapacity(100000);
-  lcm.subscribe("POF_DAQ_STATUS", &Handler::status, &h)->setQueueCapacity(1000);
+  lcm.subscribeFunction("POF_RAW", &on_raw, &checker)->setQueueCapacity(100000);
+  lcm.subscribeFunction("POF_DAQ_STATUS", &on_status, &checker)->setQueueCapacity(1000);
   std::atomic<bool> lcm_stop{false};
   std::thread lcm_thread([&] {
     while (!lcm_stop.load()) lcm.handleTimeout(50);

@@ -101,6 +101,7 @@ void Daemon::acquisition_main() {
     if (!acq) {  // first open: the device's real rate is known now
       acq = std::make_unique<Acquisition>(cfg_, backend_->device_scan_rate_hz(), queue_,
                                           counters_, wake_);
+      published_rate_hz_.store(acq->published_rate_hz());
     }
     if (lost_session) counters_.reconnects.fetch_add(1);
     had_session = true;
@@ -157,7 +158,8 @@ void Daemon::publisher_main() {
     s.serial = id.serial;
     s.state = static_cast<std::int8_t>(state);
     s.state_text = text;
-    s.scan_rate_hz = cfg_.published_rate_hz();
+    const double real_rate = published_rate_hz_.load();
+    s.scan_rate_hz = real_rate > 0 ? real_rate : cfg_.published_rate_hz();
     s.n_channels = n_ch;
     s.scans = counters_.scans.load();
     s.blocks = counters_.blocks.load();
@@ -176,7 +178,7 @@ void Daemon::publisher_main() {
       msg.utime = b->utime;
       msg.seq = seq++;
       msg.first_scan = b->first_scan;
-      msg.scan_rate_hz = cfg_.published_rate_hz();
+      msg.scan_rate_hz = published_rate_hz_.load();
       msg.n_scans = b->n_scans;
       msg.flags = b->flags | (simulated ? int32_t{pof::raw_block_t::FLAG_SIMULATED} : 0);
       for (std::int32_t k = 0; k < b->n_scans; ++k) {

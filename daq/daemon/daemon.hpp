@@ -53,6 +53,9 @@ class Daemon {
   std::counting_semaphore<> wake_{0};
   std::atomic<bool> stop_{false};
   std::atomic<bool> publisher_stop_{false};
+  // The published rate: the device's real scan rate (its clock divisor rounds the configured one)
+  // over the decimation; set by the acquisition thread at the first open.
+  std::atomic<double> published_rate_hz_{0.0};
   // State changes, queued so that the publisher sends one status per change even when several
   // happen between two of its wake-ups (control path: allocation is fine here).
   std::mutex state_mu_;

@@ -6,8 +6,11 @@ vdaq --model 6008 --scenario silent --duration 2 --expect-no-data --expect-state
 report 'r["states_seen"]' | grep -q "did not answer" || fail "fault text: $(report 'r["states_seen"]')"
 vdaq --model 6008 --scenario absent --duration 1.5 --expect-no-data --expect-state 2
 report 'r["states_seen"]' | grep -q "no NI USB-6008" || fail "disconnected text: $(report 'r["states_seen"]')"
-# A serial that is not attached: the one device present is not used, and the status says why.
-vdaq --model 6008 --scenario normal --duration 1.5 --expect-no-data --expect-state 2 -- --serial ABC123
+# Selection by serial number (read from the device's string descriptor): the right one streams;
+# a serial that is not attached leaves the device present unused, and the status says why.
+vdaq --model 6008 --scenario normal --duration 1.5 --device-serial 01F2A3B4 -- --serial 01F2A3B4
+vdaq --model 6008 --scenario normal --duration 1.5 --device-serial 01F2A3B4 --expect-no-data \
+     --expect-state 2 -- --serial ABC123
 report 'r["states_seen"]' | grep -q "with serial 'ABC123' attached (1 with other serials)" ||
   fail "serial text: $(report 'r["states_seen"]')"
 echo ok

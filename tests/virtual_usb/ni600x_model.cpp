@@ -143,4 +143,24 @@ InResult Ni600xModel::on_in(std::uint8_t ep, std::span<std::uint8_t> buf, std::i
 
 void Ni600xModel::on_clear_halt(std::uint8_t) {}
 
+int Ni600xModel::on_control(const std::uint8_t* setup, std::span<std::uint8_t> data, std::int64_t) {
+  // Standard GET_DESCRIPTOR (bmRequestType 0x80, bRequest 6) of type string (3) only.
+  if (setup[0] != 0x80 || setup[1] != 0x06 || setup[3] != 0x03 || o_.serial.empty()) return -32;
+  std::vector<std::uint8_t> d;
+  if (setup[2] == 0) {
+    d = {4, 3, 0x09, 0x04};  // English (US)
+  } else if (setup[2] == 3) {
+    d = {static_cast<std::uint8_t>(2 + 2 * o_.serial.size()), 3};
+    for (char ch : o_.serial) {
+      d.push_back(static_cast<std::uint8_t>(ch));
+      d.push_back(0);
+    }
+  } else {
+    return -32;
+  }
+  const std::size_t n = std::min(d.size(), data.size());
+  std::copy_n(d.begin(), n, data.begin());
+  return static_cast<int>(n);
+}
+
 }  // namespace pof::vusb

@@ -21,6 +21,7 @@ struct NiOptions {
   double clock_ppm = 0.0;  // device crystal error: positive = fast
   bool silent = false;     // never answers a command ("a device that never answers")
   int short_every = 0;     // every Nth data URB is answered 2 bytes short (a valid short packet)
+  std::string serial;      // iSerialNumber string (descriptor index 3); empty = none
 };
 
 struct Segment {
@@ -38,6 +39,8 @@ class Ni600xModel final : public DeviceModel {
   void on_out(std::uint8_t ep, std::span<const std::uint8_t> data, std::int64_t now_us) override;
   InResult on_in(std::uint8_t ep, std::span<std::uint8_t> buf, std::int64_t now_us) override;
   void on_clear_halt(std::uint8_t ep) override;
+  /// GET_DESCRIPTOR(string): language ids and the serial number.
+  int on_control(const std::uint8_t* setup, std::span<std::uint8_t> data, std::int64_t now_us) override;
 
   /// The code the device sends for scan `index` of a session, channel `ch` of the scan list.
   [[nodiscard]] std::uint16_t code(std::int64_t index, std::size_t ch) const;

@@ -91,10 +91,10 @@ long cpu_ticks(pid_t pid) {
 
 // Descriptors: device (18 bytes) + configuration, one interface, endpoints as listed.
 std::string descriptors(std::uint16_t vid, std::uint16_t pid, const std::string& iface_and_eps_hex,
-                        int iface_len) {
+                        int iface_len, bool has_serial = false) {
   char dev[64];
-  std::snprintf(dev, sizeof dev, "1201100200000040%02x%02x%02x%02x000100000001", vid & 0xFF, vid >> 8,
-                pid & 0xFF, pid >> 8);
+  std::snprintf(dev, sizeof dev, "1201100200000040%02x%02x%02x%02x00010000%02x01", vid & 0xFF, vid >> 8,
+                pid & 0xFF, pid >> 8, has_serial ? 3 : 0);
   char cfg[32];
   const int total = 9 + iface_len;
   std::snprintf(cfg, sizeof cfg, "0902%02x%02x0101008032", total & 0xFF, total >> 8);
@@ -287,6 +287,7 @@ int main(int argc, char** argv) {
   long min_usb_errors = 0;
   double max_ts_error_us = -1;
   double min_rate_ratio = 0.99;
+  std::string device_serial;
   std::string record_pcap;
   std::string replay_pcap;
   std::vector<std::string> extra;
@@ -320,6 +321,7 @@ int main(int argc, char** argv) {
   app.add_option("--min-usb-errors", min_usb_errors);
   app.add_option("--max-ts-error-us", max_ts_error_us, "bound on |utime - true scan time| (p99)");
   app.add_option("--min-rate-ratio", min_rate_ratio, "measured/published scan rate lower bound");
+  app.add_option("--device-serial", device_serial, "the virtual NI device's serial number string");
   app.add_option("--record-pcap", record_pcap, "write the session as a usbmon capture (pcap)");
   app.add_option("--replay-pcap", replay_pcap,
                  "serve a recorded usbmon capture (umockdev pcap replay) instead of the model; the "
@@ -359,6 +361,7 @@ int main(int argc, char** argv) {
   no.clock_ppm = clock_ppm;
   no.silent = scenario == "silent";
   no.short_every = scenario == "short" ? short_every : 0;
+  no.serial = device_serial;
   std::mutex replay_mu;
   if (!replay_pcap.empty()) {
     // The model only computes what the recorded device sent (same scan-index function); the
@@ -376,7 +379,8 @@ int main(int argc, char** argv) {
       const std::string ifc = "09040000" "03ff0000" "00" "0705010240" "0000" "0705810240" "0000" "0705820240" "0000";
       dev = std::make_unique<pof::vusb::UsbdevfsDevice>(
           testbed, pof::vusb::UsbIds{0x3923, static_cast<std::uint16_t>(no.usb6009 ? 0x717b : 0x717a),
-                                     descriptors(0x3923, no.usb6009 ? 0x717b : 0x717a, ifc, 9 + 21)},
+                                     descriptors(0x3923, no.usb6009 ? 0x717b : 0x717a, ifc, 9 + 21,
+                                                 !device_serial.empty())},
           *ni);
     } else {
       mcc = std::make_unique<pof::vusb::Usb1208lsModel>(clock_ppm);

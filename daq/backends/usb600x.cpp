@@ -97,6 +97,10 @@ class Usb600xBackend final : public Backend {
             " attached" + (matches > 0 ? " (" + std::to_string(matches) + " with other serials)" : "");
       return OpenStatus::kAbsent;
     }
+    {
+      libusb_device_descriptor d{};
+      found_serial_ = libusb_get_device_descriptor(found, &d) == 0 ? serial_of(found, d) : std::string{};
+    }
     bus_ = libusb_get_bus_number(found);
     addr_ = libusb_get_device_address(found);
     rc = libusb_open(found, &h_);
@@ -210,7 +214,8 @@ class Usb600xBackend final : public Backend {
   }
 
   [[nodiscard]] DeviceIdentity identity() const override {
-    return {std::string(id_.kind), id_.vendor_id, id_.product_id, cfg_.serial};
+    return {std::string(id_.kind), id_.vendor_id, id_.product_id,
+            found_serial_.empty() ? cfg_.serial : found_serial_};
   }
   [[nodiscard]] double device_scan_rate_hz() const override { return rate_hz_; }
 
@@ -410,6 +415,7 @@ class Usb600xBackend final : public Backend {
   libusb_device_handle* h_ = nullptr;
   int bus_ = 0;
   int addr_ = 0;
+  std::string found_serial_;  // the serial of the device opened last (string descriptor)
   bool claimed_ = false;
   bool gone_ = false;
   std::vector<libusb_transfer*> xfers_;

@@ -103,6 +103,10 @@ void Daemon::acquisition_main() {
                                           counters_, wake_);
       published_rate_hz_.store(acq->published_rate_hz());
     }
+    {
+      std::lock_guard lock(state_mu_);
+      identity_ = backend_->identity();  // serial read at open (control path)
+    }
     if (lost_session) counters_.reconnects.fetch_add(1);
     had_session = true;
     set_state(State::kStreaming, "streaming from " + cfg_.device_kind);
@@ -145,7 +149,10 @@ void Daemon::publisher_main() {
   std::int64_t seq = 0;
   std::int64_t status_seq = 0;
   const bool simulated = cfg_.device_kind.rfind("sim:", 0) == 0;
-  const DeviceIdentity id = backend_->identity();
+  {
+    std::lock_guard lock(state_mu_);
+    identity_ = backend_->identity();  // before the first open: configured values
+  }
 
   auto publish_status = [&](State state, const std::string& text) {
     pof::daq_status_t s;
@@ -153,9 +160,12 @@ void Daemon::publisher_main() {
     s.seq = status_seq++;
     s.sensor_id = cfg_.sensor_id;
     s.device_kind = cfg_.device_kind;
-    s.vendor_id = id.vendor_id;
-    s.product_id = id.product_id;
-    s.serial = id.serial;
+    {
+      std::lock_guard lock(state_mu_);
+      s.vendor_id = identity_.vendor_id;
+      s.product_id = identity_.product_id;
+      s.serial = identity_.serial;
+    }
     s.state = static_cast<std::int8_t>(state);
     s.state_text = text;
     const double real_rate = published_rate_hz_.load();

@@ -62,6 +62,7 @@ class Daemon {
   State state_ = State::kStarting;
   std::string state_text_ = "starting";
   std::deque<std::pair<State, std::string>> state_events_;
+  DeviceIdentity identity_;  // of the device opened last (guarded by state_mu_)
   std::thread acq_thread_;
   std::thread pub_thread_;
 };

@@ -9,6 +9,9 @@ report 'r["states_seen"]' | grep -q "no NI USB-6008" || fail "disconnected text:
 # Selection by serial number (read from the device's string descriptor): the right one streams;
 # a serial that is not attached leaves the device present unused, and the status says why.
 vdaq --model 6008 --scenario normal --duration 1.5 --device-serial 01F2A3B4 -- --serial 01F2A3B4
+[ "$(report 'r["status"]["serial"]')" = 01F2A3B4 ] || fail "status serial: $(report 'r["status"]')"
+vdaq --model 6008 --scenario normal --duration 1.5 --device-serial 01F2A3B4
+[ "$(report 'r["status"]["serial"]')" = 01F2A3B4 ] || fail "status serial without --serial: $(report 'r["status"]')"
 vdaq --model 6008 --scenario normal --duration 1.5 --device-serial 01F2A3B4 --expect-no-data \
      --expect-state 2 -- --serial ABC123
 report 'r["states_seen"]' | grep -q "with serial 'ABC123' attached (1 with other serials)" ||

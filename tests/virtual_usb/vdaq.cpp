@@ -572,7 +572,8 @@ int main(int argc, char** argv) {
   const auto& s = checker.last_status;
   r["status"] = {{"messages", checker.status_msgs}, {"scans", s.scans}, {"blocks", s.blocks},
                  {"dropped_scans", s.dropped_scans}, {"usb_errors", s.usb_errors}, {"overruns", s.overruns},
-                 {"reconnects", s.reconnects}, {"last_state", s.state}, {"last_text", s.state_text}};
+                 {"reconnects", s.reconnects}, {"last_state", s.state}, {"last_text", s.state_text},
+                 {"serial", s.serial}, {"vendor_id", s.vendor_id}, {"product_id", s.product_id}};
   r["states_seen"] = checker.state_texts;
   if (is_sim && !checker.simulated) failures.push_back("sim blocks without FLAG_SIMULATED");
   if (!checker.first_error.empty()) r["first_error"] = checker.first_error;

@@ -1,0 +1,242 @@
+// MCC USB-1208LS backend over hidapi (libusb flavour, so that the same usbdevfs emulation serves
+// the tests). Protocol: protocol/mcc_usb1208ls.hpp.
+//
+// Acquisition: back-to-back AInScan bursts (protocol [8]) read as 105-byte feature reports; the
+// report's scan index must be the next expected one, a repeat means "not ready yet" (the device
+// answers a feature request with its last report, per the public driver's polling loop [7]).
+// hidapi is synchronous: the acquisition thread polls with a 1 ms pause between empty answers.
+#include <hidapi/hidapi.h>
+#include <time.h>
+
+#include <array>
+#include <chrono>
+#include <cstdio>
+#include <thread>
+#include <vector>
+
+#include "backends/backend.hpp"
+#include "core/config.hpp"
+#include "pof/raw_block_t.hpp"
+#include "protocol/mcc_usb1208ls.hpp"
+
+namespace pof::daq {
+namespace {
+
+std::int64_t now_us() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+class Usb1208lsBackend final : public Backend {
+ public:
+  explicit Usb1208lsBackend(const DaqConfig& cfg) : cfg_(cfg) {
+    for (const auto& c : cfg.channels()) ai_.push_back(static_cast<std::uint8_t>(c.ai));
+    n_ch_ = ai_.size();
+    gain_ = mcc::gain_for(cfg.terminal == ni::Terminal::kDifferential, cfg.range_v).value_or(mcc::kSe10V);
+    // The device scans the queue at the timer rate: the aggregate sample rate is rate x channels.
+    timer_ = mcc::scan_timer(cfg.scan_rate_hz * static_cast<double>(n_ch_));
+    rate_hz_ = timer_ ? timer_->actual_rate_hz / static_cast<double>(n_ch_) : cfg.scan_rate_hz;
+    if (cfg.mcc_single_reads) rate_hz_ = cfg.scan_rate_hz;  // host-paced
+    // A burst: whole reports and whole scans, ~1 s of data, within the 16-bit count.
+    const std::size_t unit = mcc::kSamplesPerScanReport * n_ch_;
+    std::size_t burst = static_cast<std::size_t>(rate_hz_ * static_cast<double>(n_ch_)) / unit * unit;
+    if (burst == 0) burst = unit;
+    while (burst > 32768) burst -= unit;
+    burst_samples_ = burst;
+    volts_.assign(mcc::kSamplesPerScanReport + n_ch_, 0.0F);
+  }
+  ~Usb1208lsBackend() override { close(); }
+
+  OpenStatus open(std::string& why) override {
+    close();
+    if (!timer_ && !cfg_.mcc_single_reads) {
+      why = "acquisition.scan_rate_hz x channels must be within 100-8191 samples/s on the USB-1208LS";
+      return OpenStatus::kFault;
+    }
+    if (hid_init() != 0) {
+      why = "hid_init failed";
+      return OpenStatus::kFault;
+    }
+    std::wstring wserial(cfg_.serial.begin(), cfg_.serial.end());
+    dev_ = hid_open(mcc::kVendorId, mcc::kProductId, cfg_.serial.empty() ? nullptr : wserial.c_str());
+    if (dev_ == nullptr) {
+      hid_device_info* list = hid_enumerate(mcc::kVendorId, mcc::kProductId);
+      const bool present = list != nullptr;
+      hid_free_enumeration(list);
+      why = present ? "MCC USB-1208LS 09db:007a present but cannot be opened (permissions? install "
+                      "deploy/udev/60-pof-daq.rules)"
+                    : "no MCC USB-1208LS 09db:007a attached";
+      return present ? OpenStatus::kFault : OpenStatus::kAbsent;
+    }
+    if (!write(mcc::ain_stop_report(), why)) return OpenStatus::kFault;
+    std::array<mcc::OutReport, 2> q{};
+    const std::size_t nq = mcc::load_queue_reports(ai_, gain_, q);
+    for (std::size_t i = 0; i < nq; ++i) {
+      if (!write(q[i], why)) return OpenStatus::kFault;
+    }
+    return OpenStatus::kOk;
+  }
+
+  StreamEnd stream(ScanSink& sink, const std::atomic<bool>& stop, std::string& why) override {
+    if (cfg_.mcc_single_reads) return stream_single(sink, stop, why);
+    bool continuous = false;
+    carry_n_ = 0;
+    while (!stop.load(std::memory_order_relaxed)) {
+      const auto count = static_cast<std::uint16_t>(burst_samples_);
+      const std::int64_t sent_us = now_us();
+      if (!write(mcc::ain_scan_report(count, *timer_, 0x1 /* single execution [6] */), why)) {
+        sink.on_usb_error();
+        return StreamEnd::kError;
+      }
+      sink.on_segment_start(sent_us, now_us(), continuous);
+      continuous = true;
+      std::uint16_t expect = 1;
+      std::size_t got = 0;
+      auto last_progress = std::chrono::steady_clock::now();
+      while (got < burst_samples_) {
+        if (stop.load(std::memory_order_relaxed)) return StreamEnd::kStopped;
+        std::array<std::uint8_t, mcc::kScanReportBytes + 1> buf{};
+        buf[0] = 0;  // report id
+        const int n = hid_get_feature_report(dev_, buf.data(), buf.size());
+        if (n < 0) {
+          sink.on_usb_error();
+          // hidapi-libusb 0.13 has no hid_error text; a failing control read means the device
+          // went away (or was reset): re-open, which tells absent from faulty.
+          why = "MCC USB-1208LS: reading a scan report failed (device removed?)";
+          return StreamEnd::kDisconnected;
+        }
+        if (static_cast<std::size_t>(n) != buf.size()) {
+          sink.on_usb_error();
+          why = "MCC USB-1208LS: short scan report (" + std::to_string(n) + " bytes)";
+          return StreamEnd::kError;
+        }
+        std::array<std::int16_t, mcc::kSamplesPerScanReport> s{};
+        const std::uint16_t idx = mcc::decode_scan_report(
+            std::span<const std::uint8_t, mcc::kScanReportBytes>(buf.data() + 1, mcc::kScanReportBytes), s);
+        if (idx != expect) {
+          if (std::chrono::steady_clock::now() - last_progress >
+              std::chrono::milliseconds(cfg_.data_timeout_ms)) {
+            sink.on_usb_error();
+            why = "MCC USB-1208LS: no new scan report within acquisition.data_timeout_ms";
+            return StreamEnd::kError;
+          }
+          std::this_thread::sleep_for(std::chrono::milliseconds(1));
+          continue;
+        }
+        if (buf[1 + 97] != 0) sink.on_usb_error();  // device error byte [7]
+        last_progress = std::chrono::steady_clock::now();
+        ++expect;
+        got += mcc::kSamplesPerScanReport;
+        deliver(sink, s, buf[1 + 97] != 0);
+      }
+    }
+    return StreamEnd::kStopped;
+  }
+
+  // Single AIn reads [3][5], one per channel per scan, paced by the host clock (absolute
+  // deadlines, so the rate does not drift). For slow rates and for checking a channel.
+  StreamEnd stream_single(ScanSink& sink, const std::atomic<bool>& stop, std::string& why) {
+    timespec t0{};
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    const std::int64_t start = now_us();
+    sink.on_segment_start(start, start, false);
+    const bool differential = cfg_.terminal == ni::Terminal::kDifferential;
+    for (std::uint64_t k = 0; !stop.load(std::memory_order_relaxed); ++k) {
+      const auto ns = static_cast<long long>(static_cast<double>(k + 1) / rate_hz_ * 1e9);
+      timespec due = t0;
+      due.tv_sec += static_cast<time_t>(ns / 1000000000LL);
+      due.tv_nsec += static_cast<long>(ns % 1000000000LL);
+      if (due.tv_nsec >= 1000000000L) {
+        due.tv_nsec -= 1000000000L;
+        ++due.tv_sec;
+      }
+      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &due, nullptr);
+      std::int32_t flags = 0;
+      for (std::size_t c = 0; c < n_ch_; ++c) {
+        if (!write(mcc::ain_report(ai_[c], gain_), why)) {
+          sink.on_usb_error();
+          return StreamEnd::kDisconnected;
+        }
+        std::array<std::uint8_t, mcc::kInReportBytes> in{};
+        const int n = hid_read_timeout(dev_, in.data(), in.size(), 1500);  // [2]
+        if (n < 2) {
+          sink.on_usb_error();
+          why = n < 0 ? "MCC USB-1208LS: reading an AIn reply failed (device removed?)"
+                      : "MCC USB-1208LS: no AIn reply within 1.5 s";
+          return n < 0 ? StreamEnd::kDisconnected : StreamEnd::kError;
+        }
+        const std::int16_t counts = differential ? mcc::decode_ain_differential(in[0], in[1])
+                                                 : mcc::decode_ain_single_ended(in[0], in[1]);
+        if (counts <= (differential ? -2048 : -1024) || counts >= (differential ? 2047 : 1023)) {
+          flags |= int32_t{pof::raw_block_t::FLAG_OVER_RANGE};
+        }
+        volts_[c] = static_cast<float>(mcc::counts_to_volts(counts, gain_));
+      }
+      sink.on_scans(volts_.data(), 1, now_us(), flags);
+    }
+    return StreamEnd::kStopped;
+  }
+
+  void close() noexcept override {
+    if (dev_ != nullptr) {
+      std::string ignored;
+      (void)write(mcc::ain_stop_report(), ignored);
+      hid_close(dev_);
+      dev_ = nullptr;
+      (void)hid_exit();
+    }
+  }
+
+  [[nodiscard]] DeviceIdentity identity() const override {
+    return {"usb1208ls", mcc::kVendorId, mcc::kProductId, cfg_.serial};
+  }
+  [[nodiscard]] double device_scan_rate_hz() const override { return rate_hz_; }
+
+ private:
+  bool write(const mcc::OutReport& r, std::string& why) {
+    if (dev_ == nullptr) return false;
+    if (hid_write(dev_, r.data(), r.size()) != static_cast<int>(r.size())) {
+      char cmd[8];
+      std::snprintf(cmd, sizeof cmd, "0x%02X", r[1]);
+      why = std::string("MCC USB-1208LS: writing command ") + cmd + " failed (device removed or not answering)";
+      return false;
+    }
+    return true;
+  }
+
+  // Splits 64 samples into whole scans, carrying a partial scan to the next report.
+  void deliver(ScanSink& sink, const std::array<std::int16_t, mcc::kSamplesPerScanReport>& s, bool error) {
+    std::size_t out = 0;
+    std::int32_t flags = error ? int32_t{pof::raw_block_t::FLAG_DEVICE_ERROR} : 0;
+    for (std::size_t i = 0; i < carry_n_; ++i) volts_[out++] = carry_[i];
+    for (auto c : s) {
+      if (c == -2048 || c == 2047) flags |= int32_t{pof::raw_block_t::FLAG_OVER_RANGE};
+      volts_[out++] = static_cast<float>(mcc::scan_counts_to_volts(c, gain_));
+    }
+    const std::size_t scans = out / n_ch_;
+    carry_n_ = out - scans * n_ch_;
+    for (std::size_t i = 0; i < carry_n_; ++i) carry_[i] = volts_[scans * n_ch_ + i];
+    sink.on_scans(volts_.data(), scans, now_us(), flags);
+  }
+
+  DaqConfig cfg_;
+  std::vector<std::uint8_t> ai_;
+  std::size_t n_ch_ = 0;
+  mcc::Gain gain_ = mcc::kSe10V;
+  std::optional<mcc::ScanTimer> timer_;
+  double rate_hz_ = 0;
+  std::size_t burst_samples_ = 0;
+  hid_device* dev_ = nullptr;
+  std::vector<float> volts_;
+  std::array<float, kMaxChannels> carry_{};
+  std::size_t carry_n_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<Backend> make_usb1208ls_backend(const DaqConfig& cfg) {
+  return std::make_unique<Usb1208lsBackend>(cfg);
+}
+
+}  // namespace pof::daq

@@ -1,0 +1,19 @@
+# A device that never answers a command, no device at all, and not the device asked for: the daemon publishes `fault`
+# (naming the command and the timeout) or `disconnected`, retries, never exits on its own, and
+# stops cleanly with exit 0 on SIGTERM.
+source "$(dirname "$0")/daq_lib.sh"
+vdaq --model 6008 --scenario silent --duration 2 --expect-no-data --expect-state 3
+report 'r["states_seen"]' | grep -q "did not answer" || fail "fault text: $(report 'r["states_seen"]')"
+vdaq --model 6008 --scenario absent --duration 1.5 --expect-no-data --expect-state 2
+report 'r["states_seen"]' | grep -q "no NI USB-6008" || fail "disconnected text: $(report 'r["states_seen"]')"
+# Selection by serial number (read from the device's string descriptor): the right one streams;
+# a serial that is not attached leaves the device present unused, and the status says why.
+vdaq --model 6008 --scenario normal --duration 1.5 --device-serial 01F2A3B4 -- --serial 01F2A3B4
+[ "$(report 'r["status"]["serial"]')" = 01F2A3B4 ] || fail "status serial: $(report 'r["status"]')"
+vdaq --model 6008 --scenario normal --duration 1.5 --device-serial 01F2A3B4
+[ "$(report 'r["status"]["serial"]')" = 01F2A3B4 ] || fail "status serial without --serial: $(report 'r["status"]')"
+vdaq --model 6008 --scenario normal --duration 1.5 --device-serial 01F2A3B4 --expect-no-data \
+     --expect-state 2 -- --serial ABC123
+report 'r["states_seen"]' | grep -q "with serial 'ABC123' attached (1 with other serials)" ||
+  fail "serial text: $(report 'r["states_seen"]')"
+echo ok

@@ -1,0 +1,161 @@
+// The daemon's pure parts: the scan clock (drift, causality), the SPSC hand-off and the
+// configuration errors (each names its key).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <thread>
+
+#include "core/config.hpp"
+#include "core/scan_clock.hpp"
+#include "core/spsc_queue.hpp"
+#include "pof/io/errors.hpp"
+
+using pof::daq::ScanClock;
+
+namespace {
+
+// A device clock `ppm` fast, scans of `rate` Hz, transfers of `per` scans, arriving after a
+// random latency >= min_lat_us. Returns the worst |t(i) - truth(i)| after `settle_s`.
+double worst_error_us(double ppm, double rate, int per, double min_lat_us, double run_s, double settle_s,
+                      std::int64_t anchor_late_us) {
+  ScanClock clock(rate);
+  const std::int64_t t0 = 1'700'000'000'000'000;
+  clock.anchor(0, t0 - 100, t0 + anchor_late_us);
+  std::mt19937 rng(42);
+  std::exponential_distribution<double> jitter(1.0 / 300.0);
+  const double period = 1e6 / (rate * (1.0 + ppm * 1e-6));
+  double worst = 0;
+  for (std::int64_t last = per - 1; static_cast<double>(last) * period < run_s * 1e6; last += per) {
+    const double truth_last = static_cast<double>(t0) + static_cast<double>(last) * period;
+    const auto arrival = static_cast<std::int64_t>(truth_last + period + min_lat_us + jitter(rng));
+    clock.observe(last, arrival);
+    if (static_cast<double>(last) * period > settle_s * 1e6) {
+      worst = std::max(worst, std::abs(static_cast<double>(clock.time_of(static_cast<double>(last))) - truth_last));
+    }
+  }
+  return worst;
+}
+
+}  // namespace
+
+TEST(ScanClock, NoDriftNoLatencyIsExact) {
+  ScanClock c(1000.0);
+  c.anchor(0, 1000, 1000);
+  EXPECT_EQ(c.time_of(0), 1000);
+  EXPECT_EQ(c.time_of(1000), 1'001'000);
+  EXPECT_EQ(c.time_of(0.5), 1500);
+}
+
+TEST(ScanClock, FollowsA300PpmFastDeviceWithinAMillisecond) {
+  // Uncorrected, 300 ppm is 3 ms after 10 s and 18 ms after 60 s.
+  const double worst = worst_error_us(300.0, 2000.0, 10, 50.0, 60.0, 10.0, 0);
+  EXPECT_LT(worst, 1000.0) << "worst " << worst << " us";
+}
+
+TEST(ScanClock, FollowsASlowDeviceToo) {
+  EXPECT_LT(worst_error_us(-200.0, 16000.0, 64, 50.0, 60.0, 10.0, 0), 1000.0);
+}
+
+TEST(ScanClock, CausalityPullsALateAnchorBackButNotBeforeTheStartCommand) {
+  // Anchored 5 ms late: the first transfers arrive "before" their scans and pull it back.
+  EXPECT_LT(worst_error_us(0.0, 2000.0, 10, 20.0, 5.0, 0.5, 5000), 400.0);
+  ScanClock c(1000.0);
+  c.anchor(0, 10'000, 20'000);
+  c.observe(0, 10'500);  // would need the anchor at 9'500: the floor (10'000) holds
+  EXPECT_EQ(c.time_of(0), 10'000);
+}
+
+TEST(SpscQueue, FullQueueRefusesInsteadOfBlocking) {
+  pof::daq::SpscQueue<int> q(2);
+  EXPECT_EQ(q.capacity(), 2U);
+  for (int v : {1, 2}) {
+    int* slot = q.producer_slot();
+    ASSERT_NE(slot, nullptr);
+    *slot = v;
+    q.commit();
+  }
+  EXPECT_EQ(q.producer_slot(), nullptr);
+  const int* f = q.front();
+  ASSERT_NE(f, nullptr);
+  EXPECT_EQ(*f, 1);
+  q.pop();
+  ASSERT_NE(q.producer_slot(), nullptr);
+  f = q.front();
+  ASSERT_NE(f, nullptr);
+  EXPECT_EQ(*f, 2);
+  q.pop();
+  EXPECT_EQ(q.front(), nullptr);
+}
+
+TEST(SpscQueue, TwoThreadsKeepOrderAndLoseNothingAccepted) {
+  pof::daq::SpscQueue<long> q(64);
+  constexpr long kN = 200000;
+  long refused = 0;
+  std::thread producer([&] {
+    for (long i = 0; i < kN; ++i) {
+      long* s = q.producer_slot();
+      while (s == nullptr) {
+        ++refused;
+        std::this_thread::yield();
+        s = q.producer_slot();
+      }
+      *s = i;
+      q.commit();
+    }
+  });
+  long expect = 0;
+  while (expect < kN) {
+    if (long* v = q.front()) {
+      ASSERT_EQ(*v, expect);
+      ++expect;
+      q.pop();
+    }
+  }
+  producer.join();
+  EXPECT_EQ(expect, kN);
+}
+
+namespace {
+std::string config_error(const std::string& toml) {
+  try {
+    (void)pof::daq::config_from_table(toml::parse(toml), "t.toml");
+  } catch (const pof::io::ConfigError& e) {
+    EXPECT_EQ(e.code(), pof::io::kExitConfig);
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST(DaqConfig, DefaultsAndOverrides) {
+  toml::table t = toml::parse("schema_version = 1\n[acquisition]\nscan_rate_hz = 1000.0\n");
+  pof::daq::apply_override(t, "acquisition.decimate=5");
+  pof::daq::apply_override(t, "device.kind=sim:synthetic");  // a bare word is a string
+  pof::daq::apply_override(t, "lcm.sensor_id=\"LEFT_KNEE\"");
+  const auto c = pof::daq::config_from_table(t, "t.toml");
+  EXPECT_DOUBLE_EQ(c.scan_rate_hz, 1000.0);
+  EXPECT_EQ(c.decimate, 5);
+  EXPECT_EQ(c.device_kind, "sim:synthetic");
+  EXPECT_EQ(c.raw_channel(), "POF_RAW_LEFT_KNEE");
+  EXPECT_EQ(c.status_channel(), "POF_DAQ_STATUS_LEFT_KNEE");
+  EXPECT_DOUBLE_EQ(c.published_rate_hz(), 200.0);
+  ASSERT_EQ(c.channels().size(), 3U);
+  EXPECT_EQ(c.channels()[1].name, "reference");
+  EXPECT_THROW(pof::daq::apply_override(t, "novalue"), pof::io::ConfigError);
+}
+
+TEST(DaqConfig, EveryErrorNamesItsKey) {
+  EXPECT_NE(config_error("").find("schema_version"), std::string::npos);
+  EXPECT_NE(config_error("schema_version = 1\n[acquisition]\nscan_rate_hz = 'fast'").find("acquisition.scan_rate_hz"), std::string::npos);
+  EXPECT_NE(config_error("schema_version = 1\n[acquisition]\nscan_rate_hz = 4000.0").find("10000 S/s aggregate"), std::string::npos);
+  EXPECT_NE(config_error("schema_version = 1\n[device]\nkind = 'usb6009'\n[acquisition]\nscan_rate_hz = 17000.0").find("acquisition.scan_rate_hz"), std::string::npos);
+  EXPECT_EQ(config_error("schema_version = 1\n[device]\nkind = 'usb6009'\n[acquisition]\nscan_rate_hz = 16000.0"), "");
+  EXPECT_NE(config_error("schema_version = 1\n[acquisition]\nterminal = 'differential'\n[channels]\nsensor = 5").find("channels.sensor"), std::string::npos);
+  EXPECT_NE(config_error("schema_version = 1\n[channels]\npot = 0").find("channels.pot"), std::string::npos);
+  EXPECT_NE(config_error("schema_version = 1\n[lcm]\nsensor_id = 'left knee'").find("lcm.sensor_id"), std::string::npos);
+  EXPECT_NE(config_error("schema_version = 1\n[lcm]\nurl = 3").find("lcm.url"), std::string::npos);
+  EXPECT_NE(config_error("schema_version = 1\n[daemon]\nretry = 3").find("daemon.retry"), std::string::npos);
+  EXPECT_NE(config_error("schema_version = 1\n[acquisition]\nsegment_scans = 1001").find("acquisition.segment_scans"), std::string::npos);
+  EXPECT_NE(config_error("schema_version = 1\ndevice = 3").find("'device'"), std::string::npos);
+}

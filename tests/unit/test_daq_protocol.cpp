@@ -1,0 +1,163 @@
+// The DAQ protocol modules against the byte sequences of the public captures
+// (daq/protocol/ni_usb600x.hpp [1]-[9], mcc_usb1208ls.hpp [1]-[7]) and their own inverses.
+#include <gtest/gtest.h>
+
+#include <vector>
+
+#include "protocol/mcc_usb1208ls.hpp"
+#include "protocol/ni_usb600x.hpp"
+
+namespace ni = pof::daq::ni;
+namespace mcc = pof::daq::mcc;
+
+namespace {
+std::vector<std::uint8_t> bytes(const ni::Frame& f) { return {f.bytes.begin(), f.bytes.begin() + static_cast<long>(f.size)}; }
+using B = std::vector<std::uint8_t>;
+}  // namespace
+
+TEST(NiUsb600x, FramesMatchTheCapturedSession) {
+  // [C] ni_usb6009.c request templates, byte for byte.
+  const auto s = ni::session_frames();
+  ASSERT_EQ(s.size(), 4U);
+  EXPECT_EQ(bytes(s[0]), (B{0, 0, 0, 0x0C, 0, 0x08, 0x01, 0x00, 0x00, 0, 0, 0}));
+  EXPECT_EQ(bytes(s[1]), (B{0, 0, 0, 0x0C, 0, 0x08, 0x01, 0x0B, 0x02, 0, 0, 0}));
+}
+
+TEST(NiUsb600x, EightChannelScanProgrammeMatchesTheCapture) {
+  ni::ScanProgram p;
+  p.channels = {0, 1, 2, 3, 4, 5, 6, 7};
+  p.clock_divisor = ni::clock_divisor(1000.0);
+  EXPECT_EQ(p.clock_divisor, 0x5DC0U);  // [7]
+  const auto f = ni::configure_frames(p);
+  ASSERT_EQ(f.size(), 1U + 2U + 16U + 4U);
+  EXPECT_EQ(bytes(f[0]), (B{0, 0, 0, 0x0C, 0, 0x08, 0x01, 0x0C, 0x02, 0x03, 0, 0}));
+  EXPECT_EQ(bytes(f[1]), (B{0, 0, 0, 0x20, 0, 0x1C, 0x01, 0x0F, 0x02, 0x02, 0, 0, 0, 0x12, 0, 0, 0, 1, 0, 2,
+                            0, 3, 0, 4, 0, 5, 0, 6, 0, 7, 0, 0}));
+  EXPECT_EQ(bytes(f[2]), (B{0, 0, 0, 0x18, 0, 0x14, 0x01, 0x0E, 0x02, 0x02, 0, 0, 0, 0x0A, 0, 0, 0, 0, 2, 2,
+                            2, 2, 0, 0}));
+  EXPECT_EQ(bytes(f[3]), (B{0, 0, 0, 0x14, 0, 0x10, 0x01, 0x14, 0x02, 0x04, 0, 0, 0, 0, 0, 0x30, 0, 0x08, 0, 0}));
+  EXPECT_EQ(bytes(f[4]), (B{0, 0, 0, 0x1C, 0, 0x18, 0x01, 0x10, 0x02, 0x02, 0, 0, 0, 0, 0x27, 0x10, 0xFF, 0xFF,
+                            0xD8, 0xF0, 0xFD, 0xFD, 0, 0x04, 0, 0, 0, 0}));
+  // ai4: bank 2 setup code 0x118 [6]; range frame carries the list position.
+  EXPECT_EQ(f[3 + 8].bytes[14], 0x01);
+  EXPECT_EQ(f[3 + 8].bytes[15], 0x18);
+  EXPECT_EQ(f[4 + 8].bytes[26], 4);
+  EXPECT_EQ(bytes(f[19]), (B{0, 0, 0, 0x10, 0, 0x0C, 0x01, 0x0E, 0x02, 0x00, 0, 0, 0x01, 0, 0, 0}));
+  EXPECT_EQ(bytes(f[20]), (B{0, 0, 0, 0x10, 0, 0x0C, 0x01, 0x16, 0x02, 0x00, 0, 0, 0, 0, 0x5D, 0xC0}));
+}
+
+TEST(NiUsb600x, StartFramesCarryCountAndBytes) {
+  const auto f = ni::start_frames(1000, 8);
+  ASSERT_EQ(f.size(), 7U);
+  EXPECT_EQ(bytes(f[0]), (B{0, 0, 0, 0x10, 0, 0x0C, 0x01, 0x0F, 0x02, 0x00, 0, 0, 0, 0, 0x03, 0xE8}));
+  EXPECT_EQ(bytes(f[1]), (B{0, 0, 0, 0x10, 0, 0x0C, 0x01, 0x12, 0x02, 0x03, 0, 0, 0, 0, 0x3E, 0x80}));
+  EXPECT_EQ(f[6].bytes[7], 0x10);
+  EXPECT_EQ(f[6].bytes[9], 0x03);
+  EXPECT_GE(ni::max_segment_scans(3) * 3ULL * 2ULL, 4294967290ULL);  // [10] uses the whole BE32
+}
+
+TEST(NiUsb600x, RepliesAndParsing) {
+  const B ack{0, 0, 0, 0x0C, 0, 0x08, 0x01, 0, 0, 0, 0, 0x02};  // [4]
+  EXPECT_TRUE(ni::reply_ok(ni::Cmd::kArm, ack));
+  EXPECT_FALSE(ni::reply_ok(ni::Cmd::kHello, ack));  // hello answers 0x1C bytes
+  EXPECT_EQ(bytes(ni::make_reply(ni::Cmd::kArm)), ack);
+  EXPECT_EQ(ni::make_reply(ni::Cmd::kHello).size, 0x1CU);
+  EXPECT_EQ(ni::make_reply(ni::Cmd::kChannelSetup).size, 0x18U);
+  B garbage = ack;
+  garbage[11] = 0x03;
+  EXPECT_FALSE(ni::reply_ok(ni::Cmd::kArm, garbage));
+  const ni::Frame f = ni::make_frame(ni::Cmd::kClock, B{0, 0, 0x5D, 0xC0});
+  const auto p = ni::parse_frame(f.view());
+  ASSERT_TRUE(p);
+  EXPECT_EQ(p->op, 0x16);
+  EXPECT_EQ(ni::find_opcode(p->op, p->group)->cmd, ni::Cmd::kClock);
+  B bad = bytes(f);
+  bad[3] = 0x11;  // length field disagrees
+  EXPECT_FALSE(ni::parse_frame(bad));
+  EXPECT_FALSE(ni::parse_frame(B{0, 0, 0}));
+  // Every opcode/group pair is in the table once.
+  for (const auto& a : ni::kOpcodes) {
+    EXPECT_EQ(ni::find_opcode(a.op, a.group), &a) << a.name;
+  }
+}
+
+TEST(NiUsb600x, Usb6009SampleIsBigEndian14BitLeftJustified) {
+  const std::uint8_t w[2] = {0x80, 0x00};  // mid-scale
+  EXPECT_EQ(*ni::decode_usb6009_sample(w), 0x2000);
+  const std::uint8_t top[2] = {0xFF, 0xFC};
+  EXPECT_EQ(*ni::decode_usb6009_sample(top), 0x3FFF);
+  const std::uint8_t pad[2] = {0x80, 0x01};  // a padding bit set: protocol error
+  EXPECT_FALSE(ni::decode_usb6009_sample(pad));
+  EXPECT_DOUBLE_EQ(ni::code_to_volts(0x2000, 14, 10.0), 0.0);
+  EXPECT_DOUBLE_EQ(ni::code_to_volts(0, 14, 10.0), -10.0);
+}
+
+TEST(NiUsb600x, Usb6008SampleByteOrderIsOneSwitch) {
+  const std::uint8_t be[2] = {0x81, 0x10};  // 0x811 << 4
+  EXPECT_EQ(*ni::decode_usb6008_sample(be, ni::ByteOrder::kBig), 0x811);
+  const std::uint8_t le[2] = {0x10, 0x80};
+  EXPECT_EQ(*ni::decode_usb6008_sample(le, ni::ByteOrder::kLittle), 0x801);
+  EXPECT_FALSE(ni::decode_usb6008_sample(be, ni::ByteOrder::kLittle));  // 0x1081: padding set
+  EXPECT_NEAR(ni::code_to_volts(2048, 12, 10.0), 0.0, 1e-12);
+  EXPECT_NEAR(ni::lsb_volts(12, 10.0), 20.0 / 4096, 1e-15);
+}
+
+TEST(NiUsb600x, EncodeDecodeRoundTripWithinHalfAnLsb) {
+  for (const auto coding : {ni::usb6008_coding(ni::ByteOrder::kBig), ni::usb6008_coding(ni::ByteOrder::kLittle),
+                            ni::usb6009_coding()}) {
+    for (double v = -10.0; v <= 9.99; v += 0.0137) {
+      std::uint8_t w[2];
+      ni::encode_sample(ni::volts_to_code(v, coding.bits, 10.0), coding, w);
+      const auto c = ni::decode_sample(w, coding);
+      ASSERT_TRUE(c);
+      EXPECT_LE(std::abs(ni::code_to_volts(*c, coding.bits, 10.0) - v), ni::lsb_volts(coding.bits, 10.0) / 2 + 1e-12);
+    }
+  }
+  EXPECT_EQ(ni::volts_to_code(50.0, 12, 10.0), 4095);  // clamped
+  EXPECT_EQ(ni::volts_to_code(-50.0, 12, 10.0), 0);
+}
+
+TEST(MccUsb1208ls, AInDecodersMatchThePublicDriver) {
+  // [5]: differential 12-bit two's complement, SE 11-bit offset by 0x400.
+  EXPECT_EQ(mcc::decode_ain_differential(0x0F, 0x7F), 0x7FF);
+  EXPECT_EQ(mcc::decode_ain_differential(0x00, 0x80), -2048);
+  EXPECT_EQ(mcc::decode_ain_single_ended(0x0F, 0x7F), 0x7FF - 0x400);
+  EXPECT_EQ(mcc::decode_ain_single_ended(0x00, 0x40), 0);
+  EXPECT_NEAR(mcc::counts_to_volts(0x3FF, mcc::kSe10V), 10.0, 1e-12);
+  EXPECT_NEAR(mcc::counts_to_volts(0x7FF, mcc::kBp5V), 5.0, 1e-12);
+}
+
+TEST(MccUsb1208ls, ScanReportRoundTripAndPacking) {
+  std::array<std::int16_t, 64> s{};
+  for (std::size_t i = 0; i < s.size(); ++i) s[i] = static_cast<std::int16_t>(static_cast<int>(i) * 61 - 2048);
+  std::array<std::uint8_t, 105> r{};
+  mcc::encode_scan_report(s, 0x1234, 7, r);
+  EXPECT_EQ(r[102], 0x34);
+  EXPECT_EQ(r[103], 0x12);
+  // [7]: s0 = b0 | (b1 & 0xF0) << 4, s1 = b2 | (b1 & 0x0F) << 8
+  EXPECT_EQ(static_cast<int>(r[1] | ((r[2] & 0xF0) << 4)), static_cast<int>(static_cast<unsigned>(s[0]) & 0xFFF));
+  std::array<std::int16_t, 64> back{};
+  EXPECT_EQ(mcc::decode_scan_report(r, back), 0x1234);
+  EXPECT_EQ(back, s);
+}
+
+TEST(MccUsb1208ls, ScanTimerBandsAndQueue) {
+  const auto t = mcc::scan_timer(1000);  // 800-1500 Hz: prescale 4, setup 1 [6]
+  ASSERT_TRUE(t);
+  EXPECT_EQ(t->prescale, 4);
+  // 6e6 / (1000 * 32) = 187.5 counts: timer = 256 - 187.5 rounded up = 69, preload = 69 + 1.
+  EXPECT_EQ(t->preload, 70);
+  EXPECT_NEAR(t->actual_rate_hz, 6e6 / (32.0 * 187), 1e-9);
+  EXPECT_FALSE(mcc::scan_timer(50));
+  EXPECT_FALSE(mcc::scan_timer(9000));
+  std::array<mcc::OutReport, 2> q{};
+  const std::uint8_t ch8[8] = {0, 1, 2, 3, 4, 5, 6, 7};
+  EXPECT_EQ(mcc::load_queue_reports(ch8, mcc::kSe10V, q), 2U);
+  EXPECT_EQ(q[0][1], mcc::kALoadQueue);
+  EXPECT_EQ(q[0][2], 8);
+  EXPECT_EQ(q[0][3], 0x88);
+  EXPECT_EQ(q[1][2], 2);
+  EXPECT_EQ(q[1][4], 0x8F);
+  EXPECT_EQ(mcc::gain_for(true, 2.5), mcc::kBp2_5V);
+  EXPECT_FALSE(mcc::gain_for(false, 5.0));
+}

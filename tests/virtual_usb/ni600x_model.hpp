@@ -1,0 +1,81 @@
+#pragma once
+// A virtual NI USB-6008/6009 speaking daq/protocol/ni_usb600x.hpp: it acknowledges commands on
+// 0x81, runs a scan clock from the start command (10/03) and serves samples on 0x82 no earlier
+// than its clock says they exist. The samples are a deterministic function of the scan index, so
+// a checker can recompute exactly what the device sent. It records every segment (start time,
+// first index, rate) so that timestamps and the seam between segments can be measured.
+#include <cstdint>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "protocol/ni_usb600x.hpp"
+#include "usbdevfs_device.hpp"
+
+namespace pof::vusb {
+
+struct NiOptions {
+  bool usb6009 = false;
+  pof::daq::ni::ByteOrder order = pof::daq::ni::ByteOrder::kBig;
+  double range_v = 10.0;
+  double clock_ppm = 0.0;  // device crystal error: positive = fast
+  bool silent = false;     // never answers a command ("a device that never answers")
+  int short_every = 0;     // every Nth data URB is answered 2 bytes short (a valid short packet)
+  std::string serial;      // iSerialNumber string (descriptor index 3); empty = none
+};
+
+struct Segment {
+  int session = 0;                // 1, 2, ... (a new one per start after a hello)
+  std::int64_t first_index = 0;   // device scan index within the session
+  std::uint32_t count = 0;
+  std::int64_t start_us = 0;      // host time of scan first_index
+  double rate_hz = 0;             // the device's real rate (with clock_ppm)
+};
+
+class Ni600xModel final : public DeviceModel {
+ public:
+  explicit Ni600xModel(const NiOptions& o);
+
+  void on_out(std::uint8_t ep, std::span<const std::uint8_t> data, std::int64_t now_us) override;
+  InResult on_in(std::uint8_t ep, std::span<std::uint8_t> buf, std::int64_t now_us) override;
+  void on_clear_halt(std::uint8_t ep) override;
+  /// GET_DESCRIPTOR(string): language ids and the serial number.
+  int on_control(const std::uint8_t* setup, std::span<std::uint8_t> data, std::int64_t now_us) override;
+
+  /// The code the device sends for scan `index` of a session, channel `ch` of the scan list.
+  [[nodiscard]] std::uint16_t code(std::int64_t index, std::size_t ch) const;
+  [[nodiscard]] double volts(std::int64_t index, std::size_t ch) const;
+  [[nodiscard]] unsigned bits() const { return coding_.bits; }
+
+  // Scenario hooks (call with the device mutex held).
+  void stop_scanning() { running_ = false; }   // stall/unplug: the scan stops
+  void send_garbage(bool odd) { garbage_ = odd ? 1 : 2; }
+  void power_cycle();
+
+  // Results (device mutex held).
+  std::vector<Segment> segments;
+  std::vector<std::int64_t> seams_us;  // idle time between back-to-back segments
+  int protocol_errors = 0;
+  int hellos = 0;
+  std::string last_command;  // name of the last command received (the stop sequence ends in 0D/00)
+  std::size_t n_channels() const { return n_ch_; }
+
+ private:
+  NiOptions o_;
+  pof::daq::ni::SampleCoding coding_;
+  std::vector<std::vector<std::uint8_t>> replies_;
+  std::size_t n_ch_ = 0;
+  double rate_hz_ = 1000;  // nominal, from the clock divisor
+  std::uint32_t count_ = 0;
+  bool session_pending_ = false;
+  int session_ = 0;
+  std::int64_t index_ = 0;  // next device scan index in the session
+  bool running_ = false;
+  std::int64_t seg_start_us_ = 0;
+  std::uint64_t sent_ = 0;
+  std::int64_t prev_end_us_ = -1;
+  long data_urbs_ = 0;
+  int garbage_ = 0;
+};
+
+}  // namespace pof::vusb

@@ -1,0 +1,145 @@
+// Virtual MCC USB-1208LS: see usb1208ls_model.hpp.
+#include "usb1208ls_model.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace pof::vusb {
+
+namespace mcc = pof::daq::mcc;
+
+void Usb1208lsModel::power_cycle() {
+  std::fill(last_report_.begin(), last_report_.end(), 0);  // RAM does not survive power loss
+  running_ = false;
+  queue_loaded_ = false;
+  replies_.clear();
+}
+
+std::int16_t Usb1208lsModel::counts(std::int64_t sample) const {
+  const std::size_t n = std::max<std::size_t>(1, channels_.size());
+  const auto scan = sample / static_cast<std::int64_t>(n);
+  const auto ch = static_cast<std::size_t>(sample % static_cast<std::int64_t>(n));
+  const double t = static_cast<double>(scan) / 500.0;
+  const double v = ch == 0 ? 3.3 + 1.0 * std::sin(2 * std::numbers::pi * 0.5 * t)
+                 : ch == 1 ? 5.0 - 0.01 * static_cast<double>(scan % 7)
+                           : 2.5 + 2.0 * std::cos(2 * std::numbers::pi * 0.5 * t);
+  const double c = std::round(v / mcc::gain_range_v(gain_) * 2047.0);
+  return static_cast<std::int16_t>(std::clamp(c, -2048.0, 2047.0));
+}
+
+double Usb1208lsModel::volts_sent(std::int64_t idx, std::size_t ch) const {
+  const auto n = static_cast<std::int64_t>(std::max<std::size_t>(1, channels_.size()));
+  return mcc::scan_counts_to_volts(counts(idx * n + static_cast<std::int64_t>(ch)), gain_);
+}
+
+std::int16_t Usb1208lsModel::se_counts(std::int64_t idx, std::size_t ch) const {
+  const double t = static_cast<double>(idx) / 50.0;
+  const double v = ch == 0 ? 3.3 + 1.0 * std::sin(2 * std::numbers::pi * 0.5 * t)
+                 : ch == 1 ? 5.0 - 0.01 * static_cast<double>(idx % 7)
+                           : 2.5 + 2.0 * std::cos(2 * std::numbers::pi * 0.5 * t);
+  return static_cast<std::int16_t>(std::clamp(std::round(v / 10.0 * 0x3FF), -1024.0, 1023.0));
+}
+
+double Usb1208lsModel::volts_single(std::int64_t idx, std::size_t ch) const {
+  return mcc::counts_to_volts(se_counts(idx, ch), mcc::kSe10V);
+}
+
+void Usb1208lsModel::command(std::span<const std::uint8_t> r, std::int64_t now_us) {
+  if (r.empty()) return;
+  switch (r[0]) {
+    case mcc::kAInStop:
+      running_ = false;
+      break;
+    case mcc::kALoadQueue: {
+      const std::size_t n = r.size() > 1 ? r[1] : 0;
+      if (n != 2) channels_.clear();  // the second report of an 8-channel queue carries 2 more
+      for (std::size_t i = 0; i < std::min<std::size_t>(n, 6) && 2 + i < r.size(); ++i) {
+        channels_.push_back(r[2 + i] & 0x7U);
+        gain_ = static_cast<mcc::Gain>(r[2 + i] & 0x78U);
+      }
+      queue_loaded_ = true;
+      break;
+    }
+    case mcc::kAInScan: {
+      if (r.size() < 5) break;
+      count_ = static_cast<std::uint16_t>(r[1] | (r[2] << 8));
+      const unsigned prescale = r[4];
+      static constexpr std::uint8_t kSetup[8] = {0, 10, 6, 3, 1, 0, 0, 0};
+      const double timer = static_cast<double>(r[3] - kSetup[prescale & 7U]);
+      rate_hz = mcc::kClockHz / (static_cast<double>(1U << (prescale + 1U)) * (256.0 - timer)) * (1.0 + ppm_ * 1e-6);
+      if (queue_loaded_) {  // first burst after a (re)configuration: a new session
+        ++sessions;
+        session_sample_ = 0;
+        queue_loaded_ = false;
+      }
+      ++bursts;
+      std::fill(last_report_.begin(), last_report_.end(), 0);  // a new scan starts from index 0
+      start_us_ = now_us;
+      last_index_ = 0;
+      running_ = true;
+      break;
+    }
+    case mcc::kAIn: {  // single read: 11-bit single-ended reply {lo, hi} [5]
+      if (queue_loaded_) {  // first read after a (re)configuration: a new session
+        ++sessions;
+        std::fill(reads_.begin(), reads_.end(), 0);
+        queue_loaded_ = false;
+      }
+      single_reads_seen = true;
+      const std::size_t ch = r.size() > 1 ? (r[1] & 7U) : 0;
+      const auto raw = static_cast<unsigned>(se_counts(reads_[ch]++, ch) + 0x400);
+      std::vector<std::uint8_t> reply(8, 0);
+      reply[0] = static_cast<std::uint8_t>(raw & 0x0F);
+      reply[1] = static_cast<std::uint8_t>(raw >> 4);
+      replies_.push_back(reply);
+      break;
+    }
+    default:
+      break;
+  }
+}
+
+int Usb1208lsModel::on_control(const std::uint8_t* setup, std::span<std::uint8_t> data, std::int64_t now_us) {
+  const std::uint8_t type = setup[0];
+  const std::uint8_t req = setup[1];
+  const unsigned value = static_cast<unsigned>(setup[2] | (setup[3] << 8));
+  if (type == 0x21 && req == 0x09) {  // SET_REPORT: an output report (hidapi strips id 0)
+    command(data, now_us);
+    return static_cast<int>(data.size());
+  }
+  if (type == 0xA1 && req == 0x01 && (value >> 8) == 3) {  // GET_REPORT feature: scan data
+    if (running_) {
+      const double elapsed = static_cast<double>(now_us - start_us_) / 1e6;
+      const auto done = static_cast<long>(std::min<double>(count_, std::floor(elapsed * rate_hz)));
+      const long ready_reports = done / static_cast<long>(mcc::kSamplesPerScanReport);
+      if (last_index_ < ready_reports) {
+        std::array<std::int16_t, mcc::kSamplesPerScanReport> s{};
+        const std::int64_t base = session_sample_ + std::int64_t{last_index_} * 64;
+        for (std::size_t i = 0; i < s.size(); ++i) s[i] = counts(base + static_cast<std::int64_t>(i));
+        ++last_index_;
+        mcc::encode_scan_report(s, last_index_, static_cast<std::uint8_t>(last_index_),
+                                std::span<std::uint8_t, mcc::kScanReportBytes>(last_report_.data(), mcc::kScanReportBytes));
+        if (std::int64_t{last_index_} * 64 >= count_) {
+          running_ = false;
+          session_sample_ += count_;
+        }
+      }
+    }
+    const std::size_t n = std::min(data.size(), last_report_.size());
+    std::copy_n(last_report_.begin(), n, data.begin());
+    return static_cast<int>(n);
+  }
+  return -32;  // EPIPE: a stalled control request, as a real device answers unknown requests
+}
+
+InResult Usb1208lsModel::on_in(std::uint8_t ep, std::span<std::uint8_t> buf, std::int64_t) {
+  if (ep != 0x81 || replies_.empty()) return {};
+  const auto r = replies_.front();
+  replies_.pop_front();
+  const std::size_t n = std::min(r.size(), buf.size());
+  std::copy_n(r.begin(), n, buf.begin());
+  return {InResult::kData, static_cast<int>(n), 0};
+}
+
+}  // namespace pof::vusb

@@ -1,0 +1,59 @@
+#pragma once
+// A virtual MCC USB-1208LS as hidapi's libusb flavour sees it (usbdevfs, through the same
+// UsbdevfsDevice): HID interface, interrupt-IN 0x81 for 8-byte replies, commands as control
+// SET_REPORT (no interrupt-OUT endpoint: hidapi then writes output reports by control transfer),
+// scan data as 105-byte feature reports (GET_REPORT) paced by the device's scan timer.
+// Protocol: daq/protocol/mcc_usb1208ls.hpp.
+#include <cstdint>
+#include <deque>
+#include <string>
+#include <vector>
+
+#include "protocol/mcc_usb1208ls.hpp"
+#include "usbdevfs_device.hpp"
+
+namespace pof::vusb {
+
+class Usb1208lsModel final : public DeviceModel {
+ public:
+  // Interface 0 (HID), HID class descriptor, interrupt-IN 0x81 of 8 bytes.
+  static constexpr const char* kInterfaceHex = "090400000103000000" "092110010001221c00" "07058103080001";
+  static constexpr int kInterfaceLen = 25;
+
+  explicit Usb1208lsModel(double clock_ppm) : ppm_(clock_ppm) {}
+
+  void on_out(std::uint8_t, std::span<const std::uint8_t>, std::int64_t) override {}
+  InResult on_in(std::uint8_t ep, std::span<std::uint8_t> buf, std::int64_t now_us) override;
+  int on_control(const std::uint8_t* setup, std::span<std::uint8_t> data, std::int64_t now_us) override;
+
+  /// The volts of scan `idx`, channel `ch` of a session as the device digitised them.
+  [[nodiscard]] double volts_sent(std::int64_t idx, std::size_t ch) const;
+  /// Single AIn reads: the volts of read `idx` of channel `ch` (11-bit single-ended coding).
+  [[nodiscard]] double volts_single(std::int64_t idx, std::size_t ch) const;
+  bool single_reads_seen = false;
+  void power_cycle();
+
+  int sessions = 0;
+  int bursts = 0;
+  double rate_hz = 0;  // aggregate sample rate of the last AInScan
+
+ private:
+  [[nodiscard]] std::int16_t counts(std::int64_t sample) const;
+  void command(std::span<const std::uint8_t> r, std::int64_t now_us);
+
+  double ppm_;
+  std::vector<std::uint8_t> channels_;
+  pof::daq::mcc::Gain gain_ = pof::daq::mcc::kSe10V;
+  bool queue_loaded_ = false;
+  bool running_ = false;
+  std::int64_t start_us_ = 0;
+  std::uint16_t count_ = 0;
+  std::uint16_t last_index_ = 0;   // scan index of the last report handed out
+  std::int64_t session_sample_ = 0;  // first sample of the current burst within the session
+  std::vector<std::uint8_t> last_report_ = std::vector<std::uint8_t>(pof::daq::mcc::kScanReportBytes, 0);
+  std::deque<std::vector<std::uint8_t>> replies_;
+  std::vector<std::int64_t> reads_ = std::vector<std::int64_t>(8, 0);  // AIn reads per channel
+  [[nodiscard]] std::int16_t se_counts(std::int64_t idx, std::size_t ch) const;
+};
+
+}  // namespace pof::vusb

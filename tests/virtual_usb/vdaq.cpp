@@ -1,0 +1,617 @@
+// pof-vdaq: runs the real pof-daqd against a virtual USB DAQ and checks what it publishes.
+//
+//   umockdev-wrapper pof-vdaq --model 6008 --scenario normal --duration 10 --daemon build/bin/pof-daqd
+//
+// The program must run under umockdev-wrapper (LD_PRELOAD of libumockdev-preload): it creates the
+// testbed and the virtual device, fork/execs pof-daqd (which inherits the preload and the
+// testbed), serves it from the testbed thread, listens to POF_RAW/POF_DAQ_STATUS on LCM, runs the
+// scenario (unplug, stall, garbage, ...), stops the daemon with SIGTERM and checks:
+//   - every published volt equals what the device sent, within 1 LSB (decimation-aware);
+//   - first_scan continuous across blocks unless FLAG_GAP; dropped scans counted;
+//   - published rate and measured scan rate; timestamps against the device's own clock;
+//   - scan-to-publish latency, the seam between finite segments, daemon CPU use;
+//   - states seen, counters, clean exit 0 on SIGTERM.
+// Prints a JSON report (and writes it to --report); exit 0 when every requested check passes,
+// 1 otherwise, 2 on usage errors.
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <set>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wnull-dereference"
+#include <CLI/CLI.hpp>
+#pragma GCC diagnostic pop
+#include <lcm/lcm-cpp.hpp>
+#include <nlohmann/json.hpp>
+
+#include "ni600x_model.hpp"
+#include "pof/daq_status_t.hpp"
+#include "pof/raw_block_t.hpp"
+#include "usb1208ls_model.hpp"
+#include "usbdevfs_device.hpp"
+
+namespace {
+
+using pof::vusb::Ni600xModel;
+using pof::vusb::NiOptions;
+
+std::int64_t now_us() { return g_get_real_time(); }
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return kNaN;
+  std::sort(v.begin(), v.end());
+  const auto i = static_cast<std::size_t>(std::clamp(p / 100.0 * static_cast<double>(v.size() - 1), 0.0,
+                                                     static_cast<double>(v.size() - 1)));
+  return v[i];
+}
+
+long cpu_ticks(pid_t pid) {
+  const std::string path = "/proc/" + std::to_string(pid) + "/stat";
+  FILE* f = std::fopen(path.c_str(), "r");
+  if (f == nullptr) return -1;
+  char line[1024] = {};
+  const bool ok = std::fgets(line, sizeof line, f) != nullptr;
+  std::fclose(f);
+  if (!ok) return -1;
+  const std::string s(line);
+  const auto rp = s.rfind(')');
+  if (rp == std::string::npos) return -1;
+  std::istringstream is(s.substr(rp + 2));
+  std::string tok;
+  long ut = 0;
+  long st = 0;
+  for (int field = 3; is >> tok; ++field) {
+    if (field == 14) ut = std::stol(tok);
+    if (field == 15) {
+      st = std::stol(tok);
+      break;
+    }
+  }
+  return ut + st;
+}
+
+// Descriptors: device (18 bytes) + configuration, one interface, endpoints as listed.
+std::string descriptors(std::uint16_t vid, std::uint16_t pid, const std::string& iface_and_eps_hex,
+                        int iface_len, bool has_serial = false) {
+  char dev[64];
+  std::snprintf(dev, sizeof dev, "1201100200000040%02x%02x%02x%02x00010000%02x01", vid & 0xFF, vid >> 8,
+                pid & 0xFF, pid >> 8, has_serial ? 3 : 0);
+  char cfg[32];
+  const int total = 9 + iface_len;
+  std::snprintf(cfg, sizeof cfg, "0902%02x%02x0101008032", total & 0xFF, total >> 8);
+  return std::string(dev) + cfg + iface_and_eps_hex;
+}
+
+struct Checker {
+  // Set before the daemon starts.
+  Ni600xModel* ni = nullptr;
+  pof::vusb::Usb1208lsModel* mcc = nullptr;
+  std::mutex* dev_mu = nullptr;
+  int decimate = 1;
+  double range_v = 10;
+  std::int64_t warmup_end_us = 0;
+
+  std::mutex mu;
+  // Results.
+  long blocks = 0;
+  long scans = 0;
+  long value_errors = 0;
+  double max_value_error_lsb = 0;
+  long index_jumps = 0;      // discontinuities without FLAG_GAP
+  long gaps = 0;             // blocks with FLAG_GAP
+  long seq_gaps = 0;
+  long gap_scans = 0;        // index advance across FLAG_GAP blocks
+  std::int64_t next_first = -1;
+  std::int64_t prev_seq = -1;
+  int session = 1;
+  std::int64_t local = 0;    // session-local published scan index expected next
+  double published_rate = 0;
+  std::vector<double> age_publish_us;   // publish_utime - true time of the newest scan
+  std::vector<double> age_receive_us;   // receive time - true time of the newest scan
+  std::vector<double> ts_error_us;      // utime - true time of the first scan
+  std::int64_t first_recv_us = -1, last_recv_us = -1;
+  long scans_after_warmup = 0;
+  std::int32_t flags_or = 0;
+  bool simulated = false;
+  std::string first_error;
+  // Status.
+  std::set<int> states;
+  std::vector<std::string> state_texts;
+  pof::daq_status_t last_status;
+  long status_msgs = 0;
+
+  // Truth time of device scan `idx` of `session` (device mutex held).
+  double truth_us(int sess, double idx) const {
+    const auto& segs = ni->segments;
+    for (auto it = segs.rbegin(); it != segs.rend(); ++it) {
+      if (it->session == sess && idx >= static_cast<double>(it->first_index)) {
+        return static_cast<double>(it->start_us) + (idx - static_cast<double>(it->first_index)) / it->rate_hz * 1e6;
+      }
+    }
+    return kNaN;
+  }
+
+  void on_raw(const pof::raw_block_t& b) {
+    const std::int64_t recv = now_us();
+    std::lock_guard lock(mu);
+    ++blocks;
+    flags_or |= b.flags;
+    published_rate = b.scan_rate_hz;
+    if (prev_seq >= 0 && b.seq != prev_seq + 1) ++seq_gaps;
+    prev_seq = b.seq;
+    const bool gap = (b.flags & int32_t{pof::raw_block_t::FLAG_GAP}) != 0;
+    if (gap) {
+      ++gaps;
+      ++session;
+      local = 0;
+      if (next_first >= 0) gap_scans += b.first_scan - next_first;
+    } else if (next_first >= 0 && b.first_scan != next_first) {
+      ++index_jumps;
+      if (first_error.empty()) {
+        first_error = "first_scan " + std::to_string(b.first_scan) + " expected " + std::to_string(next_first);
+      }
+      local += b.first_scan - next_first;
+    }
+    next_first = b.first_scan + b.n_scans;
+    scans += b.n_scans;
+    if (ni == nullptr && mcc == nullptr) {  // sim backend: no device truth, use its own times
+      if (recv >= warmup_end_us) {
+        const double period = 1e6 / b.scan_rate_hz;
+        const double t_last = static_cast<double>(b.utime) + (b.n_scans - 1) * period;
+        age_publish_us.push_back(static_cast<double>(b.publish_utime) - (t_last + period));
+        age_receive_us.push_back(static_cast<double>(recv) - (t_last + period));
+        if (first_recv_us < 0) {
+          first_recv_us = recv;  // the span starts here: this block's scans are before it
+        } else {
+          scans_after_warmup += b.n_scans;
+        }
+        last_recv_us = recv;
+      }
+      simulated = (b.flags & int32_t{pof::raw_block_t::FLAG_SIMULATED}) != 0;
+      local += b.n_scans;
+      return;
+    }
+    std::lock_guard dlock(*dev_mu);
+    const double lsb = 2.0 * range_v / static_cast<double>(1U << (ni ? ni->bits() : 12U));
+    for (std::int32_t k = 0; k < b.n_scans; ++k) {
+      const std::int64_t j = local + k;
+      for (int c = 0; c < b.n_channels; ++c) {
+        double want = 0;
+        for (int d = 0; d < decimate; ++d) {
+          const std::int64_t idx = j * decimate + d;
+          want += ni ? pof::daq::ni::code_to_volts(ni->code(idx, static_cast<std::size_t>(c)), ni->bits(), range_v)
+                     : mcc->single_reads_seen ? mcc->volts_single(idx, static_cast<std::size_t>(c))
+                                              : mcc->volts_sent(idx, static_cast<std::size_t>(c));
+        }
+        want /= decimate;
+        const double err = std::abs(static_cast<double>(b.volts[static_cast<std::size_t>(k)][static_cast<std::size_t>(c)]) - want);
+        max_value_error_lsb = std::max(max_value_error_lsb, err / lsb);
+        if (err > lsb + 1e-6) {
+          ++value_errors;
+          if (first_error.empty()) {
+            first_error = "block seq " + std::to_string(b.seq) + " scan " + std::to_string(k) + " channel " +
+                          std::to_string(c) + ": " + std::to_string(b.volts[static_cast<std::size_t>(k)][static_cast<std::size_t>(c)]) +
+                          " V, device sent " + std::to_string(want) + " V";
+          }
+        }
+      }
+    }
+    if (ni != nullptr) {
+      const double half = (decimate - 1) / 2.0;
+      const double t_first = truth_us(session, static_cast<double>(local * decimate) + half);
+      const double t_last = truth_us(session, static_cast<double>((local + b.n_scans - 1) * decimate) + (decimate - 1));
+      if (recv >= warmup_end_us && std::isfinite(t_first) && std::isfinite(t_last)) {
+        ts_error_us.push_back(static_cast<double>(b.utime) - t_first);
+        // The newest scan exists once its conversion ends, one device period after its start.
+        const double period = 1e6 / ni->segments.back().rate_hz;
+        age_publish_us.push_back(static_cast<double>(b.publish_utime) - (t_last + period));
+        age_receive_us.push_back(static_cast<double>(recv) - (t_last + period));
+      }
+    }
+    if (recv >= warmup_end_us) {
+      if (first_recv_us < 0) {
+        first_recv_us = recv;  // the span starts here: this block's scans are before it
+      } else {
+        scans_after_warmup += b.n_scans;
+      }
+      last_recv_us = recv;
+    }
+    local += b.n_scans;
+  }
+
+  void on_status(const pof::daq_status_t& s) {
+    std::lock_guard lock(mu);
+    ++status_msgs;
+    states.insert(s.state);
+    const std::string t = std::to_string(s.state) + ": " + s.state_text;
+    if (state_texts.empty() || state_texts.back() != t) state_texts.push_back(t);
+    last_status = s;
+  }
+};
+
+// Plain-function handlers (subscribeFunction): lcm's pointer-to-member path trips a GCC 12 UBSan
+// false positive (see tests/functional/test_lcmtypes_roundtrip.cpp on main).
+void on_raw(const lcm::ReceiveBuffer*, const std::string&, const pof::raw_block_t* m, Checker* c) {
+  c->on_raw(*m);
+}
+void on_status(const lcm::ReceiveBuffer*, const std::string&, const pof::daq_status_t* m, Checker* c) {
+  c->on_status(*m);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"pof-vdaq: pof-daqd against a virtual USB DAQ (run under umockdev-wrapper)", "pof-vdaq"};
+  std::string model = "6008";
+  std::string scenario = "normal";
+  std::string daemon = "pof-daqd";
+  std::string report_path;
+  double duration = 5;
+  double warmup = 1;
+  double event_at = 2;
+  double unplug_for = 1.5;
+  double rate = 2000;
+  int decimate = 10;
+  int block_scans = 1;
+  long segment_scans = 0;
+  std::string byte_order = "big";
+  double clock_ppm = 0;
+  int lcm_port = 0;
+  int short_every = 7;
+  int transfers = 4;
+  // checks
+  long max_dropped = 0;
+  bool expect_gap = false;
+  bool expect_no_data = false;
+  std::vector<int> expect_states;
+  long min_reconnects = 0;
+  long min_usb_errors = 0;
+  double max_ts_error_us = -1;
+  double min_rate_ratio = 0.99;
+  std::string device_serial;
+  std::string record_pcap;
+  std::string replay_pcap;
+  std::vector<std::string> extra;
+  app.add_option("--model", model, "6008, 6009, 1208ls, or sim (pof-daqd's sim:synthetic backend, no USB)")
+      ->check(CLI::IsMember({"6008", "6009", "1208ls", "sim"}));
+  app.add_option("--scenario", scenario)
+      ->check(CLI::IsMember({"normal", "unplug", "stall", "short", "garbage", "padding", "silent", "absent"}));
+  app.add_option("--daemon", daemon, "path of pof-daqd");
+  app.add_option("--report", report_path, "write the JSON report here");
+  app.add_option("--duration", duration, "seconds the daemon runs before SIGTERM");
+  app.add_option("--warmup", warmup, "seconds ignored by the rate/latency/CPU figures");
+  app.add_option("--event-at", event_at, "seconds: when the scenario's event happens");
+  app.add_option("--unplug-for", unplug_for, "seconds unplugged");
+  app.add_option("--rate", rate, "scan rate [scans/s]");
+  app.add_option("--decimate", decimate);
+  app.add_option("--block-scans", block_scans);
+  app.add_option("--segment-scans", segment_scans, "0 = the daemon's default");
+  app.add_option("--byte-order", byte_order)->check(CLI::IsMember({"big", "little"}));
+  app.add_option("--clock-ppm", clock_ppm, "device clock error [ppm]");
+  app.add_option("--lcm-port", lcm_port, "0 = pick one from the process id (parallel tests and other "
+                                         "LCM users on the host must not cross-talk)");
+  app.add_option("--short-every", short_every, "scenario short: every Nth data URB is 2 bytes short");
+  app.add_option("--transfers", transfers, "acquisition.transfers_in_flight");
+  app.add_option("--max-dropped", max_dropped);
+  app.add_flag("--expect-gap", expect_gap);
+  app.add_flag("--expect-no-data", expect_no_data);
+  app.add_option("--expect-state", expect_states, "daq_status_t state that must be seen (repeatable)")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  app.add_option("--min-reconnects", min_reconnects);
+  app.add_option("--min-usb-errors", min_usb_errors);
+  app.add_option("--max-ts-error-us", max_ts_error_us, "bound on |utime - true scan time| (p99)");
+  app.add_option("--min-rate-ratio", min_rate_ratio, "measured/published scan rate lower bound");
+  app.add_option("--device-serial", device_serial, "the virtual NI device's serial number string");
+  app.add_option("--record-pcap", record_pcap, "write the session as a usbmon capture (pcap)");
+  app.add_option("--replay-pcap", replay_pcap,
+                 "serve a recorded usbmon capture (umockdev pcap replay) instead of the model; the "
+                 "values are checked against the model when the capture came from it");
+  app.footer("Arguments after -- go to pof-daqd unchanged.");
+  // Everything after the first "--" is pof-daqd's (split here: CLI11 lets a "--" right after a
+  // vector option end that option instead of the option list).
+  int own_argc = argc;
+  for (int i = 1; i < argc; ++i) {
+    if (std::string(argv[i]) == "--") {
+      own_argc = i;
+      for (int j = i + 1; j < argc; ++j) extra.emplace_back(argv[j]);
+      break;
+    }
+  }
+  try {
+    app.parse(own_argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // usage errors exit 2 (brief), whatever CLI11's code
+  }
+
+  const char* preload = std::getenv("LD_PRELOAD");
+  if (preload == nullptr || std::string(preload).find("umockdev-preload") == std::string::npos) {
+    std::fprintf(stderr, "pof-vdaq: not under umockdev-wrapper (LD_PRELOAD of libumockdev-preload)\n");
+    return 2;
+  }
+
+  UMockdevTestbed* testbed = umockdev_testbed_new();
+  std::unique_ptr<Ni600xModel> ni;
+  std::unique_ptr<pof::vusb::Usb1208lsModel> mcc;
+  std::unique_ptr<pof::vusb::UsbdevfsDevice> dev;
+  const bool is_ni = model == "6008" || model == "6009";
+  const bool is_sim = model == "sim";
+  NiOptions no;
+  no.usb6009 = model == "6009";
+  no.order = byte_order == "big" ? pof::daq::ni::ByteOrder::kBig : pof::daq::ni::ByteOrder::kLittle;
+  no.clock_ppm = clock_ppm;
+  no.silent = scenario == "silent";
+  no.short_every = scenario == "short" ? short_every : 0;
+  no.serial = device_serial;
+  std::mutex replay_mu;
+  if (!replay_pcap.empty()) {
+    // The model only computes what the recorded device sent (same scan-index function); the
+    // bytes come from the capture.
+    ni = std::make_unique<Ni600xModel>(no);
+    const std::string ifc = "09040000" "03ff0000" "00" "0705010240" "0000" "0705810240" "0000" "0705820240" "0000";
+    pof::vusb::UsbdevfsDevice::replay(
+        testbed, pof::vusb::UsbIds{0x3923, static_cast<std::uint16_t>(no.usb6009 ? 0x717b : 0x717a),
+                                   descriptors(0x3923, no.usb6009 ? 0x717b : 0x717a, ifc, 9 + 21)},
+        replay_pcap);
+  } else if (scenario != "absent" && !is_sim) {
+    if (is_ni) {
+      ni = std::make_unique<Ni600xModel>(no);
+      // Interface 0, vendor class, 3 bulk endpoints of 64 bytes: 0x01 OUT, 0x81 IN, 0x82 IN.
+      const std::string ifc = "09040000" "03ff0000" "00" "0705010240" "0000" "0705810240" "0000" "0705820240" "0000";
+      dev = std::make_unique<pof::vusb::UsbdevfsDevice>(
+          testbed, pof::vusb::UsbIds{0x3923, static_cast<std::uint16_t>(no.usb6009 ? 0x717b : 0x717a),
+                                     descriptors(0x3923, no.usb6009 ? 0x717b : 0x717a, ifc, 9 + 21,
+                                                 !device_serial.empty())},
+          *ni);
+    } else {
+      mcc = std::make_unique<pof::vusb::Usb1208lsModel>(clock_ppm);
+      dev = std::make_unique<pof::vusb::UsbdevfsDevice>(
+          testbed, pof::vusb::UsbIds{0x09db, 0x007a, descriptors(0x09db, 0x007a, pof::vusb::Usb1208lsModel::kInterfaceHex, pof::vusb::Usb1208lsModel::kInterfaceLen)},
+          *mcc);
+    }
+  }
+
+  if (lcm_port == 0) lcm_port = 30000 + static_cast<int>(getpid() % 30000);
+  // A group of our own as well as a port: other projects' tests use 239.255.76.67.
+  const std::string url = "udpm://239.255.77.67:" + std::to_string(lcm_port) + "?ttl=0&recv_buf_size=4194304";
+  lcm::LCM lcm(url);
+  if (!lcm.good()) {
+    std::fprintf(stderr, "pof-vdaq: LCM %s unusable (multicast route? ./pofkit setup)\n", url.c_str());
+    return 1;
+  }
+  Checker checker;
+  checker.ni = ni.get();
+  checker.mcc = mcc.get();
+  checker.dev_mu = dev ? &dev->mutex() : &replay_mu;
+  if (dev && !record_pcap.empty()) dev->record_pcap(record_pcap);
+  checker.decimate = decimate;
+  lcm.subscribeFunction("POF_RAW", &on_raw, &checker)->setQueueCapacity(100000);
+  lcm.subscribeFunction("POF_DAQ_STATUS", &on_status, &checker)->setQueueCapacity(1000);
+  std::atomic<bool> lcm_stop{false};
+  std::thread lcm_thread([&] {
+    while (!lcm_stop.load()) lcm.handleTimeout(50);
+  });
+
+  std::vector<std::string> args = {daemon,
+                                   "--config", "/dev/null",
+                                   "--device", is_sim ? "sim:synthetic" : is_ni ? "usb" + model : "usb1208ls",
+                                   "--lcm-url", url,
+                                   "--rate", std::to_string(rate),
+                                   "--decimate", std::to_string(decimate),
+                                   "--block-scans", std::to_string(block_scans),
+                                   "-s", "acquisition.sample_byte_order=\"" + byte_order + "\"",
+                                   "-s", "acquisition.transfers_in_flight=" + std::to_string(transfers),
+                                   "-s", "daemon.retry_ms=200",
+                                   "-s", "acquisition.command_timeout_ms=300",
+                                   "-s", "acquisition.data_timeout_ms=500"};
+  if (segment_scans > 0) {
+    args.push_back("-s");
+    args.push_back("acquisition.segment_scans=" + std::to_string(segment_scans));
+  }
+  for (const auto& e : extra) args.push_back(e);
+  // /dev/null is an empty TOML file without schema_version: give it on the command line.
+  args.push_back("-s");
+  args.push_back("schema_version=1");
+
+  const std::int64_t t0 = now_us();
+  checker.warmup_end_us = t0 + static_cast<std::int64_t>(warmup * 1e6);
+  const pid_t pid = fork();
+  if (pid == 0) {
+    std::vector<char*> av;
+    for (auto& a : args) av.push_back(a.data());
+    av.push_back(nullptr);
+    execv(av[0], av.data());
+    std::perror("pof-vdaq: execv pof-daqd");
+    _exit(127);
+  }
+
+  auto sleep_until = [&](double s) {
+    const std::int64_t until = t0 + static_cast<std::int64_t>(s * 1e6);
+    while (now_us() < until) {
+      int st = 0;
+      if (waitpid(pid, &st, WNOHANG) == pid) return false;  // daemon died
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return true;
+  };
+  bool alive = true;
+  long cpu_warm = -1;
+  std::int64_t cpu_warm_us = 0;
+  if (warmup < duration) {
+    alive = sleep_until(warmup);
+    cpu_warm = cpu_ticks(pid);
+    cpu_warm_us = now_us();
+  }
+  if (alive && (scenario == "unplug" || scenario == "stall" || scenario == "garbage" || scenario == "padding")) {
+    alive = sleep_until(event_at);
+    if (alive && scenario == "unplug") {
+      {
+        std::lock_guard l(dev->mutex());
+        ni ? ni->power_cycle() : mcc->power_cycle();
+      }
+      dev->unplug();
+      alive = sleep_until(event_at + unplug_for);
+      dev->replug();
+    } else if (alive && scenario == "stall") {
+      {
+        std::lock_guard l(dev->mutex());
+        if (ni) ni->stop_scanning();
+      }
+      dev->inject_in_error(is_ni ? pof::daq::ni::kEpDataIn : 0x81, -EPIPE);
+    } else if (alive && ni) {
+      std::lock_guard l(dev->mutex());
+      ni->send_garbage(scenario == "garbage");
+    }
+  }
+  if (alive) alive = sleep_until(duration);
+  const long cpu_end = alive ? cpu_ticks(pid) : -1;
+  const std::int64_t cpu_end_us = now_us();
+
+  // SIGTERM: the daemon must stop cleanly and quickly.
+  int status = 0;
+  double stop_s = -1;
+  if (alive) {
+    kill(pid, SIGTERM);
+    const std::int64_t ts = now_us();
+    for (;;) {
+      if (waitpid(pid, &status, WNOHANG) == pid) break;
+      if (now_us() - ts > 5'000'000) {
+        kill(pid, SIGKILL);
+        waitpid(pid, &status, 0);
+        break;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    stop_s = static_cast<double>(now_us() - ts) / 1e6;
+  } else {
+    waitpid(pid, &status, 0);
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // last LCM messages
+  lcm_stop.store(true);
+  lcm_thread.join();
+
+  // --- Report ----------------------------------------------------------------------------------
+  nlohmann::json r;
+  std::vector<std::string> failures;
+  std::lock_guard lock(checker.mu);
+  const bool exited = WIFEXITED(status);
+  const int code = exited ? WEXITSTATUS(status) : -1;
+  r["model"] = model;
+  r["scenario"] = scenario;
+  r["duration_s"] = duration;
+  r["daemon_exit_code"] = code;
+  r["daemon_stop_s"] = stop_s;
+  r["blocks"] = checker.blocks;
+  r["scans_published"] = checker.scans;
+  r["value_errors"] = checker.value_errors;
+  r["max_value_error_lsb"] = checker.max_value_error_lsb;
+  r["index_jumps_without_gap_flag"] = checker.index_jumps;
+  r["gap_blocks"] = checker.gaps;
+  r["gap_scans"] = checker.gap_scans;
+  r["seq_gaps"] = checker.seq_gaps;
+  r["published_rate_hz"] = checker.published_rate;
+  double measured_rate = kNaN;
+  if (checker.last_recv_us > checker.first_recv_us) {
+    measured_rate = static_cast<double>(checker.scans_after_warmup) /
+                    (static_cast<double>(checker.last_recv_us - checker.first_recv_us) / 1e6);
+  }
+  r["measured_rate_hz"] = measured_rate;
+  auto stats = [](const std::vector<double>& v) {
+    return nlohmann::json{{"n", v.size()}, {"p50", percentile(v, 50)}, {"p99", percentile(v, 99)},
+                          {"max", v.empty() ? kNaN : *std::max_element(v.begin(), v.end())},
+                          {"min", v.empty() ? kNaN : *std::min_element(v.begin(), v.end())}};
+  };
+  std::vector<double> abs_ts;
+  for (double e : checker.ts_error_us) abs_ts.push_back(std::abs(e));
+  r["timestamp_error_us"] = stats(checker.ts_error_us);
+  r["timestamp_abs_error_us"] = stats(abs_ts);
+  r["scan_to_publish_us"] = stats(checker.age_publish_us);
+  r["scan_to_receive_us"] = stats(checker.age_receive_us);
+  if (cpu_warm >= 0 && cpu_end >= 0 && cpu_end_us > cpu_warm_us) {
+    r["daemon_cpu_percent"] = 100.0 * static_cast<double>(cpu_end - cpu_warm) / static_cast<double>(sysconf(_SC_CLK_TCK)) /
+                              (static_cast<double>(cpu_end_us - cpu_warm_us) / 1e6);
+  }
+  if (dev) {
+    std::lock_guard dl(dev->mutex());
+    r["reaps"] = dev->reaps();
+    if (ni) {
+      std::vector<double> seams(ni->seams_us.begin(), ni->seams_us.end());
+      r["segments"] = ni->segments.size();
+      r["seam_us"] = stats(seams);
+      r["device_protocol_errors"] = ni->protocol_errors;
+      r["device_hellos"] = ni->hellos;
+      r["device_last_command"] = ni->last_command;
+      r["device_interfaces_claimed_at_exit"] = dev->claimed();
+      // SIGTERM must stop the scan and release the device (issue 5), unless it never answered.
+      if (!no.silent && ni->hellos > 0 && ni->last_command != "session 0D") {
+        failures.push_back("the last command was '" + ni->last_command + "', not the stop sequence's 0D/00");
+      }
+      if (dev->claimed() != 0) failures.push_back("interface still claimed after pof-daqd exited");
+      if (ni->protocol_errors != 0) failures.push_back("the daemon sent frames the device did not understand");
+    }
+  }
+  const auto& s = checker.last_status;
+  r["status"] = {{"messages", checker.status_msgs}, {"scans", s.scans}, {"blocks", s.blocks},
+                 {"dropped_scans", s.dropped_scans}, {"usb_errors", s.usb_errors}, {"overruns", s.overruns},
+                 {"reconnects", s.reconnects}, {"last_state", s.state}, {"last_text", s.state_text},
+                 {"serial", s.serial}, {"vendor_id", s.vendor_id}, {"product_id", s.product_id}};
+  r["states_seen"] = checker.state_texts;
+  if (is_sim && !checker.simulated) failures.push_back("sim blocks without FLAG_SIMULATED");
+  if (!checker.first_error.empty()) r["first_error"] = checker.first_error;
+
+  if (code != 0) failures.push_back("pof-daqd exited " + std::to_string(code) + " (expected 0 on SIGTERM)");
+  if (stop_s > 2.0) failures.push_back("pof-daqd took " + std::to_string(stop_s) + " s to stop");
+  if (checker.value_errors > 0) failures.push_back(std::to_string(checker.value_errors) + " samples differ from what the device sent by more than 1 LSB: " + checker.first_error);
+  if (checker.index_jumps > 0) failures.push_back("scan index jumps without FLAG_GAP: " + checker.first_error);
+  if (checker.seq_gaps > 0) failures.push_back("LCM sequence gaps (lost blocks)");
+  if (s.dropped_scans > max_dropped) failures.push_back("dropped_scans " + std::to_string(s.dropped_scans) + " > " + std::to_string(max_dropped));
+  if (s.overruns > 0 && max_dropped == 0) failures.push_back("publisher overruns " + std::to_string(s.overruns));
+  if (expect_gap && checker.gaps == 0) failures.push_back("expected a FLAG_GAP block, saw none");
+  if (!expect_gap && checker.gaps > 0) failures.push_back("unexpected FLAG_GAP blocks: " + std::to_string(checker.gaps));
+  if (expect_no_data && checker.blocks > 0) failures.push_back("expected no data, got blocks");
+  if (!expect_no_data && checker.blocks == 0) failures.push_back("no POF_RAW blocks received");
+  for (int st : expect_states) {
+    if (checker.states.count(st) == 0U) failures.push_back("state " + std::to_string(st) + " never published");
+  }
+  if (s.reconnects < min_reconnects) failures.push_back("reconnects " + std::to_string(s.reconnects) + " < " + std::to_string(min_reconnects));
+  if (s.usb_errors < min_usb_errors) failures.push_back("usb_errors " + std::to_string(s.usb_errors) + " < " + std::to_string(min_usb_errors));
+  if (s.state != 4) failures.push_back("last published state is not 'stopping'");
+  if (!expect_no_data && std::isfinite(measured_rate) && checker.published_rate > 0 &&
+      (measured_rate / checker.published_rate < min_rate_ratio || measured_rate / checker.published_rate > 2.0 - min_rate_ratio)) {
+    failures.push_back("measured scan rate " + std::to_string(measured_rate) + " vs published " + std::to_string(checker.published_rate));
+  }
+  // The device's clock divisor rounds the configured rate (USB-1208LS: 6 MHz / 2^n / 8-bit timer).
+  if (!expect_no_data && std::abs(checker.published_rate - rate / decimate) > 0.005 * rate / decimate) {
+    failures.push_back("published scan_rate_hz " + std::to_string(checker.published_rate) + " expected " + std::to_string(rate / decimate));
+  }
+  if (max_ts_error_us >= 0 && !abs_ts.empty() && percentile(abs_ts, 99) > max_ts_error_us) {
+    failures.push_back("timestamp error p99 " + std::to_string(percentile(abs_ts, 99)) + " us > " + std::to_string(max_ts_error_us));
+  }
+  r["failures"] = failures;
+  r["pass"] = failures.empty();
+  const std::string text = r.dump(2);
+  std::printf("%s\n", text.c_str());
+  if (!report_path.empty()) std::ofstream(report_path) << text << "\n";
+  dev.reset();
+  g_object_unref(testbed);
+  return failures.empty() ? 0 : 1;
+}

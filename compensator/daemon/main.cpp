@@ -66,6 +66,7 @@ struct Options {
   double output_rate_hz = 0;
   double velocity_window_s = 0.5;
   int queue_capacity = 10000;
+  double duration_s = 0;
 };
 
 int run(const Options& o) {
@@ -106,7 +107,9 @@ int run(const Options& o) {
   std::int64_t status_seq = 0;
   auto next_status = std::chrono::steady_clock::now();
   const int fd = lc.getFileno();
-  while (!g_stop) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                              std::chrono::duration<double>(o.duration_s));
+  while (!g_stop && (o.duration_s <= 0 || std::chrono::steady_clock::now() < deadline)) {
     pollfd p{fd, POLLIN, 0};
     const int r = ::poll(&p, 1, 100);
     if (r > 0 && (p.revents & POLLIN)) lc.handle();
@@ -154,6 +157,8 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   app.add_option("--velocity-window", o.velocity_window_s, "Velocity estimator window [s]")
       ->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--duration", o.duration_s, "Stop after this many seconds (tests, benchmarks); 0 = until SIGTERM")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--queue-capacity", o.queue_capacity, "LCM subscription queue [messages]")
       ->check(CLI::Range(1, 1000000))->capture_default_str();
   try {

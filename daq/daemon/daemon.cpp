@@ -8,6 +8,7 @@
 #include <spdlog/spdlog.h>
 
 #include "pof/daq_status_t.hpp"
+#include "pof/service/sd_notify.hpp"
 #include "pof/io/errors.hpp"
 #include "pof/raw_block_t.hpp"
 
@@ -182,7 +183,13 @@ void Daemon::publisher_main() {
 
   const auto period = std::chrono::duration<double>(cfg_.status_period_s);
   auto next_status = std::chrono::steady_clock::now();
+  // systemd (Type=notify, WatchdogSec): ready once publishing (a disconnected device is a state we
+  // publish, not a failure to start); the watchdog is fed from this loop, which turns at least once
+  // per status period, so a hung publisher gets the daemon restarted.
+  pof::service::ServiceNotifier notifier;
+  notifier.ready("publishing " + raw_channel + " and " + status_channel);
   for (;;) {
+    notifier.watchdog_if_due();
     (void)wake_.try_acquire_until(next_status);
     while (Block* b = queue_.front()) {
       msg.utime = b->utime;
@@ -220,6 +227,7 @@ void Daemon::publisher_main() {
       if (next_status < now) next_status = now;
     }
     if (publisher_stop_.load() && queue_.front() == nullptr) {
+      notifier.stopping("stopping");
       publish_status(state, text);  // final state (stopping) with the final counters
       break;
     }

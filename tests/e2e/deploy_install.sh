@@ -61,6 +61,8 @@ args=$(sed -n 's/^Environment="POF_RECORD_ARGS=\(.*\)"$/\1/p' "$units/pof-record
 cat >notify.py <<'PY'
 import os, socket, subprocess, sys, time
 path = os.path.join(os.getcwd(), "notify.sock")
+if os.path.exists(path):
+    os.unlink(path)  # one socket per run: the script runs this for several services
 s = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
 s.bind(path)
 s.settimeout(0.2)
@@ -90,4 +92,20 @@ wd=$(grep -c "WATCHDOG=1" notify.out)
 [ "$wd" -ge 4 ] && [ "$wd" -le 8 ] || fail "expected ~6 WATCHDOG=1 in 3 s at WatchdogSec=1 s, got $wd"
 ls state/recordings/pof-*.lcmlog >/dev/null || fail "no timestamped log in the state directory"
 ls state/recordings/pof-*.manifest.json >/dev/null || fail "no manifest in the state directory"
+
+# The two daemons speak the same protocol to systemd (their units are Type=notify, WatchdogSec=5):
+# READY=1 once running, the watchdog fed from their working loop, STOPPING=1 on the way out.
+check_notify() {  # check_notify <name> <command...>
+  local name=$1; shift
+  /usr/bin/python3 notify.py "$@" >"notify-$name.out" 2>"notify-$name.err" || fail "$name: $(tail -n 3 "notify-$name.err")"
+  [ "$(head -n 1 "notify-$name.out")" = 0 ] || fail "$name exited $(head -n 1 "notify-$name.out"): $(cat "notify-$name.err")"
+  grep -q "READY=1" "notify-$name.out" || fail "$name: no READY=1"
+  grep -q "STOPPING=1" "notify-$name.out" || fail "$name: no STOPPING=1"
+  local n; n=$(grep -c "WATCHDOG=1" "notify-$name.out")
+  [ "$n" -ge 3 ] || fail "$name: expected several WATCHDOG=1 in 3 s at WatchdogSec=1 s, got $n"
+}
+url="udpm://239.255.76.67:$((20000 + RANDOM % 30000))?ttl=0"
+check_notify pof-daqd "$prefix/bin/pof-daqd" --device sim:paper --lcm-url "$url" --duration 3
+"$prefix/bin/pof" sim paper -o cal.csv 2>/dev/null && "$prefix/bin/pof" calibrate cal.csv -o cal.toml >/dev/null 2>&1
+check_notify pof-compensatord "$prefix/bin/pof-compensatord" --cal "$PWD/cal.toml" --lcm-url "$url" --duration 3
 echo ok

@@ -56,7 +56,7 @@ grep -q "key 'daq.scan_rate': unknown key" <<<"$out$err" || fail "typo not named
 
 # Missing scenario: 66; bad output name or options: 2.
 expect_exit 66 "$POF" sim no-such-scenario -o x.csv
-grep -q "paper, validation, realistic" <<<"$out$err" || fail "missing scenario message should list the builtins: $out$err"
+grep -q "paper, validation, session, realistic" <<<"$out$err" || fail "missing scenario message should list the builtins: $out$err"
 expect_exit 2 "$POF" sim paper -o x.txt
 expect_exit 2 "$POF" sim paper -o x.csv --seconds -1
 expect_exit 2 "$POF" sim

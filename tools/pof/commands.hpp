@@ -7,5 +7,6 @@
 namespace pof::cli {
 
 void add_version(CLI::App& app);
+void add_gap(CLI::App& app);
 
 }  // namespace pof::cli

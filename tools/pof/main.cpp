@@ -13,6 +13,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", POF_VERSION);
   pof::cli::add_version(app);
+  pof::cli::add_gap(app);
 
   try {
     app.parse(argc, argv);

@@ -1,0 +1,152 @@
+// Normalisation and kinematics for `pof gap` (see signals.hpp).
+#include "pof/gap/signals.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <string>
+
+#include "pof/io/errors.hpp"
+
+
+
+namespace pof::gap {
+
+using Eigen::Index;
+using Eigen::VectorXd;
+
+namespace {
+
+double median(VectorXd x) {
+  std::vector<double> s(x.data(), x.data() + x.size());
+  auto mid = s.begin() + static_cast<std::ptrdiff_t>(s.size() / 2);
+  std::nth_element(s.begin(), mid, s.end());
+  return *mid;
+}
+
+}  // namespace
+
+Signals make_signals(const io::Recording& rec) {
+  const std::string src = rec.source.empty() ? std::string("recording") : rec.source;
+  const Index n = rec.size();
+  if (rec.angle_ref_deg.size() != n)
+    throw io::DataError(src + ": column angle_ref_deg is required (a pot_v-only recording needs a potentiometer "
+                              "calibration first: run `pof compensate`/`pof calibrate` to get angle_ref_deg)");
+  if (rec.sensor_v.size() != n || rec.reference_v.size() != n)
+    throw io::DataError(src + ": columns sensor_v and reference_v must have one value per scan");
+  // The blocked cross-validation needs several whole cycles; 60 s is about one slow calibration sweep.
+  if (n < 200 || rec.t_s(n - 1) - rec.t_s(0) < 60.0)
+    throw io::DataError(src + ": recording too short for `pof gap` (" + std::to_string(n) +
+                        " scans); need at least 60 s containing holds and movements");
+  Signals s;
+  s.n = n;
+  s.dt = (rec.t_s(n - 1) - rec.t_s(0)) / static_cast<double>(n - 1);
+  if (!(s.dt > 0)) throw io::DataError(src + ": column t_s is not increasing");
+  for (Index i = 1; i < n; ++i) {
+    const double d = rec.t_s(i) - rec.t_s(i - 1);
+    // "at any constant rate" (issue 7): tolerate timestamp jitter, not gaps or reordering.
+    if (!(d > 0.5 * s.dt && d < 1.5 * s.dt))
+      throw io::DataError(src + ": data row " + std::to_string(i + 1) + ": t_s step " + std::to_string(d) +
+                          " s, expected a constant rate with period " + std::to_string(s.dt) + " s");
+  }
+  for (Index i = 0; i < n; ++i)
+    if (!(rec.reference_v(i) > 0) || !std::isfinite(rec.sensor_v(i)) || !std::isfinite(rec.angle_ref_deg(i)))
+      throw io::DataError(src + ": data row " + std::to_string(i + 1) +
+                          ": expected finite values and reference_v > 0 (the normalisation divides by it)");
+  s.reference_level_v = median(rec.reference_v);
+  s.t = rec.t_s.array() - rec.t_s(0);
+  s.v = rec.sensor_v.array() * (s.reference_level_v / rec.reference_v.array());
+  s.angle = rec.angle_ref_deg;
+  s.ref_rel = rec.reference_v.array() / s.reference_level_v - 1.0;
+  return s;
+}
+
+VectorXd local_slope(const VectorXd& x, double dt, Index half) {
+  const Index n = x.size();
+  VectorXd out(n);
+  for (Index i = 0; i < n; ++i) {
+    // Shrink the window symmetrically at the ends so the fit stays centred.
+    const Index h = std::min({half, i, n - 1 - i});
+    if (h == 0) {
+      out(i) = n > 1 ? (i == 0 ? x(1) - x(0) : x(i) - x(i - 1)) / dt : 0.0;
+      continue;
+    }
+    double num = 0;
+    for (Index k = 1; k <= h; ++k) num += static_cast<double>(k) * (x(i + k) - x(i - k));
+    const double hh = static_cast<double>(h);
+    const double den = dt * hh * (hh + 1) * (2 * hh + 1) / 3.0;  // dt * sum_{-h..h} k^2
+    out(i) = num / den;
+  }
+  return out;
+}
+
+Kinematics make_kinematics(const VectorXd& angle, double dt, double delay_s, const core::ModelCoefficients& m) {
+  const Index n = angle.size();
+  Kinematics k;
+  if (delay_s == 0.0) {
+    k.angle = angle;
+  } else {
+    k.angle.resize(n);
+    const double shift = delay_s / dt;
+    for (Index i = 0; i < n; ++i) {
+      const double x = std::clamp(static_cast<double>(i) - shift, 0.0, static_cast<double>(n - 1));
+      const auto i0 = static_cast<Index>(std::floor(x));
+      const Index i1 = std::min(i0 + 1, n - 1);
+      const double f = x - static_cast<double>(i0);
+      k.angle(i) = (1 - f) * angle(i0) + f * angle(i1);
+    }
+  }
+  // Two differentiators: +-50 ms for the velocity (timing of starts/stops within ~50 ms: the model
+  // jumps by up to ~1 deg between f5 and eq. 11/12 at the 0.01 rad/s threshold), gated by a quiet
+  // +-125 ms one so potentiometer noise in holds does not flicker into "moving".
+  auto half_of = [dt](double s) { return std::max<Index>(1, static_cast<Index>(std::lround(s / dt))); };
+  constexpr double kRad = std::numbers::pi / 180.0;
+  k.w = local_slope(k.angle, dt, half_of(0.05)) * kRad;
+  const VectorXd w_quiet = local_slope(k.angle, dt, half_of(0.125)) * kRad;
+  k.acc = local_slope(k.w, dt, half_of(0.05));
+  k.s_move.resize(n);
+  k.s_last.resize(n);
+  k.dir.resize(static_cast<std::size_t>(n));
+  k.col_p.resize(n);
+  k.col_q.resize(n);
+  k.offset.resize(n);
+  k.dv_dc1.resize(n);
+  k.dv_dc2.resize(n);
+  double last = 0;
+  core::ModelCoefficients m1 = m, m2 = m;
+  const double e1 = 1e-3 * std::max(1.0, std::abs(m.c1)), e2 = 1e-3 * std::max(1.0, std::abs(m.c2));
+  m1.c1 += e1;
+  m2.c2 += e2;
+  for (Index i = 0; i < n; ++i) {
+    const double w = k.w(i), aw = std::abs(w);
+    const bool hold = aw < kHoldSpeedRadS || std::abs(w_quiet(i)) < 0.5 * kHoldSpeedRadS;
+    const core::Direction d = hold ? core::Direction::kHold : (w > 0 ? core::Direction::kFlexion : core::Direction::kExtension);
+    k.dir[static_cast<std::size_t>(i)] = d;
+    const double sm = d == core::Direction::kHold ? 0.0 : (d == core::Direction::kFlexion ? 1.0 : -1.0);
+    k.s_move(i) = sm;
+    if (sm != 0) last = sm;
+    k.s_last(i) = last;
+    const double a_deg = k.angle(i);
+    if (d == core::Direction::kHold) {
+      k.col_p(i) = -a_deg;
+      k.col_q(i) = 1;
+      k.offset(i) = 0;
+      k.dv_dc1(i) = 0;
+      k.dv_dc2(i) = 0;
+    } else {
+      // model_voltage = ((q - A p) + c8) / (c7 a) - b / a   (inverse of f5, f4, f3; table 2)
+      const core::DirectionCoefficients& x = m.of(d);
+      const double h = core::hysteresis_pct(m, aw);
+      const double a = x.c3 * h + x.c4, b = x.c5 * h + x.c6;
+      k.col_p(i) = -a_deg / (x.c7 * a);
+      k.col_q(i) = 1.0 / (x.c7 * a);
+      k.offset(i) = x.c8 / (x.c7 * a) - b / a;
+      const double v0 = core::model_voltage(m, a_deg, aw, d);
+      k.dv_dc1(i) = (core::model_voltage(m1, a_deg, aw, d) - v0) / e1;
+      k.dv_dc2(i) = (core::model_voltage(m2, a_deg, aw, d) - v0) / e2;
+    }
+  }
+  return k;
+}
+
+}  // namespace pof::gap

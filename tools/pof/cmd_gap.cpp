@@ -25,12 +25,10 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// The matplotlib script: $POF_PLOT_DIR, the source tree this binary was built from, or the install.
+// The matplotlib script: $POF_PLOT_DIR, else the tools/plot of the tree this binary was built from.
 fs::path plot_script() {
   if (const char* d = std::getenv("POF_PLOT_DIR")) return fs::path(d) / "gap_report.py";
-  const fs::path src = fs::path(POF_SOURCE_DIR) / "tools/plot/gap_report.py";
-  if (fs::exists(src)) return src;
-  return fs::path(POF_INSTALL_DATADIR) / "plot/gap_report.py";
+  return fs::path(POF_PLOT_DIR) / "gap_report.py";
 }
 
 // Runs /usr/bin/python3 (the Debian one with matplotlib; brief) without a shell. Returns false

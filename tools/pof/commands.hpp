@@ -8,5 +8,6 @@ namespace pof::cli {
 
 void add_version(CLI::App& app);
 void add_gap(CLI::App& app);
+void add_sim(CLI::App& app);
 
 }  // namespace pof::cli

@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", POF_VERSION);
   pof::cli::add_version(app);
   pof::cli::add_gap(app);
+  pof::cli::add_sim(app);
 
   try {
     app.parse(argc, argv);

@@ -1,0 +1,250 @@
+// One scan of the rig: knee -> belt/potentiometer, knee -> fibre -> photodiodes (with the light
+// source shared by sensor and reference), then the multiplexed, quantising DAQ. Physics and the
+// meaning of every parameter: docs/simulator.md. The per-scan path (step) only does arithmetic on
+// preallocated state: it is called at up to 48 kS/s by the virtual DAQ devices.
+#include "pof/sim/simulator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "pof/io/errors.hpp"
+
+namespace pof::sim {
+
+namespace {
+constexpr double kDegPerRad = 180.0 / std::numbers::pi;
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+// Random streams (rng.hpp): one per source so that effects switch independently.
+constexpr std::uint64_t kStreamNoise = 1, kStreamDrift = 2, kStreamWander = 3;
+
+double checked_rate(const Scenario& s, double override_hz) {
+  validate(s);
+  const double r = override_hz > 0 ? override_hz : s.daq.scan_rate_hz;
+  if (!(r > 0) || !std::isfinite(r) || !(override_hz >= 0))
+    throw pof::io::ConfigError(s.source + ": scan rate: expected a rate > 0 Hz, got " + std::to_string(override_hz));
+  return r;
+}
+}  // namespace
+
+Simulator::Simulator(const Scenario& s, std::uint64_t seed, double scan_rate_hz)
+    : sc_(s),
+      rate_(checked_rate(s, scan_rate_hz)),
+      dt_(1.0 / rate_),
+      traj_(s, seed, 1.0 / rate_),
+      lsb_(s.daq.lsb_v()),
+      range_(s.daq.range_v),
+      max_code_(std::ldexp(1.0, s.daq.resolution_bits()) - 1.0),
+      rng_noise_(seed, kStreamNoise),
+      rng_drift_(seed, kStreamDrift),
+      rng_wander_(seed, kStreamWander) {
+  if (s.duration_s > 0) max_scans_ = std::llround(s.duration_s * rate_);
+  if (s.daq.multiplexed) {
+    // The ADC converts the channels of a scan one after the other; if the scan period is too short
+    // for the configured convert interval the device would run its convert clock faster.
+    const double ci = std::min(s.daq.convert_interval_s, dt_ / kChannels);
+    for (std::size_t i = 0; i < kChannels; ++i)
+      channel_offset_s_[static_cast<std::size_t>(s.daq.order[i])] = static_cast<double>(i) * ci;
+  }
+  for (const CreepTerm& c : s.sensor.creep.terms) {
+    const double e = std::exp(-dt_ / c.tau_s);
+    creep_decay_.push_back(e);
+    // Exact update of m' = d(angle)/dt - m/tau for an angle ramping linearly within the tick.
+    creep_gain_.push_back(c.tau_s / dt_ * (1.0 - e));
+    creep_m_.push_back(0.0);
+  }
+  drift_rw_step_ = s.sensor.drift.random_walk_v_per_sqrt_hour * std::sqrt(dt_ / 3600.0);
+  wander_decay_ = std::exp(-dt_ / s.light.wander.tau_s);
+  wander_kick_ = s.light.wander.sigma_rel * std::sqrt(1.0 - wander_decay_ * wander_decay_);
+  backlash_pos_ = s.knee.start_deg;
+  prev_angle_ = s.knee.start_deg;
+  if (s.daq.time_delay.enabled) {
+    delay_scans_ = s.daq.time_delay.delay_s * rate_;
+    delay_buf_.assign(static_cast<std::size_t>(std::floor(delay_scans_)) + 2, 0.0);
+  }
+}
+
+std::size_t Simulator::next(std::span<Scan> out) { return next(out, {}); }
+
+std::size_t Simulator::next(std::span<Scan> out, std::span<EffectTrace> trace) {
+  const bool with_trace = trace.size() >= out.size();
+  std::size_t n = 0;
+  for (; n < out.size(); ++n) {
+    if (!finished_) {
+      if (max_scans_ >= 0) finished_ = k_ >= max_scans_;
+      else finished_ = k_ > 0 && traj_.finished();
+    }
+    if (finished_) break;
+    step(out[n], with_trace ? &trace[n] : nullptr);
+  }
+  return n;
+}
+
+double Simulator::quantise(double v, int channel, std::uint8_t& over) const {
+  // Offset binary over +-range: code 0 = -range, code 2^bits - 1 = range - LSB; beyond, the
+  // converter saturates (clipping) and the block is flagged FLAG_OVER_RANGE.
+  double code = std::floor((v + range_) / lsb_ + 0.5);
+  if (code < 0 || code > max_code_ || !std::isfinite(code)) {
+    code = std::clamp(std::isfinite(code) ? code : max_code_, 0.0, max_code_);
+    over = static_cast<std::uint8_t>(over | (1U << channel));
+  }
+  return code * lsb_ - range_;
+}
+
+void Simulator::step(Scan& out, EffectTrace* tr) {
+  if (k_ > 0) traj_.step();
+  const KneeState& ks = traj_.state();
+  const double t = static_cast<double>(k_) * dt_;
+  const double theta = ks.angle_deg;
+  const double omega = ks.velocity_deg_s / kDegPerRad;      // rad/s
+  const double alpha = ks.acceleration_deg_s2 / kDegPerRad;  // rad/s^2
+  const SensorSettings& se = sc_.sensor;
+
+  // --- POF sensor, normalised voltage [V] (what sensor_v would be at nominal source power) ---
+  const double w = std::abs(omega);
+  using pof::core::Direction;
+  const Direction dir = w >= se.hold_threshold_rad_s ? (omega > 0 ? Direction::kFlexion : Direction::kExtension) : Direction::kHold;
+  const double v_line = pof::core::quasi_static_voltage(se.model, theta);
+  double snl = 0;
+  if (se.static_nonlinearity.enabled) {
+    // Deviation from the straight f5 line over 0-90 deg: a bow (zero at the ends, bow_v at 45 deg)
+    // and an S (zero at 0, 45 and 90 deg, +-s_v at 45 -+ 26 deg).
+    const double u = (theta - 45.0) / 45.0;
+    snl = se.static_nonlinearity.bow_v * (1.0 - u * u) + se.static_nonlinearity.s_v * 2.598076211353316 * u * (1.0 - u * u);
+  }
+  double hyst = 0;
+  if (se.hysteresis.enabled && dir != Direction::kHold)
+    hyst = se.hysteresis.scale * (pof::core::model_voltage(se.model, theta, w, dir) - v_line);  // eqs. (10)-(12)
+  double rdh = 0;
+  if (se.rate_dependent_hysteresis.enabled && dir != Direction::kHold) {
+    const auto& r = se.rate_dependent_hysteresis;
+    const double sgn = dir == Direction::kFlexion ? 1.0 : -1.0;
+    rdh = sgn * r.amplitude_v * (1.0 - std::exp(-w / r.velocity_scale_rad_s)) * std::sin(std::numbers::pi * std::clamp(theta, 0.0, 90.0) / 90.0);
+  }
+  double creep = 0;
+  if (se.creep.enabled) {
+    const double dtheta = theta - prev_angle_;
+    for (std::size_t i = 0; i < creep_m_.size(); ++i) {
+      creep_m_[i] = creep_m_[i] * creep_decay_[i] + dtheta * creep_gain_[i];
+      creep += se.creep.terms[i].gain_v_per_deg * creep_m_[i];
+    }
+  }
+  prev_angle_ = theta;
+  const double acc = se.acceleration_dependence.enabled ? se.acceleration_dependence.gain_v_per_rad_s2 * alpha : 0.0;
+  double drift = 0;
+  if (se.drift.enabled) {
+    drift = se.drift.rate_v_per_hour * t / 3600.0 + drift_rw_;
+    if (drift_rw_step_ > 0) drift_rw_ += drift_rw_step_ * rng_drift_.normal();
+  }
+  const double v_norm = v_line + snl + hyst + rdh + creep + acc + drift;
+
+  // --- light path: one source feeds both fibres, so the reference cancels its power changes ---
+  const LightSettings& li = sc_.light;
+  double power = 1.0;
+  if (li.wander.enabled) {
+    power += wander_;
+    wander_ = wander_ * wander_decay_ + wander_kick_ * rng_wander_.normal();
+  }
+  if (li.steps.enabled) {
+    while (next_power_step_ < li.steps.steps.size() && t >= li.steps.steps[next_power_step_].at_s)
+      power_steps_ *= 1.0 + li.steps.steps[next_power_step_++].relative_change;
+    power *= power_steps_;
+  }
+  double ref_analog = li.reference_level_v * power;
+  double sens_analog = v_norm * power;
+  if (li.source_power_coupling.enabled) {
+    sens_analog = v_norm * std::pow(power, li.source_power_coupling.sensor_exponent);
+    ref_analog += li.source_power_coupling.reference_offset_v;
+  }
+
+  // --- belt and potentiometer ---
+  const KneeSettings& kn = sc_.knee;
+  double phi = theta;
+  if (kn.backlash.enabled) {
+    // Play operator: the pot shaft moves only once the belt's slack of width_deg is taken up.
+    const double half = 0.5 * kn.backlash.width_deg;
+    if (theta - backlash_pos_ > half) backlash_pos_ = theta - half;
+    else if (theta - backlash_pos_ < -half) backlash_pos_ = theta + half;
+    phi = backlash_pos_;
+  }
+  double pot_angle = phi;
+  if (kn.potentiometer.linearity.enabled) {
+    const auto& l = kn.potentiometer.linearity;
+    const double u = phi / l.span_deg;
+    const double e = l.error_pct / 100.0 * l.span_deg;  // +-2 % of the span (Vishay datasheet class)
+    pot_angle += e * (l.shape == LinearityShape::kBow ? std::sin(std::numbers::pi * u) : std::sin(kTwoPi * u));
+  }
+  if (kn.vibration.enabled && theta > kn.vibration.onset_deg) {
+    // Paper section 3.2: near 90 deg the motor vibrates and the potentiometer picks it up.
+    const double ramp = std::min(1.0, (theta - kn.vibration.onset_deg) / (90.0 - kn.vibration.onset_deg));
+    pot_angle += kn.vibration.amplitude_deg * ramp * std::sin(kTwoPi * kn.vibration.frequency_hz * t);
+  }
+  const double pot_analog = kn.potentiometer.zero_v + pot_angle / kn.potentiometer.deg_per_volt;
+
+  // --- DAQ: multiplexed sampling, optional delay of one channel, noise, interference, ADC ---
+  const DaqSettings& q = sc_.daq;
+  std::array<double, kChannels> a{sens_analog, ref_analog, pot_analog};
+  std::array<double, kChannels> sampled{};
+  for (std::size_t c = 0; c < kChannels; ++c) {
+    // Channel c is converted channel_offset_s_[c] after the scan starts: first-order hold on the
+    // signal's slope over the last scan period.
+    const double slope = have_prev_ ? (a[c] - prev_analog_[c]) / dt_ : 0.0;
+    sampled[c] = a[c] + channel_offset_s_[c] * slope;
+  }
+  prev_analog_ = a;
+  have_prev_ = true;
+  if (!delay_buf_.empty()) {
+    const auto c = static_cast<std::size_t>(q.time_delay.channel);
+    const std::size_t n = delay_buf_.size();
+    delay_head_ = (delay_head_ + 1) % n;
+    delay_buf_[delay_head_] = sampled[c];
+    ++delay_filled_;
+    // Until the line has filled, the oldest value stands in (the signal before t = 0 is unknown).
+    const double lag = std::min(delay_scans_, static_cast<double>(delay_filled_ - 1));
+    const auto i0 = static_cast<std::size_t>(std::floor(lag));
+    const double f = lag - static_cast<double>(i0);
+    const double v0 = delay_buf_[(delay_head_ + n - i0) % n];
+    const double v1 = f > 0 ? delay_buf_[(delay_head_ + n - i0 - 1) % n] : v0;
+    sampled[c] = (1.0 - f) * v0 + f * v1;
+  }
+  if (q.noise.enabled) {
+    sampled[0] += q.noise.sensor_v * rng_noise_.normal();
+    sampled[1] += q.noise.reference_v * rng_noise_.normal();
+    sampled[2] += q.noise.pot_v * rng_noise_.normal();
+  }
+  if (q.periodic_interference.enabled) {
+    const auto& m = q.periodic_interference;
+    const double ph = m.phase_deg / kDegPerRad;
+    for (std::size_t c = 0; c < kChannels; ++c) {
+      const double x = kTwoPi * m.frequency_hz * (t + channel_offset_s_[c]) + ph;
+      sampled[c] += m.amplitude_v * (std::sin(x) + m.third_harmonic_rel * std::sin(3.0 * x));
+    }
+  }
+  std::uint8_t over = 0;
+  out.t_s = t;
+  out.sensor_v = quantise(sampled[0], 0, over);
+  out.reference_v = quantise(sampled[1], 1, over);
+  out.pot_v = quantise(sampled[2], 2, over);
+  out.angle_ref_deg = kn.potentiometer.deg_per_volt * (out.pot_v - kn.potentiometer.zero_v);
+  out.angle_true_deg = theta;
+  out.over_range = over;
+
+  if (tr != nullptr) {
+    tr->velocity_rad_s = omega;
+    tr->acceleration_rad_s2 = alpha;
+    tr->direction = static_cast<int>(dir);
+    tr->quasi_static_v = v_line + snl;
+    tr->static_nonlinearity_v = snl;
+    tr->hysteresis_v = hyst;
+    tr->rate_dependent_hysteresis_v = rdh;
+    tr->creep_v = creep;
+    tr->acceleration_v = acc;
+    tr->drift_v = drift;
+    tr->normalised_v = v_norm;
+    tr->source_power_rel = power;
+    tr->pot_error_deg = pot_angle - theta;
+  }
+  ++k_;
+}
+
+}  // namespace pof::sim

@@ -226,12 +226,14 @@ MatrixXd effect_columns(const std::string& e, double theta, const Context& cx, c
     return C;
   }
   if (e == "rate_dependent_hysteresis") {
-    // f1 refitted (c1, c2 linearised about the paper's values) plus a direction-signed offset while
-    // moving: hysteresis that differs from the baseline and depends on the velocity.
-    MatrixXd C(n, 3);
-    C.col(0) = k.dv_dc1;
-    C.col(1) = k.dv_dc2;
-    C.col(2) = -p0 * k.s_move;
+    // Hysteresis beyond the paper's f1-f4: a direction-signed opening that grows with the speed,
+    // +-A (1 - exp(-w/w0)) sin(pi angle/90) (largest mid-range, as viscoelastic hysteresis is;
+    // paper sect. 2.2), w0 = theta, with no memory (it vanishes the moment the knee stops, unlike
+    // creep); plus a rescaling of the paper's own hysteresis offset (coefficient = scale - 1).
+    MatrixXd C(n, 2);
+    for (Index i = 0; i < n; ++i)
+      C(i, 0) = k.s_move(i) * (1.0 - std::exp(-std::abs(k.w(i)) / theta)) * std::sin(std::numbers::pi * k.angle(i) / 90.0);
+    C.col(1) = k.hyst_v;
     return C;
   }
   if (e == "acceleration_dependence") {
@@ -301,12 +303,15 @@ Design build_design(const Context& cx, const State& st) {
 }
 
 int linear_count(const std::string& e) {
-  if (e == "static_nonlinearity" || e == "source_power_coupling" || e == "periodic_interference") return 2;
-  if (e == "rate_dependent_hysteresis") return 3;
+  if (e == "static_nonlinearity" || e == "source_power_coupling" || e == "periodic_interference" ||
+      e == "rate_dependent_hysteresis")
+    return 2;
   if (e == "time_delay") return 0;
   return 1;
 }
-bool has_theta(const std::string& e) { return e == "creep" || e == "time_delay" || e == "periodic_interference"; }
+bool has_theta(const std::string& e) {
+  return e == "creep" || e == "time_delay" || e == "periodic_interference" || e == "rate_dependent_hysteresis";
+}
 
 // Physical parameters of an effect from its nonlinear parameter theta and linear coefficients b.
 json physical(const std::string& e, double theta, const VectorXd& b, const Context& cx, double c9) {
@@ -316,9 +321,10 @@ json physical(const std::string& e, double theta, const VectorXd& b, const Conte
     p["drift_deg_per_min"] = b(0) / (cx.duration_s / 60.0);
   } else if (e == "creep") { p["tau_s"] = theta; p["gain"] = b(0); }
   else if (e == "rate_dependent_hysteresis") {
-    p["c1_pct"] = cx.m.c1 + b(0);
-    p["c2_s_per_rad"] = cx.m.c2 + b(1);
-    p["direction_offset_deg"] = b(2);
+    p["amplitude_mv"] = b(0) * 1e3;
+    p["amplitude_deg"] = b(0) * c9;
+    p["velocity_scale_rad_s"] = theta;
+    p["hysteresis_scale"] = 1.0 + b(1);
   } else if (e == "acceleration_dependence") { p["gain_deg_per_rad_s2"] = b(0); }
   else if (e == "time_delay") { p["delay_ms"] = theta * 1e3; }
   else if (e == "backlash") { p["width_deg"] = b(0); }
@@ -390,6 +396,10 @@ std::vector<double> theta_grid(const std::string& e) {
   std::vector<double> g;
   if (e == "creep")
     for (int i = 0; i <= 24; ++i) g.push_back(0.2 * std::pow(1000.0, i / 24.0));  // 0.2 .. 200 s
+  else if (e == "rate_dependent_hysteresis")
+    for (int i = 0; i <= 12; ++i) g.push_back(0.02 * std::pow(50.0, i / 12.0));    // w0 0.02 .. 1 rad/s
+  else if (e == "rate_dependent_hysteresis")
+    for (int i = 0; i <= 12; ++i) g.push_back(0.02 * std::pow(50.0, i / 12.0));    // w0 0.02 .. 1 rad/s
   else if (e == "time_delay")
     for (int i = -25; i <= 25; ++i) g.push_back(i * 0.01);                          // +-250 ms
   else
@@ -695,7 +705,6 @@ Result analyse(const io::Recording& rec, const Options& opt) {
       std::vector<double> coef(bt.data(), bt.data() + bt.size());
       terms.push_back({{"effect", t.effect}, {"theta", t.theta}, {"coefficients_v", coef},
                        {"parameters", physical(t.effect, t.theta, bt, cx, c9f)}});
-      if (t.effect == "rate_dependent_hysteresis") { mm.c1 += bt(0); mm.c2 += bt(1); }
       c += nl;
     }
     res.model = {{"c1", mm.c1}, {"c2", mm.c2}, {"c9", mm.c9}, {"c10", mm.c10},

@@ -57,7 +57,21 @@ Signals make_signals(const io::Recording& rec) {
   s.t = rec.t_s.array() - rec.t_s(0);
   s.v = rec.sensor_v.array() * (s.reference_level_v / rec.reference_v.array());
   s.angle = rec.angle_ref_deg;
-  s.ref_rel = rec.reference_v.array() / s.reference_level_v - 1.0;
+  // The light source wanders slowly (seconds to minutes); a centred 1 s mean keeps that and drops
+  // the reference channel's own noise, which the per-scan normalisation already passes into v and
+  // which must not pass for "source power coupling".
+  {
+    const VectorXd rel = rec.reference_v.array() / s.reference_level_v - 1.0;
+    const auto half = static_cast<Index>(std::lround(0.5 / s.dt));
+    VectorXd cum(n + 1);
+    cum(0) = 0;
+    for (Index i = 0; i < n; ++i) cum(i + 1) = cum(i) + rel(i);
+    s.ref_rel.resize(n);
+    for (Index i = 0; i < n; ++i) {
+      const Index a = std::max<Index>(0, i - half), b = std::min(n, i + half + 1);
+      s.ref_rel(i) = (cum(b) - cum(a)) / static_cast<double>(b - a);
+    }
+  }
   return s;
 }
 
@@ -110,13 +124,8 @@ Kinematics make_kinematics(const VectorXd& angle, double dt, double delay_s, con
   k.col_p.resize(n);
   k.col_q.resize(n);
   k.offset.resize(n);
-  k.dv_dc1.resize(n);
-  k.dv_dc2.resize(n);
+  k.hyst_v.resize(n);
   double last = 0;
-  core::ModelCoefficients m1 = m, m2 = m;
-  const double e1 = 1e-3 * std::max(1.0, std::abs(m.c1)), e2 = 1e-3 * std::max(1.0, std::abs(m.c2));
-  m1.c1 += e1;
-  m2.c2 += e2;
   for (Index i = 0; i < n; ++i) {
     const double w = k.w(i), aw = std::abs(w);
     const bool hold = aw < kHoldSpeedRadS || std::abs(w_quiet(i)) < 0.5 * kHoldSpeedRadS;
@@ -131,8 +140,7 @@ Kinematics make_kinematics(const VectorXd& angle, double dt, double delay_s, con
       k.col_p(i) = -a_deg;
       k.col_q(i) = 1;
       k.offset(i) = 0;
-      k.dv_dc1(i) = 0;
-      k.dv_dc2(i) = 0;
+      k.hyst_v(i) = 0;
     } else {
       // model_voltage = ((q - A p) + c8) / (c7 a) - b / a   (inverse of f5, f4, f3; table 2)
       const core::DirectionCoefficients& x = m.of(d);
@@ -141,9 +149,7 @@ Kinematics make_kinematics(const VectorXd& angle, double dt, double delay_s, con
       k.col_p(i) = -a_deg / (x.c7 * a);
       k.col_q(i) = 1.0 / (x.c7 * a);
       k.offset(i) = x.c8 / (x.c7 * a) - b / a;
-      const double v0 = core::model_voltage(m, a_deg, aw, d);
-      k.dv_dc1(i) = (core::model_voltage(m1, a_deg, aw, d) - v0) / e1;
-      k.dv_dc2(i) = (core::model_voltage(m2, a_deg, aw, d) - v0) / e2;
+      k.hyst_v(i) = core::model_voltage(m, a_deg, aw, d) - core::quasi_static_voltage(m, a_deg);
     }
   }
   return k;

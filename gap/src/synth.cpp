@@ -103,8 +103,8 @@ io::Recording synthesise(const SynthConfig& cfg, std::uint64_t seed) {
     acc(i) = (w(b) - w(a)) / (static_cast<double>(b - a) * dt);
   }
 
-  core::ModelCoefficients m = core::paper_coefficients();
-  m.c1 *= 1.0 + eff("rate_dependent_hysteresis");
+  const core::ModelCoefficients m = core::paper_coefficients();
+  const double rdh = eff("rate_dependent_hysteresis");
   const double creep_g = eff("creep"), tau = cfg.creep_tau_s, acc_g = eff("acceleration_dependence");
   const double k2 = eff("static_nonlinearity");
   double x = ang(0);
@@ -118,6 +118,9 @@ io::Recording synthesise(const SynthConfig& cfg, std::uint64_t seed) {
     const double aw = std::abs(w(i));
     const core::Direction d = aw < 0.01 ? core::Direction::kHold : (w(i) > 0 ? core::Direction::kFlexion : core::Direction::kExtension);
     v(i) = core::model_voltage(m, seen, aw, d);
+    // Hysteresis opening with velocity, largest mid-range (0.1 rad/s velocity scale).
+    if (d != core::Direction::kHold)
+      v(i) += (w(i) > 0 ? rdh : -rdh) * (1.0 - std::exp(-aw / 0.1)) * std::sin(std::numbers::pi * ang(i) / 90.0);
   }
   if (const double d = eff("time_delay"); d != 0) {  // the sensor channel lags the reference by d
     Eigen::VectorXd vd(n);
@@ -174,7 +177,7 @@ double draw_magnitude(const std::string& name, std::mt19937_64& rng) {
   if (name == "static_nonlinearity") return sign * in(0.5, 2.0);        // deg at the range ends
   if (name == "drift") return sign * in(0.5, 2.0);                      // deg over the recording
   if (name == "creep") return in(0.03, 0.10);                           // relaxation gain
-  if (name == "rate_dependent_hysteresis") return sign > 0 ? in(0.5, 1.5) : -in(0.4, 0.7);  // c1 change
+  if (name == "rate_dependent_hysteresis") return sign * in(0.008, 0.03);  // V at mid-range
   if (name == "acceleration_dependence") return sign * in(0.3, 1.0);    // deg per rad/s^2
   if (name == "time_delay") return in(0.010, 0.060);                    // s
   if (name == "backlash") return in(0.5, 2.0);                          // deg

@@ -24,7 +24,7 @@ struct Signals {
   Eigen::VectorXd t;          // [s] from the first scan
   Eigen::VectorXd v;          // normalised sensor voltage [V]
   Eigen::VectorXd angle;      // reference angle [deg]
-  Eigen::VectorXd ref_rel;    // reference_v / reference_level_v - 1 (light-source deviation)
+  Eigen::VectorXd ref_rel;    // reference_v / reference_level_v - 1, 1 s centred mean (source power)
 };
 
 /// Builds Signals; throws pof::io::DataError on empty/short data, non-constant rate or a
@@ -42,8 +42,9 @@ struct Kinematics {
   // Baseline simulator, linear in p = 1/c9 and q = c10/c9 (the quasi-static line refitted):
   //   v = offset + col_p * p + col_q * q        (inverse of eq. 11/12 moving, f5 holding)
   Eigen::VectorXd col_p, col_q, offset;
-  // d v / d c1 and d v / d c2 of the paper model at the paper's coefficients (f1 refit, linearised).
-  Eigen::VectorXd dv_dc1, dv_dc2;
+  // The paper's hysteresis offset while moving, model_voltage - f5^-1 (0 in holds): its coefficient
+  // in a fit is the hysteresis scale - 1.
+  Eigen::VectorXd hyst_v;
 };
 
 /// Kinematics of `angle` (sampled every dt) delayed by delay_s: the angle seen at scan i is the

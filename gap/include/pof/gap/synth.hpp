@@ -24,7 +24,7 @@ struct SynthConfig {
   /// Hidden effects: identifier -> magnitude in the effect's natural unit:
   ///  static_nonlinearity [deg at the range ends], drift [deg over the recording],
   ///  creep [gain, fraction of the angle step; tau fixed by creep_tau_s],
-  ///  rate_dependent_hysteresis [relative change of c1], acceleration_dependence [deg per rad/s^2],
+  ///  rate_dependent_hysteresis [V, +-A (1-exp(-w/0.1)) sin(pi angle/90)], acceleration_dependence [deg per rad/s^2],
   ///  time_delay [s], backlash [deg], source_power_coupling [fraction of power not cancelled],
   ///  periodic_interference [V amplitude at interference_hz].
   std::map<std::string, double> effects;

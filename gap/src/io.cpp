@@ -163,8 +163,8 @@ std::string model_toml(const Result& r, const std::string& source) {
   t.insert("gap", gap);
   std::ostringstream o;
   o << "# Improved sensor model written by `pof gap` (docs/gap.md, \"model.toml\").\n"
-       "# [model]: table-2 coefficients (c9, c10 refitted; c1, c2 refitted when rate_dependent_hysteresis\n"
-       "# was accepted). [gap]: the accepted effect terms, added to the model voltage.\n"
+       "# [model]: table-2 coefficients, c9 and c10 refitted (c1..c8 the paper's); reference_level_v the\n"
+       "# level these apply at. [gap]: the accepted effect terms, added to the model voltage.\n"
     << t << '\n';
   return o.str();
 }

@@ -237,8 +237,13 @@ MatrixXd effect_columns(const std::string& e, double theta, const Context& cx, c
     return C;
   }
   if (e == "acceleration_dependence") {
+    // The acceleration of the reference angle, differentiated twice over +-theta: a short window
+    // follows the drive's acceleration steps, a long one keeps potentiometer noise out of the
+    // prediction; the window is a nonlinear parameter chosen on the training blocks.
+    const auto h = std::max<Index>(1, static_cast<Index>(std::lround(theta / s.dt)));
+    const VectorXd w = local_slope(k.angle, s.dt, h) * (std::numbers::pi / 180.0);
     MatrixXd C(n, 1);
-    C.col(0) = -p0 * k.acc;
+    C.col(0) = -p0 * local_slope(w, s.dt, h);
     return C;
   }
   if (e == "backlash") {
@@ -258,11 +263,17 @@ MatrixXd effect_columns(const std::string& e, double theta, const Context& cx, c
     return C;
   }
   if (e == "periodic_interference") {
-    MatrixXd C(n, 2);
+    // A sinusoid at frequency theta (mains, vibration) picked up on the sensor channel, plus the
+    // same pick-up on the reference channel, which the normalisation v = sensor L / reference turns
+    // into -v dR/L: an amplitude proportional to the level v (hence the v-weighted pair).
+    MatrixXd C(n, 4);
     const double om = 2.0 * std::numbers::pi * theta;
     for (Index i = 0; i < n; ++i) {
+      const double vq = k.offset(i) + k.col_p(i) * p0 + k.col_q(i) * (cx.m.c10 * p0);
       C(i, 0) = std::sin(om * s.t(i));
       C(i, 1) = std::cos(om * s.t(i));
+      C(i, 2) = vq * C(i, 0);
+      C(i, 3) = vq * C(i, 1);
     }
     return C;
   }
@@ -303,14 +314,14 @@ Design build_design(const Context& cx, const State& st) {
 }
 
 int linear_count(const std::string& e) {
-  if (e == "static_nonlinearity" || e == "source_power_coupling" || e == "periodic_interference" ||
-      e == "rate_dependent_hysteresis")
-    return 2;
+  if (e == "periodic_interference") return 4;
+  if (e == "static_nonlinearity" || e == "source_power_coupling" || e == "rate_dependent_hysteresis") return 2;
   if (e == "time_delay") return 0;
   return 1;
 }
 bool has_theta(const std::string& e) {
-  return e == "creep" || e == "time_delay" || e == "periodic_interference" || e == "rate_dependent_hysteresis";
+  return e == "creep" || e == "time_delay" || e == "periodic_interference" || e == "rate_dependent_hysteresis" ||
+         e == "acceleration_dependence";
 }
 
 // Physical parameters of an effect from its nonlinear parameter theta and linear coefficients b.
@@ -325,15 +336,18 @@ json physical(const std::string& e, double theta, const VectorXd& b, const Conte
     p["amplitude_deg"] = b(0) * c9;
     p["velocity_scale_rad_s"] = theta;
     p["hysteresis_scale"] = 1.0 + b(1);
-  } else if (e == "acceleration_dependence") { p["gain_deg_per_rad_s2"] = b(0); }
+  } else if (e == "acceleration_dependence") { p["gain_deg_per_rad_s2"] = b(0); p["window_s"] = theta; }
   else if (e == "time_delay") { p["delay_ms"] = theta * 1e3; }
   else if (e == "backlash") { p["width_deg"] = b(0); }
   else if (e == "source_power_coupling") { p["gamma"] = b(0); p["offset_v"] = b(1); }
   else if (e == "periodic_interference") {
     p["frequency_hz"] = theta;
-    const double amp = std::hypot(b(0), b(1));
+    // Amplitude at the middle of the range (v = 3.37 V, 45 deg), and its reference-channel share.
+    const double vm = cx.m.c10 / cx.m.c9 - 45.0 / cx.m.c9;
+    const double amp = std::hypot(b(0) + vm * b(2), b(1) + vm * b(3));
     p["amplitude_mv"] = amp * 1e3;
     p["amplitude_deg"] = amp * c9;
+    p["reference_share_mv_per_v"] = std::hypot(b(2), b(3)) * 1e3;
   }
   return p;
 }
@@ -403,6 +417,8 @@ std::vector<double> theta_grid(const std::string& e) {
     for (int i = 0; i <= 12; ++i) g.push_back(0.02 * std::pow(50.0, i / 12.0));    // w0 0.02 .. 1 rad/s
   else if (e == "rate_dependent_hysteresis")
     for (int i = 0; i <= 12; ++i) g.push_back(0.02 * std::pow(50.0, i / 12.0));    // w0 0.02 .. 1 rad/s
+  else if (e == "acceleration_dependence")
+    for (double h : {0.015, 0.025, 0.035, 0.05, 0.075, 0.1}) g.push_back(h);        // +-window [s]
   else if (e == "time_delay")
     for (int i = -25; i <= 25; ++i) g.push_back(i * 0.01);                          // +-250 ms
   else

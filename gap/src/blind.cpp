@@ -103,7 +103,7 @@ Hidden hide(sim::Scenario& s, const std::string& e, std::mt19937_64& rng) {
   } else if (e == "periodic_interference") {
     auto& p = s.daq.periodic_interference;
     p.frequency_hz = u(rng) < 0.5 ? 50.0 : 60.0;
-    p.amplitude_v = in(0.002, 0.008);
+    p.amplitude_v = in(0.0045, 0.015);  // RMS >= 1.5x the 2.1 mV noise floor
     p.phase_deg = in(0, 360);
     p.third_harmonic_rel = 0;
     h.truth = {{"frequency_hz", p.frequency_hz}, {"amplitude_v", p.amplitude_v}};

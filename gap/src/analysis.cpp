@@ -765,6 +765,25 @@ Result analyse(const io::Recording& rec, const Options& opt) {
                  {"extension", {mm.extension.c3, mm.extension.c4, mm.extension.c5, mm.extension.c6, mm.extension.c7, mm.extension.c8}},
                  {"reference_level_v", s.reference_level_v / b(2)}, {"kappa", b(2)}, {"delay_s", st.delay_s}, {"duration_s", cx.duration_s},
                  {"terms", terms}};
+    // Range and quasi-static quality, for the calibration-file layout (docs/calibration.md).
+    double wmax = 0;
+    Index n_holds = 0, run = 0;
+    double sa = 0, sv = 0, saa = 0, svv = 0, sav = 0, nh = 0;
+    for (Index i = 0; i < s.n; ++i) {
+      wmax = std::max(wmax, std::abs(k0.w(i)));
+      if (k0.s_move(i) == 0) {
+        if (++run == static_cast<Index>(3.0 / s.dt)) ++n_holds;  // holds of >= 3 s
+        const double a = s.angle(i), v = s.v(i);
+        sa += a; sv += v; saa += a * a; svv += v * v; sav += a * v; nh += 1;
+      } else {
+        run = 0;
+      }
+    }
+    const double cov = sav - sa * sv / nh, va = saa - sa * sa / nh, vv = svv - sv * sv / nh;
+    res.model["range"] = {{"angle_min_deg", s.angle.minCoeff()}, {"angle_max_deg", s.angle.maxCoeff()},
+                          {"velocity_min_rad_s", kHoldSpeedRadS}, {"velocity_max_rad_s", std::max(2 * kHoldSpeedRadS, wmax)}};
+    res.model["linearity_r2"] = va > 0 && vv > 0 ? cov * cov / (va * vv) : 0.0;
+    res.model["n_holds"] = n_holds;
   }
 
   // ---- plot series (at most ~40k rows) ----------------------------------------------------------

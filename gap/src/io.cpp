@@ -2,13 +2,14 @@
 #include "pof/gap/io.hpp"
 
 #include <charconv>
+#include <cmath>
+#include <ctime>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
 #include <system_error>
 #include <vector>
 
-#include <toml++/toml.h>
 
 #include "pof/io/errors.hpp"
 
@@ -131,41 +132,89 @@ void write_csv_recording(const io::Recording& rec, const fs::path& path) {
 
 namespace {
 
+std::string num(double x) {
+  char b[40];
+  std::snprintf(b, sizeof b, "%.17g", x);
+  return b;
+}
+
+std::string quoted(const std::string& x) {
+  std::string o = "\"";
+  for (char c : x) {
+    if (c == '"' || c == '\\') o += '\\';
+    o += c;
+  }
+  return o + "\"";
+}
+
+std::string utc_now() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char b[32];
+  std::strftime(b, sizeof b, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return b;
+}
+
+// The calibration-file layout of `pof calibrate` (docs/calibration.md, schema_version 1), so
+// `pof compensate --cal model.toml` reads the refitted model; the accepted effects go in [gap],
+// which that loader does not read (docs/gap.md).
 std::string model_toml(const Result& r, const std::string& source) {
   const json& m = r.model;
-  toml::table t;
-  t.insert("schema_version", 1);
-  toml::table model{{"c1", m["c1"].get<double>()}, {"c2", m["c2"].get<double>()},
-                    {"c9", m["c9"].get<double>()}, {"c10", m["c10"].get<double>()}};
+  std::ostringstream o;
+  o << "# Improved sensor model written by `pof gap` (docs/gap.md). The calibration-file layout of\n"
+       "# `pof calibrate` (docs/calibration.md): c9, c10 refitted on the recording, c1..c8 the paper's\n"
+       "# table 2; [gap] holds the accepted effect terms, added to the model voltage.\n"
+    << "schema_version = 1\n"
+    << "sensor_id = \"pof-gap\"\n"
+    << "date = " << quoted(utc_now()) << "\n"
+    << "source_recording = " << quoted(source) << "\n"
+    << "reference_level_v = " << num(m["reference_level_v"].get<double>()) << "    # the level c1..c10 apply at\n"
+    << "\n[model]\n"
+    << "c1 = " << num(m["c1"].get<double>()) << "\n"
+    << "c2 = " << num(m["c2"].get<double>()) << "\n"
+    << "c9 = " << num(m["c9"].get<double>()) << "\n"
+    << "c10 = " << num(m["c10"].get<double>()) << "\n";
   for (const char* d : {"flexion", "extension"}) {
     const auto& v = m[d];
-    model.insert(d, toml::table{{"c3", v[0].get<double>()}, {"c4", v[1].get<double>()}, {"c5", v[2].get<double>()},
-                                {"c6", v[3].get<double>()}, {"c7", v[4].get<double>()}, {"c8", v[5].get<double>()}});
+    o << "\n[model." << d << "]\n";
+    for (int i = 0; i < 6; ++i) o << "c" << i + 3 << " = " << num(v[static_cast<std::size_t>(i)].get<double>()) << "\n";
   }
-  t.insert("model", model);
-  t.insert("normalisation", toml::table{{"reference_level_v", m["reference_level_v"].get<double>()}});
-  toml::table gap{{"source", source},
-                  {"baseline_gap_deg", r.baseline_gap_deg},
-                  {"final_gap_deg", r.final_gap_deg},
-                  {"delay_s", m["delay_s"].get<double>()},
-                  {"duration_s", m["duration_s"].get<double>()}};
-  toml::array terms;
+  const auto& rg = m["range"];
+  o << "\n[range]\n"
+    << "angle_min_deg = " << num(rg["angle_min_deg"].get<double>()) << "\n"
+    << "angle_max_deg = " << num(rg["angle_max_deg"].get<double>()) << "\n"
+    << "velocity_min_rad_s = " << num(rg["velocity_min_rad_s"].get<double>()) << "\n"
+    << "velocity_max_rad_s = " << num(rg["velocity_max_rad_s"].get<double>()) << "\n"
+    << "\n[fit_quality]    # f1..f4 are not refitted by `pof gap`: their R^2 / RMSE are given as -1\n"
+    << "sensitivity_v_per_deg = " << num(1.0 / m["c9"].get<double>()) << "\n"
+    << "linearity_r2 = " << num(m["linearity_r2"].get<double>()) << "\n"
+    << "f1_r2 = -1\nf1_rmse_pct = -1\nf4_flexion_r2 = -1\nf4_extension_r2 = -1\n"
+    << "n_holds = " << m["n_holds"].get<long long>() << "\n"
+    << "n_velocity_tests = 0\n"
+    << "\n[equations]    # informational\n"
+    << "flexion = \"paper eq. (11) with c9, c10 refitted\"\nextension = \"paper eq. (12) with c9, c10 refitted\"\n"
+    << "\n[gap]    # `pof gap` extension: v_model += sum of the terms (docs/gap.md)\n"
+    << "source = " << quoted(source) << "\n"
+    << "baseline_gap_deg = " << num(r.baseline_gap_deg) << "\n"
+    << "final_gap_deg = " << num(r.final_gap_deg) << "\n"
+    << "kappa = " << num(m["kappa"].get<double>()) << "    # v_model = v_norm / kappa at the recording's median reference\n"
+    << "delay_s = " << num(m["delay_s"].get<double>()) << "    # sensor lags the reference angle by this\n"
+    << "duration_s = " << num(m["duration_s"].get<double>()) << "    # drift is linear in t / duration_s - 1/2\n";
   for (const auto& term : m["terms"]) {
-    toml::array coef;
-    for (const auto& c : term["coefficients_v"]) coef.push_back(c.get<double>());
-    toml::table params;
+    o << "\n[[gap.terms]]\neffect = " << quoted(term["effect"].get<std::string>()) << "\n"
+      << "theta = " << num(term["theta"].get<double>()) << "\n"
+      << "coefficients_v = [";
+    bool first = true;
+    for (const auto& c : term["coefficients_v"]) {
+      o << (first ? "" : ", ") << num(c.get<double>());
+      first = false;
+    }
+    o << "]\n";
+    o << "[gap.terms.parameters]\n";
     for (auto it = term["parameters"].begin(); it != term["parameters"].end(); ++it)
-      params.insert(it.key(), it.value().get<double>());
-    terms.push_back(toml::table{{"effect", term["effect"].get<std::string>()}, {"theta", term["theta"].get<double>()},
-                                {"coefficients_v", coef}, {"parameters", params}});
+      o << it.key() << " = " << num(it.value().get<double>()) << "\n";
   }
-  gap.insert("terms", terms);
-  t.insert("gap", gap);
-  std::ostringstream o;
-  o << "# Improved sensor model written by `pof gap` (docs/gap.md, \"model.toml\").\n"
-       "# [model]: table-2 coefficients, c9 and c10 refitted (c1..c8 the paper's); reference_level_v the\n"
-       "# level these apply at. [gap]: the accepted effect terms, added to the model voltage.\n"
-    << t << '\n';
   return o.str();
 }
 

@@ -674,6 +674,19 @@ Result analyse(const io::Recording& rec, const Options& opt) {
     const VectorXd bfull = w.fit.beta_full;
     json params = physical(w.effect, th_full, bfull.tail(bfull.size() - k0cols), cx, c9_of(bfull));
     add_jackknife(params, fold_params);
+    // A grid parameter is known no better than its grid: the standard error is at least the
+    // spacing at the chosen value / sqrt(12) (a jackknife of identical grid picks says 0).
+    if (has_theta(w.effect) && w.grid.size() > 1) {
+      static const std::map<std::string, std::pair<std::string, double>> key{
+          {"creep", {"tau_s", 1.0}}, {"time_delay", {"delay_ms", 1e3}}, {"rate_dependent_hysteresis", {"velocity_scale_rad_s", 1.0}},
+          {"acceleration_dependence", {"window_s", 1.0}}, {"periodic_interference", {"frequency_hz", 1.0}}};
+      const auto& [name, scale] = key.at(w.effect);
+      double spacing = kInf;
+      for (std::size_t i = 0; i < w.grid.size(); ++i)
+        if (i != w.fit.full_idx && std::abs(w.grid[i] - th_full) > 0) spacing = std::min(spacing, std::abs(w.grid[i] - th_full));
+      const double floor_se = scale * spacing / std::sqrt(12.0);
+      if (std::isfinite(floor_se) && params[name + "_se"].get<double>() < floor_se) params[name + "_se"] = floor_se;
+    }
 
     // Where: the part of the residual this effect explains, localised.
     const VectorXd explained = to_deg(VectorXd(cur.cv_resid - after));

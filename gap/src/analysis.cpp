@@ -200,10 +200,14 @@ MatrixXd effect_columns(const std::string& e, double theta, const Context& cx, c
   const Index n = s.n;
   const double p0 = cx.p0;
   if (e == "static_nonlinearity") {
-    MatrixXd C(n, 2);  // angle error [deg] = k2 u^2 + k3 u^3, u = (angle - 45)/45
+    // Angle error [deg] = k2 u^2 + k3 u^3 + k4 u^4 + k5 u^5, u = (angle - 45)/45: a bow, an S, and
+    // the +-2 % S-shaped linearity error of a precision potentiometer (sin(2 pi angle/90) needs u^5).
+    MatrixXd C(n, 4);
     const VectorXd u = (k.angle.array() - 45.0) / 45.0;
     C.col(0) = -p0 * u.array().square();
     C.col(1) = -p0 * u.array().cube();
+    C.col(2) = -p0 * u.array().square().square();
+    C.col(3) = -p0 * u.array().square().square() * u.array();
     return C;
   }
   if (e == "drift") {
@@ -314,8 +318,8 @@ Design build_design(const Context& cx, const State& st) {
 }
 
 int linear_count(const std::string& e) {
-  if (e == "periodic_interference") return 4;
-  if (e == "static_nonlinearity" || e == "source_power_coupling" || e == "rate_dependent_hysteresis") return 2;
+  if (e == "periodic_interference" || e == "static_nonlinearity") return 4;
+  if (e == "source_power_coupling" || e == "rate_dependent_hysteresis") return 2;
   if (e == "time_delay") return 0;
   return 1;
 }
@@ -327,7 +331,21 @@ bool has_theta(const std::string& e) {
 // Physical parameters of an effect from its nonlinear parameter theta and linear coefficients b.
 json physical(const std::string& e, double theta, const VectorXd& b, const Context& cx, double c9) {
   json p;
-  if (e == "static_nonlinearity") { p["quadratic_deg"] = b(0); p["cubic_deg"] = b(1); }
+  if (e == "static_nonlinearity") {
+    p["quadratic_deg"] = b(0);
+    p["cubic_deg"] = b(1);
+    p["quartic_deg"] = b(2);
+    p["quintic_deg"] = b(3);
+    // The largest deviation from a straight line over 0..90 deg (what the paper's linearity bounds).
+    double lo = kInf, hi = -kInf;
+    for (int i = 0; i <= 90; ++i) {
+      const double u = (i - 45.0) / 45.0, e2 = b(0) * u * u + b(1) * u * u * u + b(2) * u * u * u * u + b(3) * u * u * u * u * u;
+      const double lin = (b(0) + b(2)) + (b(1) + b(3)) * u;  // the chord through the ends (u = -1, 1)
+      lo = std::min(lo, e2 - lin);
+      hi = std::max(hi, e2 - lin);
+    }
+    p["max_deviation_deg"] = std::abs(hi) > std::abs(lo) ? hi : lo;
+  }
   else if (e == "drift") {
     p["drift_deg_per_min"] = b(0) / (cx.duration_s / 60.0);
   } else if (e == "creep") { p["tau_s"] = theta; p["gain"] = b(0); }

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <iostream>
 #include <string>
 
 #include "pof/gap/blind.hpp"
@@ -27,7 +28,9 @@ void check(std::uint64_t seed, int count) {
   const auto t = pof::gap::blind::run_trial(seed, count, true, workdir());
   std::string found;
   for (const auto& f : t.found) found += f + " ";
-  SCOPED_TRACE("seed " + std::to_string(seed) + ": hidden " + names(t.hidden) + " found " + found);
+  const std::string what = "seed " + std::to_string(seed) + ": hidden " + names(t.hidden) + " found " + found;
+  std::cout << what << "gap " << t.baseline_gap_deg << " -> " << t.final_gap_deg << " deg\n";
+  SCOPED_TRACE(what);
   EXPECT_EQ(t.hits(), static_cast<int>(t.hidden.size()));
   EXPECT_EQ(t.false_finds(), 0);
   if (!t.hidden.empty()) EXPECT_GE(t.shrink(), 0.5) << t.baseline_gap_deg << " -> " << t.final_gap_deg;

@@ -183,6 +183,7 @@ struct Term {
 
 struct State {
   double delay_s = 0;
+  double backlash_deg = 0;
   std::vector<Term> terms;
 };
 
@@ -250,13 +251,6 @@ MatrixXd effect_columns(const std::string& e, double theta, const Context& cx, c
     C.col(0) = -p0 * local_slope(w, s.dt, h);
     return C;
   }
-  if (e == "backlash") {
-    // Dead band b in the belt to the potentiometer: the joint (and fibre) lead the reference by b/2
-    // in the direction of the last movement, also through the following hold.
-    MatrixXd C(n, 1);
-    C.col(0) = -p0 * 0.5 * k.s_last;
-    return C;
-  }
   if (e == "source_power_coupling") {
     // Imperfect cancellation: v ~ T(angle) (1 + gamma dP/P) + kappa dP/P (different photodiode
     // responses / offsets), dP/P seen by the reference fibre.
@@ -281,7 +275,7 @@ MatrixXd effect_columns(const std::string& e, double theta, const Context& cx, c
     }
     return C;
   }
-  return MatrixXd(n, 0);  // time_delay lives in the kinematics
+  return MatrixXd(n, 0);  // time_delay and backlash live in the kinematics (signals.cpp)
 }
 
 constexpr Index kBaseCols = 3;  // p' = 1/c9, q' = c10/c9, kappa (reference-level scale)
@@ -295,6 +289,7 @@ struct Design {
 Design build_design(const Context& cx, const State& st) {
   Design d;
   d.k = make_kinematics(cx.s->angle, cx.s->dt, st.delay_s, cx.m);
+  if (st.backlash_deg > 0) apply_backlash(d.k, st.backlash_deg, cx.s->dt, cx.m);
   std::vector<MatrixXd> cols;
   Index total = kBaseCols;
   for (const Term& t : st.terms) {
@@ -320,12 +315,12 @@ Design build_design(const Context& cx, const State& st) {
 int linear_count(const std::string& e) {
   if (e == "periodic_interference" || e == "static_nonlinearity") return 4;
   if (e == "source_power_coupling" || e == "rate_dependent_hysteresis") return 2;
-  if (e == "time_delay") return 0;
+  if (e == "time_delay" || e == "backlash") return 0;
   return 1;
 }
 bool has_theta(const std::string& e) {
   return e == "creep" || e == "time_delay" || e == "periodic_interference" || e == "rate_dependent_hysteresis" ||
-         e == "acceleration_dependence";
+         e == "acceleration_dependence" || e == "backlash";
 }
 
 // Physical parameters of an effect from its nonlinear parameter theta and linear coefficients b.
@@ -356,7 +351,7 @@ json physical(const std::string& e, double theta, const VectorXd& b, const Conte
     p["hysteresis_scale"] = 1.0 + b(1);
   } else if (e == "acceleration_dependence") { p["gain_deg_per_rad_s2"] = b(0); p["window_s"] = theta; }
   else if (e == "time_delay") { p["delay_ms"] = theta * 1e3; }
-  else if (e == "backlash") { p["width_deg"] = b(0); }
+  else if (e == "backlash") { p["width_deg"] = theta; }
   else if (e == "source_power_coupling") { p["gamma"] = b(0); p["offset_v"] = b(1); }
   else if (e == "periodic_interference") {
     p["frequency_hz"] = theta;
@@ -437,6 +432,8 @@ std::vector<double> theta_grid(const std::string& e) {
     for (int i = 0; i <= 12; ++i) g.push_back(0.02 * std::pow(50.0, i / 12.0));    // w0 0.02 .. 1 rad/s
   else if (e == "acceleration_dependence")
     for (double h : {0.015, 0.025, 0.035, 0.05, 0.075, 0.1}) g.push_back(h);        // +-window [s]
+  else if (e == "backlash")
+    for (int i = 1; i <= 30; ++i) g.push_back(0.1 * i);                             // 0.1 .. 3 deg
   else if (e == "time_delay")
     for (int i = -25; i <= 25; ++i) g.push_back(i * 0.01);                          // +-250 ms
   else
@@ -498,6 +495,17 @@ void refit_thetas(const Context& cx, State& st) {
     }
     st.delay_s = bd;
   }
+  if (st.backlash_deg > 0) {
+    double best = full_rss(cx, st), bb = st.backlash_deg;
+    for (int j = -10; j <= 10; ++j) {
+      State s2 = st;
+      s2.backlash_deg = st.backlash_deg + j * 0.02;
+      if (j == 0 || s2.backlash_deg <= 0) continue;
+      const double r = full_rss(cx, s2);
+      if (r < best) { best = r; bb = s2.backlash_deg; }
+    }
+    st.backlash_deg = bb;
+  }
   for (Term& t : st.terms) {
     if (!has_theta(t.effect) || t.effect == "periodic_interference") continue;
     double best = full_rss(cx, st), bt = t.theta;
@@ -520,7 +528,11 @@ CandidateResult evaluate(const std::string& e, const Context& cx, const State& s
       cr.note = "already in the model";
       return cr;
     }
-  if (e == "time_delay" && st.delay_s != 0) { cr.applicable = false; cr.note = "already in the model"; return cr; }
+  if ((e == "time_delay" && st.delay_s != 0) || (e == "backlash" && st.backlash_deg > 0)) {
+    cr.applicable = false;
+    cr.note = "already in the model";
+    return cr;
+  }
   if (e == "source_power_coupling" && std::sqrt(cx.s->ref_rel.squaredNorm() / static_cast<double>(cx.s->n)) < 1e-4) {
     cr.applicable = false;
     cr.note = "reference level constant (< 0.01 % RMS): coupling not identifiable";
@@ -528,23 +540,26 @@ CandidateResult evaluate(const std::string& e, const Context& cx, const State& s
   }
   cr.grid = e == "periodic_interference" ? interference_grid(cur.cv_resid, cx.s->dt) : theta_grid(e);
   std::vector<Grams> per;
-  auto eval_delay = [&](double d) {
+  // Kinematic candidates rebuild the whole design for each grid value.
+  auto eval_kin = [&](double th) {
     State s2 = st;
-    s2.delay_s = d;
+    (e == "time_delay" ? s2.delay_s : s2.backlash_deg) = th;
     const Design dd = build_design(cx, s2);
     return make_grams(dd.X, dd.y, cx.blocks);
   };
-  if (e == "time_delay") {
-    for (double d : cr.grid) per.push_back(d == 0.0 ? cur.grams : eval_delay(d));
-    // Refine to 1 ms around the coarse optimum (chosen on all data; per fold the grid value is still
-    // chosen on training blocks only).
+  if (e == "time_delay" || e == "backlash") {
+    for (double d : cr.grid) per.push_back(e == "time_delay" && d == 0.0 ? cur.grams : eval_kin(d));
+    // Refine (1 ms, 0.01 deg) around the coarse optimum (chosen on all data; per fold the grid
+    // value is still chosen on training blocks only).
     const FoldFit coarse = cross_validate(per);
     const double c0 = cr.grid[coarse.full_idx];
-    for (int j = -9; j <= 9; ++j) {
-      if (j == 0) continue;
-      const double d = c0 + j * 0.001;
+    const double step = e == "time_delay" ? 0.001 : 0.01;
+    const int reach = e == "time_delay" ? 9 : 9;
+    for (int j = -reach; j <= reach; ++j) {
+      if (j == 0 || c0 + j * step <= 0.0) continue;
+      const double d = c0 + j * step;
       cr.grid.push_back(d);
-      per.push_back(eval_delay(d));
+      per.push_back(eval_kin(d));
     }
   } else {
     for (double th : cr.grid) {
@@ -681,6 +696,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
       const double th = w.grid.empty() ? 0.0 : w.grid[w.fit.theta_idx[f]];
       State s2 = st;
       if (w.effect == "time_delay") s2.delay_s = th;
+      else if (w.effect == "backlash") s2.backlash_deg = th;
       else s2.terms.push_back({w.effect, th});
       const Design d2 = build_design(cx, s2);
       const Index a = cx.blocks.start[f], l = cx.blocks.len[f];
@@ -697,7 +713,8 @@ Result analyse(const io::Recording& rec, const Options& opt) {
     if (has_theta(w.effect) && w.grid.size() > 1) {
       static const std::map<std::string, std::pair<std::string, double>> key{
           {"creep", {"tau_s", 1.0}}, {"time_delay", {"delay_ms", 1e3}}, {"rate_dependent_hysteresis", {"velocity_scale_rad_s", 1.0}},
-          {"acceleration_dependence", {"window_s", 1.0}}, {"periodic_interference", {"frequency_hz", 1.0}}};
+          {"acceleration_dependence", {"window_s", 1.0}}, {"periodic_interference", {"frequency_hz", 1.0}},
+          {"backlash", {"width_deg", 1.0}}};
       const auto& [name, scale] = key.at(w.effect);
       double spacing = kInf;
       for (std::size_t i = 0; i < w.grid.size(); ++i)
@@ -733,8 +750,9 @@ Result analyse(const io::Recording& rec, const Options& opt) {
                     {"candidates", scores}};
     res.steps.push_back(stp);
     if (w.effect == "time_delay") st.delay_s = th_full;
+    else if (w.effect == "backlash") st.backlash_deg = th_full;
     else st.terms.push_back({w.effect, th_full});
-    if (st.terms.size() + (st.delay_s != 0 ? 1 : 0) > 1) refit_thetas(cx, st);
+    if (st.terms.size() + (st.delay_s != 0 ? 1 : 0) + (st.backlash_deg > 0 ? 1 : 0) > 1) refit_thetas(cx, st);
     // The next ranking compares candidates with the state refitted the same way they are (accepted
     // nonlinear parameters fixed); the reported gaps stay the strict per-fold ones.
     cur = fit_state(cx, st);
@@ -794,7 +812,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
     res.model = {{"c1", mm.c1}, {"c2", mm.c2}, {"c9", mm.c9}, {"c10", mm.c10},
                  {"flexion", {mm.flexion.c3, mm.flexion.c4, mm.flexion.c5, mm.flexion.c6, mm.flexion.c7, mm.flexion.c8}},
                  {"extension", {mm.extension.c3, mm.extension.c4, mm.extension.c5, mm.extension.c6, mm.extension.c7, mm.extension.c8}},
-                 {"reference_level_v", s.reference_level_v / b(2)}, {"kappa", b(2)}, {"delay_s", st.delay_s}, {"duration_s", cx.duration_s},
+                 {"reference_level_v", s.reference_level_v / b(2)}, {"kappa", b(2)}, {"delay_s", st.delay_s}, {"backlash_deg", st.backlash_deg}, {"duration_s", cx.duration_s},
                  {"terms", terms}};
     // Range and quasi-static quality, for the calibration-file layout (docs/calibration.md).
     double wmax = 0;

@@ -200,6 +200,7 @@ std::string model_toml(const Result& r, const std::string& source) {
     << "final_gap_deg = " << num(r.final_gap_deg) << "\n"
     << "kappa = " << num(m["kappa"].get<double>()) << "    # v_model = v_norm / kappa at the recording's median reference\n"
     << "delay_s = " << num(m["delay_s"].get<double>()) << "    # sensor lags the reference angle by this\n"
+    << "backlash_deg = " << num(m["backlash_deg"].get<double>()) << "    # belt dead band between joint and potentiometer\n"
     << "duration_s = " << num(m["duration_s"].get<double>()) << "    # drift is linear in t / duration_s - 1/2\n";
   for (const auto& term : m["terms"]) {
     o << "\n[[gap.terms]]\neffect = " << quoted(term["effect"].get<std::string>()) << "\n"

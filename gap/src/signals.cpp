@@ -94,6 +94,74 @@ VectorXd local_slope(const VectorXd& x, double dt, Index half) {
   return out;
 }
 
+void compute_factors(Kinematics& k, const core::ModelCoefficients& m) {
+  const Index n = k.angle.size();
+  k.s_move.resize(n);
+  k.s_last.resize(n);
+  k.dir.resize(static_cast<std::size_t>(n));
+  k.col_p.resize(n);
+  k.col_q.resize(n);
+  k.offset.resize(n);
+  k.hyst_v.resize(n);
+  double last = 0;
+  for (Index i = 0; i < n; ++i) {
+    const double w = k.w(i), aw = std::abs(w);
+    const bool hold = aw < kHoldSpeedRadS || k.quiet_hold[static_cast<std::size_t>(i)];
+    const core::Direction d = hold ? core::Direction::kHold : (w > 0 ? core::Direction::kFlexion : core::Direction::kExtension);
+    k.dir[static_cast<std::size_t>(i)] = d;
+    const double sm = d == core::Direction::kHold ? 0.0 : (d == core::Direction::kFlexion ? 1.0 : -1.0);
+    k.s_move(i) = sm;
+    if (sm != 0) last = sm;
+    k.s_last(i) = last;
+    const double a_deg = k.angle(i);
+    if (d == core::Direction::kHold) {
+      k.col_p(i) = -a_deg;
+      k.col_q(i) = 1;
+      k.offset(i) = 0;
+      k.hyst_v(i) = 0;
+    } else {
+      // model_voltage = ((q - A p) + c8) / (c7 a) - b / a   (inverse of f5, f4, f3; table 2)
+      const core::DirectionCoefficients& x = m.of(d);
+      const double h = core::hysteresis_pct(m, aw);
+      const double a = x.c3 * h + x.c4, b = x.c5 * h + x.c6;
+      k.col_p(i) = -a_deg / (x.c7 * a);
+      k.col_q(i) = 1.0 / (x.c7 * a);
+      k.offset(i) = x.c8 / (x.c7 * a) - b / a;
+      k.hyst_v(i) = core::model_voltage(m, a_deg, aw, d) - core::quasi_static_voltage(m, a_deg);
+    }
+  }
+}
+
+void apply_backlash(Kinematics& k, double width_deg, double dt, const core::ModelCoefficients& m) {
+  // Belt play of width b (play operator): the potentiometer follows the joint only once the dead
+  // band is taken up. While moving, the joint leads the reference by b/2 in the direction of motion
+  // and keeps that lead through the following hold; at a reversal the reference stands still while
+  // the joint crosses the band (b / speed seconds), which the reference calls a hold. Offline we see
+  // the reversal coming, so those scans get the joint's motion back: moving at the speed of the
+  // following movement, from ref + s_old b/2 to ref + s_new b/2.
+  const Index n = k.angle.size();
+  constexpr double kDeg = 180.0 / std::numbers::pi;
+  const VectorXd ref = k.angle;
+  for (Index i = 0; i < n; ++i) k.angle(i) = ref(i) + k.s_last(i) * width_deg / 2;
+  for (Index i1 = 1; i1 < n; ++i1) {
+    const double s_new = k.s_move(i1), s_old = k.s_last(i1 - 1);
+    if (s_new == 0 || k.s_move(i1 - 1) == s_new || s_old != -s_new) continue;
+    const Index span = std::min<Index>(n - i1, std::max<Index>(1, static_cast<Index>(0.3 / dt)));
+    double v = 0;
+    for (Index j = i1; j < i1 + span; ++j) v += std::abs(k.w(j));
+    v = v / static_cast<double>(span) * kDeg;  // deg/s
+    if (!(v > 0)) continue;
+    const auto n_db = static_cast<Index>(std::lround(width_deg / v / dt));
+    for (Index j = i1 - 1; j >= std::max<Index>(0, i1 - n_db) && k.s_move(j) == 0; --j) {
+      const double travelled_back = static_cast<double>(i1 - j) * dt * v;  // deg still to cross at j
+      k.angle(j) = ref(j) + s_new * width_deg / 2 - s_new * travelled_back;
+      k.w(j) = s_new * v / kDeg;
+      k.quiet_hold[static_cast<std::size_t>(j)] = false;
+    }
+  }
+  compute_factors(k, m);
+}
+
 Kinematics make_kinematics(const VectorXd& angle, double dt, double delay_s, const core::ModelCoefficients& m) {
   const Index n = angle.size();
   Kinematics k;
@@ -118,40 +186,9 @@ Kinematics make_kinematics(const VectorXd& angle, double dt, double delay_s, con
   k.w = local_slope(k.angle, dt, half_of(0.05)) * kRad;
   const VectorXd w_quiet = local_slope(k.angle, dt, half_of(0.125)) * kRad;
   k.acc = local_slope(k.w, dt, half_of(0.05));
-  k.s_move.resize(n);
-  k.s_last.resize(n);
-  k.dir.resize(static_cast<std::size_t>(n));
-  k.col_p.resize(n);
-  k.col_q.resize(n);
-  k.offset.resize(n);
-  k.hyst_v.resize(n);
-  double last = 0;
-  for (Index i = 0; i < n; ++i) {
-    const double w = k.w(i), aw = std::abs(w);
-    const bool hold = aw < kHoldSpeedRadS || std::abs(w_quiet(i)) < 0.5 * kHoldSpeedRadS;
-    const core::Direction d = hold ? core::Direction::kHold : (w > 0 ? core::Direction::kFlexion : core::Direction::kExtension);
-    k.dir[static_cast<std::size_t>(i)] = d;
-    const double sm = d == core::Direction::kHold ? 0.0 : (d == core::Direction::kFlexion ? 1.0 : -1.0);
-    k.s_move(i) = sm;
-    if (sm != 0) last = sm;
-    k.s_last(i) = last;
-    const double a_deg = k.angle(i);
-    if (d == core::Direction::kHold) {
-      k.col_p(i) = -a_deg;
-      k.col_q(i) = 1;
-      k.offset(i) = 0;
-      k.hyst_v(i) = 0;
-    } else {
-      // model_voltage = ((q - A p) + c8) / (c7 a) - b / a   (inverse of f5, f4, f3; table 2)
-      const core::DirectionCoefficients& x = m.of(d);
-      const double h = core::hysteresis_pct(m, aw);
-      const double a = x.c3 * h + x.c4, b = x.c5 * h + x.c6;
-      k.col_p(i) = -a_deg / (x.c7 * a);
-      k.col_q(i) = 1.0 / (x.c7 * a);
-      k.offset(i) = x.c8 / (x.c7 * a) - b / a;
-      k.hyst_v(i) = core::model_voltage(m, a_deg, aw, d) - core::quasi_static_voltage(m, a_deg);
-    }
-  }
+  k.quiet_hold.resize(static_cast<std::size_t>(n));
+  for (Index i = 0; i < n; ++i) k.quiet_hold[static_cast<std::size_t>(i)] = std::abs(w_quiet(i)) < 0.5 * kHoldSpeedRadS;
+  compute_factors(k, m);
   return k;
 }
 

@@ -39,6 +39,7 @@ struct Kinematics {
   Eigen::VectorXd s_move;  // +1 flexion, -1 extension, 0 hold
   Eigen::VectorXd s_last;  // direction of the most recent movement, kept through holds (0 before any)
   std::vector<core::Direction> dir;
+  std::vector<bool> quiet_hold;  // the +-125 ms velocity says "hold" (gates the short one)
   // Baseline simulator, linear in p = 1/c9 and q = c10/c9 (the quasi-static line refitted):
   //   v = offset + col_p * p + col_q * q        (inverse of eq. 11/12 moving, f5 holding)
   Eigen::VectorXd col_p, col_q, offset;
@@ -52,6 +53,14 @@ struct Kinematics {
 /// a local linear fit over +-50 ms, gated by a +-125 ms fit (robust to potentiometer noise).
 Kinematics make_kinematics(const Eigen::VectorXd& angle, double dt, double delay_s,
                            const core::ModelCoefficients& m);
+
+/// Recomputes s_move, s_last, dir and the baseline factors from angle and w.
+void compute_factors(Kinematics& k, const core::ModelCoefficients& m);
+
+/// The joint angle behind a reference seen through belt backlash of width_deg (see signals.cpp):
+/// shifts the angle by +-width/2 after each movement and restores the joint's motion while the
+/// reference stands in the dead band before a reversal; then recomputes the factors.
+void apply_backlash(Kinematics& k, double width_deg, double dt, const core::ModelCoefficients& m);
 
 /// Slope of a centred local linear fit of x over 2*half+1 samples, divided by dt.
 Eigen::VectorXd local_slope(const Eigen::VectorXd& x, double dt, Eigen::Index half);

@@ -127,6 +127,7 @@ void Daemon::acquisition_main() {
   }
   backend_->close();
   if (stop_.load()) set_state(State::kStopping, "stopped on request");
+  acquisition_done_.store(true);
 }
 
 void Daemon::publisher_main() {

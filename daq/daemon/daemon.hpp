@@ -37,6 +37,9 @@ class Daemon {
   void start();
   /// Asks both threads to stop (async-signal-unsafe: call from a normal thread) and joins them.
   void stop();
+  /// True once the acquisition thread has ended by itself: only a finite source does that (a
+  /// sim:<scenario> whose trajectory is over); hardware backends stream until stop().
+  [[nodiscard]] bool finished() const { return acquisition_done_.load(); }
 
  private:
   void acquisition_main();
@@ -53,6 +56,7 @@ class Daemon {
   std::counting_semaphore<> wake_{0};
   std::atomic<bool> stop_{false};
   std::atomic<bool> publisher_stop_{false};
+  std::atomic<bool> acquisition_done_{false};
   // The published rate: the device's real scan rate (its clock divisor rounds the configured one)
   // over the decimation; set by the acquisition thread at the first open.
   std::atomic<double> published_rate_hz_{0.0};

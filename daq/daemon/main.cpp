@@ -1,7 +1,7 @@
 // pof-daqd: acquisition daemon. Reads the DAQ (USB-6008/6009 via libusb, USB-1208LS via hidapi, or
 // the simulator), publishes POF_RAW blocks and POF_DAQ_STATUS on LCM. See docs/daq.md.
 //
-// Exit codes (io/include/pof/io/exit_codes.hpp): 0 stopped on SIGTERM/SIGINT or --duration,
+// Exit codes (io/include/pof/io/exit_codes.hpp): 0 stopped on SIGTERM/SIGINT, --duration or the end of a finite sim:<scenario>,
 // 2 usage, 66 --config file missing, 74 LCM unusable, 78 bad configuration (names the key).
 // USB errors are never fatal: the daemon reports them and recovers (docs/daq.md, "States").
 #include <signal.h>
@@ -131,6 +131,10 @@ int main(int argc, char** argv) {
       }
       if (duration_s > 0 &&
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >= duration_s) {
+        break;
+      }
+      if (daemon.finished()) {  // a finite simulated session is over: publish the final status, exit 0
+        spdlog::info("source finished: stopping");
         break;
       }
     }

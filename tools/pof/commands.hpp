@@ -9,6 +9,7 @@ namespace pof::cli {
 void add_version(CLI::App& app);
 void add_calibrate(CLI::App& app);
 void add_compensate(CLI::App& app);
+void add_gap(CLI::App& app);
 void add_sim(CLI::App& app);
 void add_record(CLI::App& app);
 void add_spy(CLI::App& app);

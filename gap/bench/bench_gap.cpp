@@ -1,0 +1,182 @@
+// bench_gap: the blind benchmark of issue 7 and the speed of `pof gap`.
+//
+//   bench_gap [--blind N] [--seed S] [--out DIR] [--keep] [--benchmark_* flags]
+//
+// 1. Blind: N recordings from the physics simulator (pof_sim), every 5th with no hidden effect,
+//    every 5th+4 with two, the rest with one, effect and magnitude drawn at random per seed
+//    (gap/src/blind.cpp). Each is written to CSV and analysed from the file alone; then the draw is
+//    compared: confusion matrix, effects named correctly, false discoveries on the recordings with
+//    nothing hidden, median held-out gap shrink. Summary on stdout, per-trial JSON in DIR.
+// 2. Speed (Google Benchmark): `pof gap`'s read + analysis of a 40-minute 200 Hz recording of the
+//    "realistic" scenario (many effects at once), against the baseline-only analysis
+//    (--max-steps 0) of the same file in the same run.
+#include <algorithm>
+#include <cstdio>
+#include <ctime>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <benchmark/benchmark.h>
+
+#include "pof/gap/blind.hpp"
+#include "pof/gap/io.hpp"
+#include "pof/io/atomic_file.hpp"
+#include "pof/io/csv_writer.hpp"
+#include "pof/io/recording_reader.hpp"
+#include "pof/sim/effects.hpp"
+#include "pof/sim/scenario.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+fs::path g_dir = fs::temp_directory_path() / "pof_bench_gap";
+std::string g_long_csv;
+bool g_keep = false;  // --keep: leave the blind CSV files in DIR
+
+void run_blind(int n, std::uint64_t seed0) {
+  using pof::gap::blind::Trial;
+  std::vector<Trial> trials;
+  std::map<std::string, std::map<std::string, int>> confusion;  // hidden -> named -> count
+  std::vector<double> shrink;
+  int hidden_total = 0, hits = 0, none_trials = 0, none_false = 0, extra = 0;
+  double worst_time = 0;
+  nlohmann::json all = nlohmann::json::array();
+  std::cerr << "blind benchmark: " << n << " recordings\n";
+  for (int i = 0; i < n; ++i) {
+    // The number of hidden effects follows the seed: seed % 5 == 1 none, == 0 two, else one.
+    const std::uint64_t seed = seed0 + static_cast<std::uint64_t>(i);
+    const int count = seed % 5 == 1 ? 0 : (seed % 5 == 0 ? 2 : 1);
+    const Trial t = pof::gap::blind::run_trial(seed, count, false, g_dir);
+    if (!g_keep) fs::remove(t.csv);
+    worst_time = std::max(worst_time, t.analysis_s);
+    std::string hid, fnd;
+    for (const auto& h : t.hidden) hid += (hid.empty() ? "" : "+") + h.effect;
+    for (const auto& f : t.found) fnd += (fnd.empty() ? "" : "+") + f;
+    std::fprintf(stderr, "  seed %3llu hidden %-45s found %-45s gap %.3f -> %.3f deg (%.1f s)\n",
+                 static_cast<unsigned long long>(seed), hid.empty() ? "none" : hid.c_str(), fnd.empty() ? "none" : fnd.c_str(),
+                 t.baseline_gap_deg, t.final_gap_deg, t.analysis_s);
+    if (t.hidden.empty()) {
+      ++none_trials;
+      none_false += t.found.empty() ? 0 : 1;
+      confusion["none"][t.found.empty() ? "none" : t.found.front()]++;
+    } else {
+      shrink.push_back(t.shrink());
+      for (const auto& h : t.hidden) {
+        ++hidden_total;
+        const bool hit = std::count(t.found.begin(), t.found.end(), h.effect) > 0;
+        hits += hit ? 1 : 0;
+        std::string col = "none";
+        if (hit) col = h.effect;
+        else
+          for (const auto& f : t.found)
+            if (std::none_of(t.hidden.begin(), t.hidden.end(), [&](const auto& x) { return x.effect == f; })) { col = f; break; }
+        confusion[h.effect][col]++;
+      }
+      extra += t.false_finds();
+    }
+    nlohmann::json j{{"seed", seed}, {"found", t.found}, {"baseline_gap_deg", t.baseline_gap_deg},
+                     {"final_gap_deg", t.final_gap_deg}, {"analysis_s", t.analysis_s}};
+    for (const auto& h : t.hidden) j["hidden"].push_back({{"effect", h.effect}, {"truth", h.truth}});
+    j["steps"] = t.gap["steps"];
+    all.push_back(j);
+  }
+  pof::io::write_file_atomic(g_dir / "blind.json", all.dump(1) + "\n");
+  std::sort(shrink.begin(), shrink.end());
+  const double median = shrink.empty() ? 0.0
+                         : (shrink.size() % 2 ? shrink[shrink.size() / 2]
+                                              : 0.5 * (shrink[shrink.size() / 2 - 1] + shrink[shrink.size() / 2]));
+  // Markdown, ready for BENCHMARKS.md.
+  std::vector<std::string> cols{"none"};
+  for (auto id : pof::sim::kGapEffectIds) cols.emplace_back(id);
+  auto abbrev = [](const std::string& s) {
+    static const std::map<std::string, std::string> a{{"none", "none"}, {"static_nonlinearity", "stat"}, {"drift", "drift"},
+        {"creep", "creep"}, {"rate_dependent_hysteresis", "rdh"}, {"acceleration_dependence", "acc"}, {"time_delay", "delay"},
+        {"backlash", "backl"}, {"source_power_coupling", "power"}, {"periodic_interference", "period"}};
+    return a.at(s);
+  };
+  std::cout << "\nConfusion matrix (rows: hidden effect, one row entry per hidden effect; columns: the effect named "
+               "for it: itself if found, else the first wrongly named one, else none)\n\n| hidden \\ named |";
+  for (const auto& c : cols) std::cout << ' ' << abbrev(c) << " |";
+  std::cout << "\n|---|";
+  for (std::size_t i = 0; i < cols.size(); ++i) std::cout << "---|";
+  std::cout << '\n';
+  for (const auto& r : cols) {
+    if (!confusion.count(r)) continue;
+    std::cout << "| " << r << " |";
+    for (const auto& c : cols) {
+      const int v = confusion[r].count(c) ? confusion[r][c] : 0;
+      std::cout << ' ' << (v ? std::to_string(v) : std::string(".")) << " |";
+    }
+    std::cout << '\n';
+  }
+  std::printf("\nrecordings: %d (%d with no hidden effect, %d hidden effects in the others)\n", n, none_trials, hidden_total);
+  std::printf("effects named correctly: %d / %d = %.1f %%\n", hits, hidden_total, hidden_total ? 100.0 * hits / hidden_total : 0.0);
+  std::printf("false discoveries on recordings with no hidden effect: %d / %d = %.1f %%\n", none_false, none_trials,
+              none_trials ? 100.0 * none_false / none_trials : 0.0);
+  std::printf("extra (wrong) effects named on recordings with hidden effects: %d\n", extra);
+  std::printf("median held-out gap shrink with an effect hidden: %.1f %% (min %.1f %%, n = %zu)\n", 100 * median,
+              shrink.empty() ? 0.0 : 100 * shrink.front(), shrink.size());
+  std::printf("slowest analysis: %.2f s\n\n", worst_time);
+  std::fflush(stdout);
+}
+
+void make_long_recording() {
+  pof::sim::Scenario s = pof::sim::builtin_scenario("realistic");
+  s.loop = true;
+  s.duration_s = 2400;  // 40 min at the scenario's 200 Hz
+  g_long_csv = (g_dir / "realistic_40min.csv").string();
+  pof::io::write_csv(g_long_csv, pof::gap::blind::simulate(s, 1));
+}
+
+// Process CPU time (all threads), next to Google Benchmark's wall-clock time: the machine this runs
+// on is shared, and the CPU seconds say what the analysis itself costs.
+double cpu_seconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
+
+void BM_Gap40minBaselineOnly(benchmark::State& st) {
+  pof::gap::Options opt;
+  opt.max_steps = 0;
+  const double c0 = cpu_seconds();
+  for (auto _ : st) benchmark::DoNotOptimize(pof::gap::analyse(pof::io::read_csv(g_long_csv), opt));
+  st.counters["cpu_s_per_run"] = (cpu_seconds() - c0) / static_cast<double>(st.iterations());
+}
+void BM_Gap40minFull(benchmark::State& st) {
+  pof::gap::Options opt;
+  std::size_t steps = 0;
+  const double c0 = cpu_seconds();
+  for (auto _ : st) steps = pof::gap::analyse(pof::io::read_csv(g_long_csv), opt).steps.size();
+  st.counters["cpu_s_per_run"] = (cpu_seconds() - c0) / static_cast<double>(st.iterations());
+  st.counters["steps"] = static_cast<double>(steps);
+}
+BENCHMARK(BM_Gap40minBaselineOnly)->Unit(benchmark::kSecond)->Iterations(2)->UseRealTime();
+BENCHMARK(BM_Gap40minFull)->Unit(benchmark::kSecond)->Iterations(2)->UseRealTime();
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int n = 50;
+  std::uint64_t seed = 1;
+  std::vector<char*> rest{argv[0]};
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--blind" && i + 1 < argc) n = std::atoi(argv[++i]);
+    else if (a == "--seed" && i + 1 < argc) seed = std::strtoull(argv[++i], nullptr, 10);
+    else if (a == "--out" && i + 1 < argc) g_dir = argv[++i];
+    else if (a == "--keep") g_keep = true;
+    else rest.push_back(argv[i]);
+  }
+  fs::create_directories(g_dir);
+  if (n > 0) run_blind(n, seed);
+  int rc = static_cast<int>(rest.size());
+  benchmark::Initialize(&rc, rest.data());
+  make_long_recording();
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  fs::remove(g_long_csv);
+  return 0;
+}

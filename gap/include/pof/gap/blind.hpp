@@ -1,0 +1,62 @@
+#pragma once
+// The blind test harness of issue 7: draw an effect (or none, or two) and its magnitude at random,
+// generate a recording with the physics simulator (pof_sim, issue 4), write it to a CSV file, run
+// the gap workflow on that file alone, and only then compare with what was hidden.
+#include <cstdint>
+#include <filesystem>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "pof/gap/gap.hpp"
+#include "pof/io/recording.hpp"
+#include "pof/sim/scenario.hpp"
+
+namespace pof::gap::blind {
+
+/// One hidden effect: its identifier and the simulator parameters it was given.
+struct Hidden {
+  std::string effect;
+  nlohmann::json truth;  // e.g. {"tau_s": 5.1, "gain_v_per_deg": -0.001}
+};
+
+/// The session every blind recording starts from: builtin "paper" scenario (the paper's model,
+/// mild noise, 12-bit DAQ) with all optional effects off, a wandering and stepping light source
+/// (cancelled exactly by the reference unless source_power_coupling is hidden), the quasi-static
+/// test up and back down, constant-velocity cycles and gait-like cycles. `short_session` keeps
+/// ~5 min (tests); otherwise ~17 min (benchmark).
+sim::Scenario base_scenario(bool short_session);
+
+/// Draws the parameters of `effect` at random in a range where it matters (about 1.5x to 10x the
+/// noise floor of the base session) and switches it on in `s`.
+Hidden hide(sim::Scenario& s, const std::string& effect, std::mt19937_64& rng);
+
+/// Draws `count` distinct effects at random and hides them.
+std::vector<Hidden> hide_random(sim::Scenario& s, int count, std::mt19937_64& rng);
+
+/// Runs the simulator to the end of the trajectory (or duration_s) into a Recording.
+io::Recording simulate(const sim::Scenario& s, std::uint64_t seed);
+
+struct Trial {
+  std::uint64_t seed = 0;
+  std::vector<Hidden> hidden;
+  std::vector<std::string> found;   // accepted effects, in order
+  double baseline_gap_deg = 0, final_gap_deg = 0;
+  double analysis_s = 0;
+  std::string csv;                  // the file the workflow saw
+  nlohmann::json gap;               // gap.json of the run
+
+  [[nodiscard]] bool correct() const;        // every hidden effect found, nothing else
+  [[nodiscard]] int hits() const;            // hidden effects that were found
+  [[nodiscard]] int false_finds() const;     // found effects that were not hidden
+  [[nodiscard]] double shrink() const { return baseline_gap_deg > 0 ? 1.0 - final_gap_deg / baseline_gap_deg : 0.0; }
+};
+
+/// One blind trial: `count` random effects (0, 1, 2, ...) drawn with `seed`, the recording written
+/// to dir/blind_<seed>.csv, read back and analysed with only the file.
+Trial run_trial(std::uint64_t seed, int count, bool short_session, const std::filesystem::path& dir,
+                const Options& opt = {});
+
+}  // namespace pof::gap::blind

@@ -1,0 +1,66 @@
+#pragma once
+// `pof gap` (issue 7): where do the baseline simulator (the paper's model, eqs. 11/12 inverted, f5
+// in holds) and a recording disagree, which physical effect is missing, and how much of the gap
+// does adding it close. See docs/gap.md for the method and the acceptance rule.
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include "pof/core/model.hpp"
+#include "pof/io/recording.hpp"
+
+namespace pof::gap {
+
+/// The candidate effects, with the exact identifiers of issue 7.
+inline const std::vector<std::string>& candidate_names() {
+  static const std::vector<std::string> names{
+      "static_nonlinearity", "drift", "creep", "rate_dependent_hysteresis", "acceleration_dependence",
+      "time_delay", "backlash", "source_power_coupling", "periodic_interference"};
+  return names;
+}
+
+struct Options {
+  int folds = 5;                 // time-blocked folds (boundaries moved into holds: whole cycles)
+  double min_reduction = 0.05;   // accept only if held-out RMS drops by >= 5 % ...
+  double min_delta_bic = 10.0;   // ... AND held-out BIC (effective n) improves by > 10
+  int max_steps = 4;
+  int threads = 2;               // candidates are evaluated in parallel
+  /// Called with one-line progress messages (the CLI prints them only on a terminal).
+  std::function<void(const std::string&)> progress;
+};
+
+struct Step {
+  std::string effect;
+  double gap_deg = 0;            // held-out RMS residual [deg] after adding this effect
+  std::string where;             // where the effect's contribution is concentrated, in words
+  nlohmann::json parameters;     // physical parameters (+ "<name>_se" jackknife standard errors)
+  nlohmann::json evidence;       // scores of every candidate, phase RMS before/after, ...
+};
+
+/// Time series for plots (one row per kept scan).
+struct Series {
+  std::vector<double> t, angle, w, v, model_baseline, model_final, resid_baseline_deg, resid_final_deg;
+};
+
+struct Result {
+  double baseline_gap_deg = 0;
+  std::vector<Step> steps;
+  double final_gap_deg = 0;
+  bool unexplained = false;
+  nlohmann::json baseline;       // fitted baseline (c9, c10), localisation of the baseline residual
+  nlohmann::json whiteness;      // final residual: ACF, Ljung-Box, noise floor
+  nlohmann::json model;          // improved model: coefficients + accepted terms (for model.toml)
+  nlohmann::json recording;      // n, rate, duration, reference level
+  Series series;
+
+  [[nodiscard]] nlohmann::json to_json() const;
+};
+
+/// Runs the whole workflow on one recording. Throws pof::io::DataError when the recording cannot be
+/// analysed (too short, no movement, no holds, non-constant rate), naming the source.
+Result analyse(const io::Recording& rec, const Options& opt = {});
+
+}  // namespace pof::gap

@@ -1,0 +1,41 @@
+#pragma once
+// Synthetic recordings with hidden effects, for the unit tests and the blind benchmark: the
+// calibration protocol (quasi-static steps, constant-velocity cycles at table-1 velocities) run
+// through the paper model (model_voltage), with each issue-7 effect injected in its physical form.
+// This is the test generator until the pof_sim simulator (issue 4) is available to the harness.
+#include <cstdint>
+#include <map>
+#include <random>
+#include <string>
+
+#include "pof/io/recording.hpp"
+
+namespace pof::gap {
+
+struct SynthConfig {
+  double rate_hz = 200;
+  int cycles_per_velocity = 1;
+  bool short_protocol = false;       // fewer velocities and steps (unit tests: ~3 min)
+  double noise_v = 0.002;            // sensor noise [V] (white, Gaussian)
+  double pot_noise_deg = 0.03;       // reference angle noise [deg]
+  double reference_level_v = 4.0;
+  double reference_wander = 0.0;     // relative light-source wander (cancelled unless coupled)
+  double extra_seconds = 0;          // gait-like variable-velocity movement appended
+  /// Hidden effects: identifier -> magnitude in the effect's natural unit:
+  ///  static_nonlinearity [deg at the range ends], drift [deg over the recording],
+  ///  creep [gain, fraction of the angle step; tau fixed by creep_tau_s],
+  ///  rate_dependent_hysteresis [V, +-A (1-exp(-w/0.1)) sin(pi angle/90)], acceleration_dependence [deg per rad/s^2],
+  ///  time_delay [s], backlash [deg], source_power_coupling [fraction of power not cancelled],
+  ///  periodic_interference [V amplitude at interference_hz].
+  std::map<std::string, double> effects;
+  double creep_tau_s = 4.0;
+  double interference_hz = 50.0;
+};
+
+/// Deterministic for a given config and seed.
+io::Recording synthesise(const SynthConfig& cfg, std::uint64_t seed);
+
+/// A magnitude for effect `name` drawn at random in a range where it matters (1.5x-6x the noise).
+double draw_magnitude(const std::string& name, std::mt19937_64& rng);
+
+}  // namespace pof::gap

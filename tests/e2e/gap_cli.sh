@@ -1,0 +1,65 @@
+# `pof gap` end to end (issue 7): a simulated session with hidden creep (pof sim, scenario written
+# here) analysed from the CSV file alone; the outputs, the quiet pipe, and the exit codes.
+source "$(dirname "$0")/lib.sh"
+
+cat >creep.toml <<'TOML'
+schema_version = 1
+name = "e2e-creep"
+[sensor.creep]
+enabled = true
+terms = [ { tau_s = 4.0, gain_v_per_deg = -0.0015 } ]
+[daq.noise]
+enabled = true
+sensor_v = 0.001
+reference_v = 0.001
+pot_v = 0.001
+[[trajectory]]
+kind = "quasi_static"
+step_deg = 15.0
+descending = true
+[[trajectory]]
+kind = "cycles"
+velocities_rad_s = [0.0898, 0.1726, 0.3415, 0.4304]
+pause_s = 2.0
+TOML
+expect_exit 0 "$BIN_DIR/pof" sim creep.toml -o creep.csv --seed 3
+expect_exit 0 "$BIN_DIR/pof" gap creep.csv --out report
+[ -z "$err" ] || fail "pof gap printed on stderr in a pipe (progress must be terminal-only): $err"
+grep -q "creep" <<<"$out" || fail "summary does not name creep: $out"
+for f in gap.json model.toml report.md series.csv residual_time.png residual_angle.png residual_velocity.png loops.png gap_steps.png; do
+  [ -s "report/$f" ] || fail "report/$f missing"
+done
+/usr/bin/python3 - report/gap.json <<'PY' || fail "gap.json content"
+import json, sys
+j = json.load(open(sys.argv[1]))
+for k in ("baseline_gap_deg", "steps", "final_gap_deg", "unexplained"):
+    assert k in j, k
+s = j["steps"][0]
+assert s["effect"] == "creep", s["effect"]
+for k in ("effect", "gap_deg", "where", "parameters", "evidence"):
+    assert k in s, k
+assert abs(s["parameters"]["tau_s"] - 4.0) < 1.5, s["parameters"]
+assert j["final_gap_deg"] <= 0.5 * j["baseline_gap_deg"], (j["baseline_gap_deg"], j["final_gap_deg"])
+PY
+grep -q '^schema_version = 1' report/model.toml || fail "model.toml has no schema_version"
+grep -Eq "effect = ['\"]creep['\"]" report/model.toml || fail "model.toml lacks the creep term"
+
+# Exit codes and messages of the brief.
+expect_exit 2 "$BIN_DIR/pof" gap creep.csv
+expect_exit 66 "$BIN_DIR/pof" gap no_such.csv --out x
+grep -q "no_such.csv" <<<"$out$err" || fail "missing-file message does not name the file: $err"
+{ head -5 creep.csv; echo "1.0,abc,4.0,3.0,3.0"; } >bad.csv
+expect_exit 65 "$BIN_DIR/pof" gap bad.csv --out x
+grep -q "bad.csv:6: column sensor_v" <<<"$out$err" || fail "bad-number message does not name file/line/column: $err"
+printf 't_s,sensor_v\n0,1\n' >nocol.csv
+expect_exit 65 "$BIN_DIR/pof" gap nocol.csv --out x
+grep -q "reference_v" <<<"$out$err" || fail "missing-column message: $err"
+head -2000 creep.csv >short.csv
+expect_exit 65 "$BIN_DIR/pof" gap short.csv --out x
+# A failed run leaves an existing report untouched.
+cp report/gap.json before.json
+expect_exit 65 "$BIN_DIR/pof" gap bad.csv --out report
+cmp -s before.json report/gap.json || fail "a failed run changed an existing gap.json"
+touch notadir
+expect_exit 74 "$BIN_DIR/pof" gap creep.csv --out notadir/sub --no-plots
+echo "ok"

@@ -1,0 +1,47 @@
+// The blind test of issue 7 on the physics simulator: a hidden draw (none, one or two effects with
+// random magnitudes, per seed), a CSV file written by the harness, `pof gap`'s analysis of that file
+// alone, and only then the comparison. Short sessions (~5 min of data) keep each case to seconds;
+// the 50-recording statistics are bench_gap's (BENCHMARKS.md).
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <iostream>
+#include <string>
+
+#include "pof/gap/blind.hpp"
+
+namespace {
+
+std::filesystem::path workdir() {
+  auto d = std::filesystem::path(POF_BINARY_DIR) / "tests/work/gap_blind";
+  std::filesystem::create_directories(d);
+  return d;
+}
+
+std::string names(const std::vector<pof::gap::blind::Hidden>& h) {
+  std::string s;
+  for (const auto& x : h) s += x.effect + " " + x.truth.dump() + "; ";
+  return s.empty() ? "none" : s;
+}
+
+void check(std::uint64_t seed, int count) {
+  const auto t = pof::gap::blind::run_trial(seed, count, true, workdir());
+  std::string found;
+  for (const auto& f : t.found) found += f + " ";
+  const std::string what = "seed " + std::to_string(seed) + ": hidden " + names(t.hidden) + " found " + found;
+  std::cout << what << "gap " << t.baseline_gap_deg << " -> " << t.final_gap_deg << " deg\n";
+  SCOPED_TRACE(what);
+  EXPECT_EQ(t.hits(), static_cast<int>(t.hidden.size()));
+  EXPECT_EQ(t.false_finds(), 0);
+  if (!t.hidden.empty()) EXPECT_GE(t.shrink(), 0.5) << t.baseline_gap_deg << " -> " << t.final_gap_deg;
+  else EXPECT_EQ(t.final_gap_deg, t.baseline_gap_deg);
+  std::filesystem::remove(t.csv);
+}
+
+}  // namespace
+
+TEST(GapBlind, NothingHidden) { check(1001, 0); }
+TEST(GapBlind, OneEffectA) { check(1002, 1); }
+TEST(GapBlind, OneEffectB) { check(1003, 1); }
+TEST(GapBlind, OneEffectC) { check(1004, 1); }
+TEST(GapBlind, TwoEffects) { check(1005, 2); }

@@ -3,6 +3,7 @@
 #include <climits>
 
 #include <pof/angle_t.hpp>
+#include <pof/compensator_status_t.hpp>
 #include <pof/cycle_stats_t.hpp>
 #include <pof/daq_status_t.hpp>
 #include <pof/raw_block_t.hpp>
@@ -35,6 +36,7 @@ PofType pof_type_of(const void* data, std::size_t size) {
   if (fp == static_cast<uint64_t>(pof::angle_t::getHash())) return PofType::kAngle;
   if (fp == static_cast<uint64_t>(pof::cycle_stats_t::getHash())) return PofType::kCycleStats;
   if (fp == static_cast<uint64_t>(pof::daq_status_t::getHash())) return PofType::kDaqStatus;
+  if (fp == static_cast<uint64_t>(pof::compensator_status_t::getHash())) return PofType::kCompensatorStatus;
   return PofType::kUnknown;
 }
 
@@ -44,6 +46,7 @@ const char* pof_type_name(PofType t) {
     case PofType::kAngle: return "angle_t";
     case PofType::kCycleStats: return "cycle_stats_t";
     case PofType::kDaqStatus: return "daq_status_t";
+    case PofType::kCompensatorStatus: return "compensator_status_t";
     case PofType::kUnknown: break;
   }
   return "?";
@@ -55,6 +58,7 @@ std::optional<int64_t> pof_seq_decoded(const void* data, std::size_t size) {
     case PofType::kAngle: return decode_seq<pof::angle_t>(data, size);
     case PofType::kCycleStats: return decode_seq<pof::cycle_stats_t>(data, size);
     case PofType::kDaqStatus: return decode_seq<pof::daq_status_t>(data, size);
+    case PofType::kCompensatorStatus: return decode_seq<pof::compensator_status_t>(data, size);
     case PofType::kUnknown: break;
   }
   return std::nullopt;
@@ -63,7 +67,8 @@ std::optional<int64_t> pof_seq_decoded(const void* data, std::size_t size) {
 // The recorder sees every message at up to 100k msg/s; a full decode of a raw block allocates a
 // vector per scan. `seq` sits at a fixed offset after the fingerprint (LCM encodes fields in
 // declaration order, big-endian, lcmtypes/*.lcm): raw_block_t and angle_t after utime and
-// publish_utime (byte 24), cycle_stats_t and daq_status_t after utime (byte 16). A unit test
+// publish_utime (byte 24), cycle_stats_t, daq_status_t and compensator_status_t after utime
+// (byte 16). A unit test
 // checks this against pof_seq_decoded() so a reordered .lcm file cannot go unnoticed.
 std::optional<int64_t> pof_seq(const void* data, std::size_t size) {
   std::size_t at = 0;
@@ -71,7 +76,8 @@ std::optional<int64_t> pof_seq(const void* data, std::size_t size) {
     case PofType::kRawBlock:
     case PofType::kAngle: at = 24; break;
     case PofType::kCycleStats:
-    case PofType::kDaqStatus: at = 16; break;
+    case PofType::kDaqStatus:
+    case PofType::kCompensatorStatus: at = 16; break;
     case PofType::kUnknown: return std::nullopt;
   }
   if (size < at + 8) return std::nullopt;

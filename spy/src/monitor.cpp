@@ -121,6 +121,12 @@ void Monitor::on_message(std::string_view channel, const void* data, std::size_t
       ok = decode_into(c.status, data, size);
       if (ok) seq = c.status->seq;
       break;
+    case recorder::PofType::kCompensatorStatus: {  // counted with its seq; its counters are not drawn yet
+      const auto q = recorder::pof_seq_decoded(data, size);
+      ok = q.has_value();
+      if (ok) seq = *q;
+      break;
+    }
     case recorder::PofType::kUnknown:
       return;
   }

@@ -13,6 +13,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <pof/angle_t.hpp>
 #include <pof/cycle_stats_t.hpp>
+#include <pof/compensator_status_t.hpp>
 #include <pof/daq_status_t.hpp>
 #include <pof/raw_block_t.hpp>
 
@@ -266,6 +267,10 @@ TEST(PofMessages, FastSeqMatchesTheGeneratedDecoder) {
   s.utime = 9;
   s.seq = 42;
   check(s, 42);
+  pof::compensator_status_t cs{};
+  cs.utime = 10;
+  cs.seq = 4242;
+  check(cs, 4242);
   const char junk[] = "not ours at all";
   EXPECT_EQ(pof_type_of(junk, sizeof junk), PofType::kUnknown);
   EXPECT_FALSE(pof_seq(junk, sizeof junk).has_value());

@@ -8,7 +8,7 @@
 
 namespace pof::recorder {
 
-enum class PofType { kUnknown, kRawBlock, kAngle, kCycleStats, kDaqStatus };
+enum class PofType { kUnknown, kRawBlock, kAngle, kCycleStats, kDaqStatus, kCompensatorStatus };
 
 /// The first 8 bytes as a big-endian fingerprint (0 when shorter).
 uint64_t fingerprint_of(const void* data, std::size_t size);

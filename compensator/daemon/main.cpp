@@ -28,8 +28,11 @@
 #include "pof/lcm/subscribe.hpp"
 #include "pof/lcm/url.hpp"
 #include "pof/service/sd_notify.hpp"
+#include "pof/lcm/utime.hpp"
 
 namespace {
+
+using pof::lcmutil::now_utime;
 
 std::atomic<bool> g_stop{false};
 std::atomic<bool> g_reload{false};
@@ -37,11 +40,6 @@ std::atomic<bool> g_reload{false};
 extern "C" void on_signal(int sig) {
   if (sig == SIGHUP) g_reload = true;
   else g_stop = true;
-}
-
-std::int64_t now_utime() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
 }
 
 class LcmSink final : public pof::compensatord::Sink {

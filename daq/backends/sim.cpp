@@ -15,15 +15,12 @@
 #include "pof/io/errors.hpp"
 #include "pof/sim/scenario.hpp"
 #include "pof/sim/simulator.hpp"
+#include "pof/lcm/utime.hpp"
 
 namespace pof::daq {
 namespace {
 
-std::int64_t now_us() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
+using pof::lcmutil::now_utime;
 
 class SyntheticSource final : public SampleSource {
  public:
@@ -89,7 +86,7 @@ class SimBackend final : public Backend {
   StreamEnd stream(ScanSink& sink, const std::atomic<bool>& stop, std::string& why) override {
     timespec t0{};
     clock_gettime(CLOCK_MONOTONIC, &t0);
-    const std::int64_t t_start = now_us();
+    const std::int64_t t_start = now_utime();
     sink.on_segment_start(t_start, t_start, false);
     std::uint64_t sent = 0;
     while (!stop.load(std::memory_order_relaxed)) {
@@ -109,7 +106,7 @@ class SimBackend final : public Backend {
         why = "scenario '" + scenario_ + "' finished";
         return StreamEnd::kStopped;
       }
-      sink.on_scans(buf_.data(), n, now_us(), 0);
+      sink.on_scans(buf_.data(), n, now_utime(), 0);
       sent += n;
     }
     return StreamEnd::kStopped;

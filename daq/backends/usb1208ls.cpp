@@ -18,15 +18,12 @@
 #include "core/config.hpp"
 #include "pof/raw_block_t.hpp"
 #include "protocol/mcc_usb1208ls.hpp"
+#include "pof/lcm/utime.hpp"
 
 namespace pof::daq {
 namespace {
 
-std::int64_t now_us() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
+using pof::lcmutil::now_utime;
 
 class Usb1208lsBackend final : public Backend {
  public:
@@ -84,12 +81,12 @@ class Usb1208lsBackend final : public Backend {
     carry_n_ = 0;
     while (!stop.load(std::memory_order_relaxed)) {
       const auto count = static_cast<std::uint16_t>(burst_samples_);
-      const std::int64_t sent_us = now_us();
+      const std::int64_t sent_us = now_utime();
       if (!write(mcc::ain_scan_report(count, *timer_, 0x1 /* single execution [6] */), why)) {
         sink.on_usb_error();
         return StreamEnd::kError;
       }
-      sink.on_segment_start(sent_us, now_us(), continuous);
+      sink.on_segment_start(sent_us, now_utime(), continuous);
       continuous = true;
       std::uint16_t expect = 1;
       std::size_t got = 0;
@@ -139,7 +136,7 @@ class Usb1208lsBackend final : public Backend {
   StreamEnd stream_single(ScanSink& sink, const std::atomic<bool>& stop, std::string& why) {
     timespec t0{};
     clock_gettime(CLOCK_MONOTONIC, &t0);
-    const std::int64_t start = now_us();
+    const std::int64_t start = now_utime();
     sink.on_segment_start(start, start, false);
     const bool differential = cfg_.terminal == ni::Terminal::kDifferential;
     for (std::uint64_t k = 0; !stop.load(std::memory_order_relaxed); ++k) {
@@ -173,7 +170,7 @@ class Usb1208lsBackend final : public Backend {
         }
         volts_[c] = static_cast<float>(mcc::counts_to_volts(counts, gain_));
       }
-      sink.on_scans(volts_.data(), 1, now_us(), flags);
+      sink.on_scans(volts_.data(), 1, now_utime(), flags);
     }
     return StreamEnd::kStopped;
   }
@@ -217,7 +214,7 @@ class Usb1208lsBackend final : public Backend {
     const std::size_t scans = out / n_ch_;
     carry_n_ = out - scans * n_ch_;
     for (std::size_t i = 0; i < carry_n_; ++i) carry_[i] = volts_[scans * n_ch_ + i];
-    sink.on_scans(volts_.data(), scans, now_us(), flags);
+    sink.on_scans(volts_.data(), scans, now_utime(), flags);
   }
 
   DaqConfig cfg_;

@@ -22,15 +22,12 @@
 #include "device_ids.hpp"
 #include "pof/raw_block_t.hpp"
 #include "protocol/ni_usb600x.hpp"
+#include "pof/lcm/utime.hpp"
 
 namespace pof::daq {
 namespace {
 
-std::int64_t now_us() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
+using pof::lcmutil::now_utime;
 
 std::string hex(std::span<const std::uint8_t> b) {
   std::string s;
@@ -179,7 +176,7 @@ class Usb600xBackend final : public Backend {
         if (!start_segment(true, why)) return StreamEnd::kError;
         continue;
       }
-      if (in_flight_ > 0 && now_us() - last_progress_us_ > std::int64_t{cfg_.data_timeout_ms} * 1000) {
+      if (in_flight_ > 0 && now_utime() - last_progress_us_ > std::int64_t{cfg_.data_timeout_ms} * 1000) {
         fail(StreamEnd::kError, "no data on endpoint 0x82 within acquisition.data_timeout_ms", 0);
       }
     }
@@ -276,7 +273,7 @@ class Usb600xBackend final : public Backend {
   bool start_segment(bool continuous, std::string& why) {
     std::int64_t sent_us = 0;
     for (const auto& f : ni::start_frames(seg_scans_, n_ch_)) {
-      sent_us = now_us();
+      sent_us = now_utime();
       if (command(f, cfg_.command_timeout_ms, why) != OpenStatus::kOk) {
         sink_->on_usb_error();
         return false;
@@ -284,11 +281,11 @@ class Usb600xBackend final : public Backend {
     }
     // Sampling starts when the device gets the last start command (10/03, protocol [8]): between
     // sending it and its acknowledgement; ScanClock narrows that interval from the data.
-    sink_->on_segment_start(sent_us, now_us(), continuous);
+    sink_->on_segment_start(sent_us, now_utime(), continuous);
     received_ = 0;
     requested_ = 0;
     carry_n_ = 0;
-    last_progress_us_ = now_us();
+    last_progress_us_ = now_utime();
     for (std::size_t i = 0; i < xfers_.size() && !end_; ++i) submit(i);
     return true;
   }
@@ -358,7 +355,7 @@ class Usb600xBackend final : public Backend {
         fail(StreamEnd::kError, "data transfer failed", LIBUSB_ERROR_IO);
         return;
     }
-    const std::int64_t arrival = now_us();
+    const std::int64_t arrival = now_utime();
     requested_ -= static_cast<std::uint64_t>(t->length - t->actual_length);  // short: re-request
     if (t->actual_length > 0) {
       last_progress_us_ = arrival;

@@ -11,15 +11,12 @@
 #include "pof/service/sd_notify.hpp"
 #include "pof/io/errors.hpp"
 #include "pof/raw_block_t.hpp"
+#include "pof/lcm/utime.hpp"
 
 namespace pof::daq {
 namespace {
 
-std::int64_t now_us() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
+using pof::lcmutil::now_utime;
 
 }  // namespace
 
@@ -158,7 +155,7 @@ void Daemon::publisher_main() {
 
   auto publish_status = [&](State state, const std::string& text) {
     pof::daq_status_t s;
-    s.utime = now_us();
+    s.utime = now_utime();
     s.seq = status_seq++;
     s.sensor_id = cfg_.sensor_id;
     s.device_kind = cfg_.device_kind;
@@ -206,7 +203,7 @@ void Daemon::publisher_main() {
         }
       }
       queue_.pop();
-      msg.publish_utime = now_us();
+      msg.publish_utime = now_utime();
       const int len = msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
       if (len > 0) lcm_->lcm.publish(raw_channel, buf.data(), static_cast<unsigned>(len));
       counters_.blocks.fetch_add(1, std::memory_order_relaxed);

@@ -19,15 +19,13 @@
 #include "pof/recorder/channel_filter.hpp"
 #include "pof/recorder/udp_socket.hpp"
 #include "pof/recorder/udpm_receiver.hpp"
+#include "pof/lcm/utime.hpp"
 
 namespace pof::recorder {
 namespace fs = std::filesystem;
 namespace {
 
-int64_t now_utime() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
+using pof::lcmutil::now_utime;
 
 std::string iso_utc(int64_t utime) {
   const std::time_t t = static_cast<std::time_t>(utime / 1000000);

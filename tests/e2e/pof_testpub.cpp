@@ -17,16 +17,14 @@
 #include <CLI/CLI.hpp>
 #include <lcm/lcm-cpp.hpp>
 #include <pof/angle_t.hpp>
+#include <pof/lcm/utime.hpp>
 #include <pof/cycle_stats_t.hpp>
 #include <pof/daq_status_t.hpp>
 #include <pof/raw_block_t.hpp>
 
 namespace {
 
-int64_t now_utime() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
+using pof::lcmutil::now_utime;
 
 pof::raw_block_t make_block(int64_t seq, int32_t scans, const std::string& sensor_id) {
   pof::raw_block_t b;

@@ -19,9 +19,12 @@
 #include "pof/io/errors.hpp"
 #include "pof/recorder/udp_socket.hpp"
 #include "pof/spy/monitor.hpp"
+#include "pof/lcm/utime.hpp"
 
 namespace pof::cli {
 namespace {
+
+using pof::lcmutil::now_utime;
 
 struct SpyArgs {
   std::string url;
@@ -31,11 +34,6 @@ struct SpyArgs {
   bool once = false;
   int queue_capacity = 100000;
 };
-
-int64_t now_utime() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
 
 // Raw keyboard input while the view runs; restored on every exit path (RAII).
 class RawTerminal {

@@ -64,16 +64,7 @@ void write_csv(const std::filesystem::path& path, const Recording& rec) {
   cols.angle_true_deg = rec.angle_true_deg.size() == n && n > 0;
   if (!cols.angle_ref_deg && !cols.pot_v) cols.angle_ref_deg = true;  // empty recording: header only
   CsvWriter w(path, cols);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    RecordingRow r;
-    r.t_s = rec.t_s[i];
-    r.sensor_v = rec.sensor_v[i];
-    r.reference_v = rec.reference_v[i];
-    if (cols.angle_ref_deg) r.angle_ref_deg = rec.angle_ref_deg[i];
-    if (cols.pot_v) r.pot_v = rec.pot_v[i];
-    if (cols.angle_true_deg) r.angle_true_deg = rec.angle_true_deg[i];
-    w.write(r);
-  }
+  for (Eigen::Index i = 0; i < n; ++i) w.write(row_of(rec, i));
   w.commit();
 }
 

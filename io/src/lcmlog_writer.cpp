@@ -107,16 +107,7 @@ void write_lcmlog(const std::filesystem::path& path, const Recording& rec, LcmLo
   options.angle_ref = rec.angle_ref_deg.size() == n && n > 0;
   options.angle_true = rec.angle_true_deg.size() == n && n > 0;
   LcmLogWriter w(path, options);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    RecordingRow r;
-    r.t_s = rec.t_s[i];
-    r.sensor_v = rec.sensor_v[i];
-    r.reference_v = rec.reference_v[i];
-    if (options.pot) r.pot_v = rec.pot_v[i];
-    if (options.angle_ref) r.angle_ref_deg = rec.angle_ref_deg[i];
-    if (options.angle_true) r.angle_true_deg = rec.angle_true_deg[i];
-    w.write(r);
-  }
+  for (Eigen::Index i = 0; i < n; ++i) w.write(row_of(rec, i));
   w.commit();
 }
 

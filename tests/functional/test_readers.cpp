@@ -17,6 +17,7 @@
 #include "pof/io/calibration_file.hpp"
 #include "pof/io/errors.hpp"
 #include "pof/io/recording_reader.hpp"
+#include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using pof::io::ConfigError;
@@ -24,24 +25,7 @@ using pof::io::DataError;
 
 namespace {
 
-class TempDir {
- public:
-  TempDir() {
-    path_ = fs::temp_directory_path() / ("pof_readers_" + std::to_string(::getpid()) + "_" + std::to_string(counter_++));
-    fs::create_directories(path_);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  std::string file(const std::string& name, const std::string& content) const {
-    const auto p = (path_ / name).string();
-    std::ofstream(p, std::ios::binary) << content;
-    return p;
-  }
-  std::string path(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  fs::path path_;
-  static inline int counter_ = 0;
-};
+using pof::test::TempDir;
 
 std::string error_of(const std::function<void()>& f) {
   try {

@@ -17,24 +17,14 @@
 #include "pof/io/errors.hpp"
 #include "pof/recorder/lcmlog_durable.hpp"
 #include "pof/recorder/session.hpp"
+#include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace pof::recorder;
 
 namespace {
 
-class TempDir {
- public:
-  TempDir() {
-    char tmpl[] = "/tmp/pof-session-XXXXXX";
-    path_ = ::mkdtemp(tmpl);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  [[nodiscard]] const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
+using pof::test::TempDir;
 
 std::string random_url() {
   std::random_device rd;

@@ -21,24 +21,14 @@
 #include "pof/recorder/channel_filter.hpp"
 #include "pof/recorder/lcmlog_durable.hpp"
 #include "pof/recorder/pof_messages.hpp"
+#include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace pof::recorder;
 
 namespace {
 
-class TempDir {
- public:
-  TempDir() {
-    char tmpl[] = "/tmp/pof-lcmlog-XXXXXX";
-    path_ = ::mkdtemp(tmpl);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  [[nodiscard]] fs::path operator/(const std::string& s) const { return path_ / s; }
-
- private:
-  fs::path path_;
-};
+using pof::test::TempDir;
 
 std::vector<unsigned char> payload(std::size_t n, unsigned seed) {
   std::vector<unsigned char> v(n);

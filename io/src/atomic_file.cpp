@@ -58,8 +58,8 @@ void write_file_atomic(const std::filesystem::path& path, const std::string& con
   while (done < content.size()) {
     const ssize_t w = ::write(fd, content.data() + done, content.size() - done);
     if (w < 0 && errno == EINTR) continue;
-    if (w < 0) {
-      const int e = errno;
+    if (w <= 0) {  // a regular file that takes 0 bytes is full
+      const int e = w < 0 ? errno : ENOSPC;
       ::close(fd);
       throw IoError(path.string() + ": write failed: " + std::strerror(e));
     }

@@ -19,6 +19,8 @@
 #include "pof/recorder/channel_filter.hpp"
 #include "pof/recorder/udp_socket.hpp"
 #include "pof/recorder/udpm_receiver.hpp"
+#include "pof/io/atomic_file.hpp"
+#include "pof/lcm/url.hpp"
 #include "pof/lcm/utime.hpp"
 
 namespace pof::recorder {
@@ -36,38 +38,6 @@ std::string iso_utc(int64_t utime) {
   char out[64];
   std::snprintf(out, sizeof out, "%s.%06lldZ", b, static_cast<long long>(utime % 1000000));
   return out;
-}
-
-bool url_has_option(const std::string& url, const std::string& key) {
-  const auto q = url.find('?');
-  if (q == std::string::npos) return false;
-  return url.find(key + "=", q) != std::string::npos;
-}
-
-void write_text_atomically(const fs::path& path, const std::string& text) {
-  const fs::path tmp = path.string() + ".tmp";
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) throw io::IoError(tmp.string() + ": cannot create: " + std::strerror(errno));
-  const char* p = text.data();
-  std::size_t n = text.size();
-  int err = 0;
-  while (n > 0) {
-    const ssize_t w = ::write(fd, p, n);
-    if (w < 0 && errno == EINTR) continue;
-    if (w <= 0) {
-      err = w < 0 ? errno : ENOSPC;
-      break;
-    }
-    p += w;
-    n -= static_cast<std::size_t>(w);
-  }
-  if (err == 0 && ::fsync(fd) != 0) err = errno;
-  ::close(fd);
-  if (err == 0 && ::rename(tmp.c_str(), path.c_str()) != 0) err = errno;
-  if (err != 0) {
-    ::unlink(tmp.c_str());
-    throw io::IoError(path.string() + ": cannot write: " + std::strerror(err));
-  }
 }
 
 }  // namespace
@@ -116,15 +86,7 @@ Session::Session(SessionOptions options) : opt_(std::move(options)) {
     if (!fs::is_regular_file(f)) throw io::NoInputError(f.string() + ": --manifest-file: no such file");
   }
 
-  url_ = opt_.lcm_url;
-  if (url_.empty()) {
-    const char* env = std::getenv("LCM_DEFAULT_URL");
-    url_ = env != nullptr && *env != '\0' ? env : "udpm://239.255.76.67:7667?ttl=0";
-  }
-  if (url_.rfind("udpm://", 0) == 0 && !url_has_option(url_, "recv_buf_size")) {
-    url_ += (url_.find('?') == std::string::npos ? "?" : "&");
-    url_ += "recv_buf_size=" + std::to_string(opt_.recv_buf_bytes);
-  }
+  url_ = lcmutil::resolve_url(opt_.lcm_url, opt_.recv_buf_bytes);
   port_ = lcm_url_port(url_.c_str());
 }
 
@@ -494,7 +456,7 @@ void Session::write_manifest(const char* status) {
                    {"udp_kernel_drops", final_udp_drops_},
                    {"udp_rcvbuf_bytes", final_rcvbuf_},
                    {"handoff_peak_bytes", peak}};
-  write_text_atomically(manifest_path_, m.dump(2) + "\n");
+  io::write_file_atomic(manifest_path_, m.dump(2) + "\n");
 }
 
 }  // namespace pof::recorder

@@ -18,7 +18,9 @@ inline std::string resolve_url(const std::string& cli_url, int recv_buf_bytes = 
     const char* env = std::getenv("LCM_DEFAULT_URL");
     url = env != nullptr && *env != '\0' ? env : kHostOnlyUrl;
   }
-  if (url.rfind("udpm://", 0) == 0 && url.find("recv_buf_size=") == std::string::npos)
+  const auto query = url.find('?');
+  const bool has_buf = query != std::string::npos && url.find("recv_buf_size=", query) != std::string::npos;
+  if (url.rfind("udpm://", 0) == 0 && !has_buf)
     url += (url.find('?') == std::string::npos ? "?" : "&") + std::string("recv_buf_size=") + std::to_string(recv_buf_bytes);
   return url;
 }

@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 
 namespace pof::vusb {
 
@@ -15,23 +14,13 @@ std::uint32_t be32(const std::uint8_t* p) {
 }
 }  // namespace
 
-Ni600xModel::Ni600xModel(const NiOptions& o)
-    : o_(o), coding_(o.usb6009 ? ni::usb6009_coding() : ni::usb6008_coding(o.order)) {}
+Ni600xModel::Ni600xModel(const NiOptions& o, AnalogBench& bench)
+    : o_(o), bench_(bench), coding_(o.usb6009 ? ni::usb6009_coding() : ni::usb6008_coding(o.order)) {}
 
-std::uint16_t Ni600xModel::code(std::int64_t index, std::size_t ch) const {
-  return ni::volts_to_code(volts(index, ch), coding_.bits, o_.range_v);
-}
-
-double Ni600xModel::volts(std::int64_t index, std::size_t ch) const {
-  // Sensor-like, reference-like and pot-like signals plus a fast component, so that every code
-  // bit toggles and a channel swap or a byte-order error shows.
-  const double t = static_cast<double>(index) / 1000.0;
-  const double w = 2.0 * std::numbers::pi;
-  switch (ch) {
-    case 0: return 3.3 + 1.0 * std::sin(w * 0.5 * t) + 0.3 * std::sin(w * 37.0 * t);
-    case 1: return 5.0 + 0.05 * std::sin(w * 0.1 * t) - 0.02 * std::cos(w * 11.0 * t);
-    default: return 2.5 + 2.0 * std::sin(w * 0.5 * t + 1.0) - 4.0 * static_cast<double>(ch - 2) * 0.1;
-  }
+std::uint16_t Ni600xModel::code(int session, std::int64_t index, std::size_t ch) {
+  // The sensor, reference and pot levels differ, so a channel swap shows; the noise toggles the
+  // low bits and the knee's motion the high ones, so a byte-order or justification error shows.
+  return ni::volts_to_code(bench_.volts(session, index, ai_[ch % ai_.size()]), coding_.bits, o_.range_v);
 }
 
 void Ni600xModel::power_cycle() {
@@ -59,7 +48,12 @@ void Ni600xModel::on_out(std::uint8_t ep, std::span<const std::uint8_t> data, st
       prev_end_us_ = -1;
       break;
     case ni::Cmd::kChannelList:
-      if (p.size() >= 2) n_ch_ = (static_cast<std::size_t>((p[0] << 8) | p[1]) - 2) / 2;
+      if (p.size() >= 2) {  // BE16 length, then one BE16 analog input number per entry
+        n_ch_ = std::min<std::size_t>((static_cast<std::size_t>((p[0] << 8) | p[1]) - 2) / 2, ai_.size());
+        for (std::size_t i = 0; i < n_ch_ && 3 + 2 * i < p.size(); ++i) {
+          ai_[i] = static_cast<unsigned>((p[2 + 2 * i] << 8) | p[3 + 2 * i]);
+        }
+      }
       break;
     case ni::Cmd::kClock:
       if (p.size() >= 4) rate_hz_ = ni::rate_for_divisor(be32(p.data()));
@@ -130,7 +124,7 @@ InResult Ni600xModel::on_in(std::uint8_t ep, std::span<std::uint8_t> buf, std::i
     const std::uint64_t sample = (sent_ + i) / 2;
     const auto scan = static_cast<std::int64_t>(sample / n_ch_);
     const std::size_t ch = sample % n_ch_;
-    ni::encode_sample(code(seg.first_index + scan, ch), coding_, &buf[i]);
+    ni::encode_sample(code(seg.session, seg.first_index + scan, ch), coding_, &buf[i]);
   }
   sent_ += n;
   if (sent_ == total) {

@@ -1,14 +1,17 @@
 #pragma once
 // A virtual NI USB-6008/6009 speaking daq/protocol/ni_usb600x.hpp: it acknowledges commands on
 // 0x81, runs a scan clock from the start command (10/03) and serves samples on 0x82 no earlier
-// than its clock says they exist. The samples are a deterministic function of the scan index, so
-// a checker can recompute exactly what the device sent. It records every segment (start time,
-// first index, rate) so that timestamps and the seam between segments can be measured.
+// than its clock says they exist. Its analog inputs see the simulated knee (analog_bench.hpp):
+// scan `index` of a session samples the bench's signal on the channels of the scan list, so the
+// checker reads back from the same bench exactly what the device sent. It records every segment
+// (start time, first index, rate) so that timestamps and the seam between segments can be measured.
 #include <cstdint>
+#include <array>
 #include <mutex>
 #include <string>
 #include <vector>
 
+#include "analog_bench.hpp"
 #include "protocol/ni_usb600x.hpp"
 #include "usbdevfs_device.hpp"
 
@@ -34,7 +37,7 @@ struct Segment {
 
 class Ni600xModel final : public DeviceModel {
  public:
-  explicit Ni600xModel(const NiOptions& o);
+  Ni600xModel(const NiOptions& o, AnalogBench& bench);
 
   void on_out(std::uint8_t ep, std::span<const std::uint8_t> data, std::int64_t now_us) override;
   InResult on_in(std::uint8_t ep, std::span<std::uint8_t> buf, std::int64_t now_us) override;
@@ -42,9 +45,9 @@ class Ni600xModel final : public DeviceModel {
   /// GET_DESCRIPTOR(string): language ids and the serial number.
   int on_control(const std::uint8_t* setup, std::span<std::uint8_t> data, std::int64_t now_us) override;
 
-  /// The code the device sends for scan `index` of a session, channel `ch` of the scan list.
-  [[nodiscard]] std::uint16_t code(std::int64_t index, std::size_t ch) const;
-  [[nodiscard]] double volts(std::int64_t index, std::size_t ch) const;
+  /// The code the device sends for scan `index` of device session `session`, channel `ch` of the
+  /// scan list (the bench's volts on that analog input, converted with the device's coding).
+  [[nodiscard]] std::uint16_t code(int session, std::int64_t index, std::size_t ch);
   [[nodiscard]] unsigned bits() const { return coding_.bits; }
 
   // Scenario hooks (call with the device mutex held).
@@ -62,7 +65,9 @@ class Ni600xModel final : public DeviceModel {
 
  private:
   NiOptions o_;
+  AnalogBench& bench_;
   pof::daq::ni::SampleCoding coding_;
+  std::array<unsigned, 8> ai_{0, 1, 2, 3, 4, 5, 6, 7};  // analog input of each scan-list entry [5]
   std::vector<std::vector<std::uint8_t>> replies_;
   std::size_t n_ch_ = 0;
   double rate_hz_ = 1000;  // nominal, from the clock divisor

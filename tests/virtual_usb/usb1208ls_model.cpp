@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 
 namespace pof::vusb {
 
@@ -16,33 +15,28 @@ void Usb1208lsModel::power_cycle() {
   replies_.clear();
 }
 
-std::int16_t Usb1208lsModel::counts(std::int64_t sample) const {
+std::int16_t Usb1208lsModel::counts(int session, std::int64_t sample) {
+  // AInScan: samples interleaved in queue order, 12-bit counts of the queue's gain.
   const std::size_t n = std::max<std::size_t>(1, channels_.size());
   const auto scan = sample / static_cast<std::int64_t>(n);
   const auto ch = static_cast<std::size_t>(sample % static_cast<std::int64_t>(n));
-  const double t = static_cast<double>(scan) / 500.0;
-  const double v = ch == 0 ? 3.3 + 1.0 * std::sin(2 * std::numbers::pi * 0.5 * t)
-                 : ch == 1 ? 5.0 - 0.01 * static_cast<double>(scan % 7)
-                           : 2.5 + 2.0 * std::cos(2 * std::numbers::pi * 0.5 * t);
-  const double c = std::round(v / mcc::gain_range_v(gain_) * 2047.0);
+  const unsigned ai = channels_.empty() ? 0U : channels_[ch];
+  const double c = std::round(bench_.volts(session, scan, ai) / mcc::gain_range_v(gain_) * 2047.0);
   return static_cast<std::int16_t>(std::clamp(c, -2048.0, 2047.0));
 }
 
-double Usb1208lsModel::volts_sent(std::int64_t idx, std::size_t ch) const {
+double Usb1208lsModel::volts_sent(int session, std::int64_t idx, std::size_t ch) {
   const auto n = static_cast<std::int64_t>(std::max<std::size_t>(1, channels_.size()));
-  return mcc::scan_counts_to_volts(counts(idx * n + static_cast<std::int64_t>(ch)), gain_);
+  return mcc::scan_counts_to_volts(counts(session, idx * n + static_cast<std::int64_t>(ch)), gain_);
 }
 
-std::int16_t Usb1208lsModel::se_counts(std::int64_t idx, std::size_t ch) const {
-  const double t = static_cast<double>(idx) / 50.0;
-  const double v = ch == 0 ? 3.3 + 1.0 * std::sin(2 * std::numbers::pi * 0.5 * t)
-                 : ch == 1 ? 5.0 - 0.01 * static_cast<double>(idx % 7)
-                           : 2.5 + 2.0 * std::cos(2 * std::numbers::pi * 0.5 * t);
+std::int16_t Usb1208lsModel::se_counts(int session, std::int64_t idx, std::size_t ch) {
+  const double v = bench_.volts(session, idx, static_cast<unsigned>(ch));
   return static_cast<std::int16_t>(std::clamp(std::round(v / 10.0 * 0x3FF), -1024.0, 1023.0));
 }
 
-double Usb1208lsModel::volts_single(std::int64_t idx, std::size_t ch) const {
-  return mcc::counts_to_volts(se_counts(idx, ch), mcc::kSe10V);
+double Usb1208lsModel::volts_single(int session, std::int64_t idx, std::size_t ch) {
+  return mcc::counts_to_volts(se_counts(session, idx, ch), mcc::kSe10V);
 }
 
 void Usb1208lsModel::command(std::span<const std::uint8_t> r, std::int64_t now_us) {
@@ -88,7 +82,7 @@ void Usb1208lsModel::command(std::span<const std::uint8_t> r, std::int64_t now_u
       }
       single_reads_seen = true;
       const std::size_t ch = r.size() > 1 ? (r[1] & 7U) : 0;
-      const auto raw = static_cast<unsigned>(se_counts(reads_[ch]++, ch) + 0x400);
+      const auto raw = static_cast<unsigned>(se_counts(sessions, reads_[ch]++, ch) + 0x400);
       std::vector<std::uint8_t> reply(8, 0);
       reply[0] = static_cast<std::uint8_t>(raw & 0x0F);
       reply[1] = static_cast<std::uint8_t>(raw >> 4);
@@ -116,7 +110,7 @@ int Usb1208lsModel::on_control(const std::uint8_t* setup, std::span<std::uint8_t
       if (last_index_ < ready_reports) {
         std::array<std::int16_t, mcc::kSamplesPerScanReport> s{};
         const std::int64_t base = session_sample_ + std::int64_t{last_index_} * 64;
-        for (std::size_t i = 0; i < s.size(); ++i) s[i] = counts(base + static_cast<std::int64_t>(i));
+        for (std::size_t i = 0; i < s.size(); ++i) s[i] = counts(sessions, base + static_cast<std::int64_t>(i));
         ++last_index_;
         mcc::encode_scan_report(s, last_index_, static_cast<std::uint8_t>(last_index_),
                                 std::span<std::uint8_t, mcc::kScanReportBytes>(last_report_.data(), mcc::kScanReportBytes));

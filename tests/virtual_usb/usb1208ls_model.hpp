@@ -3,12 +3,14 @@
 // UsbdevfsDevice): HID interface, interrupt-IN 0x81 for 8-byte replies, commands as control
 // SET_REPORT (no interrupt-OUT endpoint: hidapi then writes output reports by control transfer),
 // scan data as 105-byte feature reports (GET_REPORT) paced by the device's scan timer.
-// Protocol: daq/protocol/mcc_usb1208ls.hpp.
+// Protocol: daq/protocol/mcc_usb1208ls.hpp. Its analog inputs see the simulated knee
+// (analog_bench.hpp); a session starts at each channel-queue load.
 #include <cstdint>
 #include <deque>
 #include <string>
 #include <vector>
 
+#include "analog_bench.hpp"
 #include "protocol/mcc_usb1208ls.hpp"
 #include "usbdevfs_device.hpp"
 
@@ -20,16 +22,18 @@ class Usb1208lsModel final : public DeviceModel {
   static constexpr const char* kInterfaceHex = "090400000103000000" "092110010001221c00" "07058103080001";
   static constexpr int kInterfaceLen = 25;
 
-  explicit Usb1208lsModel(double clock_ppm) : ppm_(clock_ppm) {}
+  Usb1208lsModel(double clock_ppm, AnalogBench& bench) : ppm_(clock_ppm), bench_(bench) {}
 
   void on_out(std::uint8_t, std::span<const std::uint8_t>, std::int64_t) override {}
   InResult on_in(std::uint8_t ep, std::span<std::uint8_t> buf, std::int64_t now_us) override;
   int on_control(const std::uint8_t* setup, std::span<std::uint8_t> data, std::int64_t now_us) override;
 
-  /// The volts of scan `idx`, channel `ch` of a session as the device digitised them.
-  [[nodiscard]] double volts_sent(std::int64_t idx, std::size_t ch) const;
-  /// Single AIn reads: the volts of read `idx` of channel `ch` (11-bit single-ended coding).
-  [[nodiscard]] double volts_single(std::int64_t idx, std::size_t ch) const;
+  /// The volts of scan `idx`, channel `ch` (of the queue) of session `session` as the device
+  /// digitised them.
+  [[nodiscard]] double volts_sent(int session, std::int64_t idx, std::size_t ch);
+  /// Single AIn reads: the volts of read `idx` of channel `ch` (11-bit single-ended coding); the
+  /// k-th read of every channel samples bench scan k of the session.
+  [[nodiscard]] double volts_single(int session, std::int64_t idx, std::size_t ch);
   bool single_reads_seen = false;
   void power_cycle();
 
@@ -38,10 +42,11 @@ class Usb1208lsModel final : public DeviceModel {
   double rate_hz = 0;  // aggregate sample rate of the last AInScan
 
  private:
-  [[nodiscard]] std::int16_t counts(std::int64_t sample) const;
+  [[nodiscard]] std::int16_t counts(int session, std::int64_t sample);
   void command(std::span<const std::uint8_t> r, std::int64_t now_us);
 
   double ppm_;
+  AnalogBench& bench_;
   std::vector<std::uint8_t> channels_;
   pof::daq::mcc::Gain gain_ = pof::daq::mcc::kSe10V;
   bool queue_loaded_ = false;
@@ -53,7 +58,7 @@ class Usb1208lsModel final : public DeviceModel {
   std::vector<std::uint8_t> last_report_ = std::vector<std::uint8_t>(pof::daq::mcc::kScanReportBytes, 0);
   std::deque<std::vector<std::uint8_t>> replies_;
   std::vector<std::int64_t> reads_ = std::vector<std::int64_t>(8, 0);  // AIn reads per channel
-  [[nodiscard]] std::int16_t se_counts(std::int64_t idx, std::size_t ch) const;
+  [[nodiscard]] std::int16_t se_counts(int session, std::int64_t idx, std::size_t ch);
 };
 
 }  // namespace pof::vusb

@@ -6,6 +6,7 @@
 // testbed and the virtual device, fork/execs pof-daqd (which inherits the preload and the
 // testbed), serves it from the testbed thread, listens to POF_RAW/POF_DAQ_STATUS on LCM, runs the
 // scenario (unplug, stall, garbage, ...), stops the daemon with SIGTERM and checks:
+// (the devices' analog inputs see the simulator's knee: analog_bench.hpp, --sim-scenario)
 //   - every published volt equals what the device sent, within 1 LSB (decimation-aware);
 //   - first_scan continuous across blocks unless FLAG_GAP; dropped scans counted;
 //   - published rate and measured scan rate; timestamps against the device's own clock;
@@ -41,6 +42,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <nlohmann/json.hpp>
 
+#include "analog_bench.hpp"
 #include "ni600x_model.hpp"
 #include "pof/daq_status_t.hpp"
 #include "pof/raw_block_t.hpp"
@@ -105,6 +107,7 @@ struct Checker {
   // Set before the daemon starts.
   Ni600xModel* ni = nullptr;
   pof::vusb::Usb1208lsModel* mcc = nullptr;
+  pof::vusb::AnalogBench* bench = nullptr;
   std::mutex* dev_mu = nullptr;
   int decimate = 1;
   double range_v = 10;
@@ -198,14 +201,15 @@ struct Checker {
         double want = 0;
         for (int d = 0; d < decimate; ++d) {
           const std::int64_t idx = j * decimate + d;
-          want += ni ? pof::daq::ni::code_to_volts(ni->code(idx, static_cast<std::size_t>(c)), ni->bits(), range_v)
-                     : mcc->single_reads_seen ? mcc->volts_single(idx, static_cast<std::size_t>(c))
-                                              : mcc->volts_sent(idx, static_cast<std::size_t>(c));
+          const auto ch = static_cast<std::size_t>(c);
+          want += ni ? pof::daq::ni::code_to_volts(ni->code(session, idx, ch), ni->bits(), range_v)
+                     : mcc->single_reads_seen ? mcc->volts_single(session, idx, ch)
+                                              : mcc->volts_sent(session, idx, ch);
         }
-        want /= decimate;
+        want /= decimate;  // NaN (never matches) if the device did not send this scan
         const double err = std::abs(static_cast<double>(b.volts[static_cast<std::size_t>(k)][static_cast<std::size_t>(c)]) - want);
         max_value_error_lsb = std::max(max_value_error_lsb, err / lsb);
-        if (err > lsb + 1e-6) {
+        if (!(err <= lsb + 1e-6)) {
           ++value_errors;
           if (first_error.empty()) {
             first_error = "block seq " + std::to_string(b.seq) + " scan " + std::to_string(k) + " channel " +
@@ -215,6 +219,7 @@ struct Checker {
         }
       }
     }
+    bench->forget_before(session, local * decimate);  // verified: the bench may drop them
     if (ni != nullptr) {
       const double half = (decimate - 1) / 2.0;
       const double t_first = truth_us(session, static_cast<double>(local * decimate) + half);
@@ -288,6 +293,7 @@ int main(int argc, char** argv) {
   double max_ts_error_us = -1;
   double min_rate_ratio = 0.99;
   std::string device_serial;
+  pof::vusb::BenchOptions bench_opts;
   std::string record_pcap;
   std::string replay_pcap;
   std::vector<std::string> extra;
@@ -321,6 +327,12 @@ int main(int argc, char** argv) {
   app.add_option("--min-usb-errors", min_usb_errors);
   app.add_option("--max-ts-error-us", max_ts_error_us, "bound on |utime - true scan time| (p99)");
   app.add_option("--min-rate-ratio", min_rate_ratio, "measured/published scan rate lower bound");
+  app.add_option("--sim-scenario", bench_opts.scenario,
+                 "what the device's analog inputs see: a pof sim scenario (built-in name or file), "
+                 "looped; ai0 sensor, ai1 reference, ai2 pot");
+  app.add_option("--sim-seed", bench_opts.seed, "the simulator's seed");
+  app.add_option("--truth", bench_opts.truth_csv,
+                 "write every simulated scan (volts and the true knee angle) to this CSV");
   app.add_option("--device-serial", device_serial, "the virtual NI device's serial number string");
   app.add_option("--record-pcap", record_pcap, "write the session as a usbmon capture (pcap)");
   app.add_option("--replay-pcap", replay_pcap,
@@ -349,6 +361,15 @@ int main(int argc, char** argv) {
     return 2;
   }
 
+  // The simulated knee on the analog inputs, sampled at the device's scan rate.
+  std::unique_ptr<pof::vusb::AnalogBench> bench;
+  try {
+    bench_opts.scan_rate_hz = rate;
+    bench = std::make_unique<pof::vusb::AnalogBench>(bench_opts);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "pof-vdaq: --sim-scenario %s: %s\n", bench_opts.scenario.c_str(), e.what());
+    return 2;
+  }
   UMockdevTestbed* testbed = umockdev_testbed_new();
   std::unique_ptr<Ni600xModel> ni;
   std::unique_ptr<pof::vusb::Usb1208lsModel> mcc;
@@ -364,9 +385,9 @@ int main(int argc, char** argv) {
   no.serial = device_serial;
   std::mutex replay_mu;
   if (!replay_pcap.empty()) {
-    // The model only computes what the recorded device sent (same scan-index function); the
-    // bytes come from the capture.
-    ni = std::make_unique<Ni600xModel>(no);
+    // The model only computes what the recorded device sent (the same simulated knee, seed and
+    // rate give the same scans); the bytes come from the capture.
+    ni = std::make_unique<Ni600xModel>(no, *bench);
     const std::string ifc = "09040000" "03ff0000" "00" "0705010240" "0000" "0705810240" "0000" "0705820240" "0000";
     pof::vusb::UsbdevfsDevice::replay(
         testbed, pof::vusb::UsbIds{0x3923, static_cast<std::uint16_t>(no.usb6009 ? 0x717b : 0x717a),
@@ -374,7 +395,7 @@ int main(int argc, char** argv) {
         replay_pcap);
   } else if (scenario != "absent" && !is_sim) {
     if (is_ni) {
-      ni = std::make_unique<Ni600xModel>(no);
+      ni = std::make_unique<Ni600xModel>(no, *bench);
       // Interface 0, vendor class, 3 bulk endpoints of 64 bytes: 0x01 OUT, 0x81 IN, 0x82 IN.
       const std::string ifc = "09040000" "03ff0000" "00" "0705010240" "0000" "0705810240" "0000" "0705820240" "0000";
       dev = std::make_unique<pof::vusb::UsbdevfsDevice>(
@@ -383,7 +404,7 @@ int main(int argc, char** argv) {
                                                  !device_serial.empty())},
           *ni);
     } else {
-      mcc = std::make_unique<pof::vusb::Usb1208lsModel>(clock_ppm);
+      mcc = std::make_unique<pof::vusb::Usb1208lsModel>(clock_ppm, *bench);
       dev = std::make_unique<pof::vusb::UsbdevfsDevice>(
           testbed, pof::vusb::UsbIds{0x09db, 0x007a, descriptors(0x09db, 0x007a, pof::vusb::Usb1208lsModel::kInterfaceHex, pof::vusb::Usb1208lsModel::kInterfaceLen)},
           *mcc);
@@ -401,6 +422,7 @@ int main(int argc, char** argv) {
   Checker checker;
   checker.ni = ni.get();
   checker.mcc = mcc.get();
+  checker.bench = bench.get();
   checker.dev_mu = dev ? &dev->mutex() : &replay_mu;
   if (dev && !record_pcap.empty()) dev->record_pcap(record_pcap);
   checker.decimate = decimate;
@@ -518,6 +540,11 @@ int main(int argc, char** argv) {
   r["model"] = model;
   r["scenario"] = scenario;
   r["duration_s"] = duration;
+  if (bench) {
+    std::lock_guard dl(*checker.dev_mu);
+    r["sim_scenario"] = bench->scenario_name();
+    r["sim_scans_generated"] = bench->scans_generated();
+  }
   r["daemon_exit_code"] = code;
   r["daemon_stop_s"] = stop_s;
   r["blocks"] = checker.blocks;

@@ -1,0 +1,77 @@
+#pragma once
+// The analog side of the virtual DAQs: the simulated exoskeleton knee (pof::sim::Simulator,
+// docs/simulator.md) wired to the device's analog inputs the way daq.toml's default [channels]
+// says a lab wires a real one:
+//
+//   ai0 = POF sensor photodetector, ai1 = reference fibre photodetector, ai2 = knee potentiometer;
+//   every other input is grounded (0 V).
+//
+// The virtual devices sample it on their own scan clock: scan `index` of device session `session`
+// (a session starts at each power-up/configuration: the device's scan index restarts at 0) is
+// bench scan offset(session) + index, and a new session continues the signal where the previous
+// one stopped (the knee does not rewind when the cable is pulled). Scans are generated once, in
+// order, on demand (the Simulator is sequential) and kept until forget_before(), so the device
+// that serves a scan and the checker that verifies the daemon's output read the same numbers.
+//
+// The scenario's trajectory loops (Scenario::loop): long runs (60-s maximum-rate tests, 10-minute
+// benchmarks) never run out of signal. The simulator's own converter model is
+// the "analog" signal here; the virtual device then quantises it with its own coding.
+//
+// Threading: not synchronised; the virtual device's mutex guards it (the device thread serves,
+// the checker's LCM thread verifies).
+#include <cstdint>
+#include <cstdio>
+#include <deque>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "pof/sim/scenario.hpp"
+#include "pof/sim/simulator.hpp"
+
+namespace pof::vusb {
+
+struct BenchOptions {
+  std::string scenario = "session";  // built-in name or scenario file path (pof sim's argument)
+  std::uint64_t seed = 1;
+  double scan_rate_hz = 1000;        // the device's scan rate: the simulator's time step
+  std::string truth_csv;             // write every generated scan (ground truth) here; "" = off
+};
+
+class AnalogBench {
+ public:
+  /// Throws pof::io::ConfigError / NoInputError (unknown scenario), std::runtime_error (truth file).
+  explicit AnalogBench(const BenchOptions& o);
+  ~AnalogBench();
+  AnalogBench(const AnalogBench&) = delete;
+  AnalogBench& operator=(const AnalogBench&) = delete;
+
+  /// Volts on analog input `ai` at scan `index` of device session `session` (1, 2, ...). A session
+  /// not seen before starts at the next scan not yet generated. NaN for a scan already forgotten
+  /// or beyond the end of an earlier session (the caller's bookkeeping is wrong).
+  double volts(int session, std::int64_t index, unsigned ai);
+  /// Drops the scans before `index` of `session` (and every earlier session's).
+  void forget_before(int session, std::int64_t index);
+
+  [[nodiscard]] std::int64_t scans_generated() const { return generated_; }
+  [[nodiscard]] const std::string& scenario_name() const { return scenario_.name; }
+
+ private:
+  struct Row {
+    double sensor_v, reference_v, pot_v;
+  };
+  void generate_through(std::int64_t bench_index);
+  std::int64_t bench_index(int session, std::int64_t index);
+
+  BenchOptions o_;
+  pof::sim::Scenario scenario_;
+  std::unique_ptr<pof::sim::Simulator> sim_;
+  std::vector<pof::sim::Scan> chunk_;
+  std::deque<Row> rows_;          // bench scans [base_, generated_)
+  std::int64_t base_ = 0;
+  std::int64_t generated_ = 0;
+  std::vector<std::int64_t> session_offset_;  // bench index of scan 0 of session s at [s - 1]
+  std::FILE* truth_ = nullptr;
+};
+
+}  // namespace pof::vusb

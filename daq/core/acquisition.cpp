@@ -8,7 +8,7 @@
 namespace pof::daq {
 
 Acquisition::Acquisition(const DaqConfig& cfg, double device_rate_hz, SpscQueue<Block>& queue,
-                         Counters& counters, std::counting_semaphore<>& wake)
+                         Counters& counters, Doorbell& wake)
     : n_ch_(cfg.channels().size()),
       device_rate_hz_(device_rate_hz),
       decimate_(cfg.decimate),
@@ -95,7 +95,7 @@ void Acquisition::flush_block() noexcept {
   if (block_ == nullptr) return;
   queue_.commit();
   block_ = nullptr;
-  wake_.release();
+  wake_.ring();
 }
 
 }  // namespace pof::daq

@@ -4,10 +4,10 @@
 // allocates nothing after construction and never logs: problems become counters (style.md, PX4).
 #include <atomic>
 #include <cstdint>
-#include <semaphore>
 
 #include "backends/backend.hpp"
 #include "core/config.hpp"
+#include "core/doorbell.hpp"
 #include "core/scan_clock.hpp"
 #include "core/spsc_queue.hpp"
 
@@ -35,9 +35,9 @@ struct Block {
 
 class Acquisition final : public ScanSink {
  public:
-  /// `device_rate_hz`: the rate the device really runs at. `wake` is released once per block.
+  /// `device_rate_hz`: the rate the device really runs at. `wake` is rung once per block.
   Acquisition(const DaqConfig& cfg, double device_rate_hz, SpscQueue<Block>& queue,
-              Counters& counters, std::counting_semaphore<>& wake);
+              Counters& counters, Doorbell& wake);
 
   void on_segment_start(std::int64_t earliest_us, std::int64_t latest_us,
                         bool continuous) noexcept override;
@@ -58,7 +58,7 @@ class Acquisition final : public ScanSink {
   int block_scans_;
   SpscQueue<Block>& queue_;
   Counters& counters_;
-  std::counting_semaphore<>& wake_;
+  Doorbell& wake_;
   ScanClock clock_;
 
   bool started_ = false;

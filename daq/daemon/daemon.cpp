@@ -58,7 +58,7 @@ void Daemon::stop() {
   stop_.store(true);
   if (acq_thread_.joinable()) acq_thread_.join();
   publisher_stop_.store(true);
-  wake_.release();
+  wake_.ring();
   if (pub_thread_.joinable()) pub_thread_.join();
 }
 
@@ -71,7 +71,7 @@ void Daemon::set_state(State s, const std::string& why) {
     state_events_.emplace_back(s, why);
   }
   spdlog::info("state {}: {}", state_name(s), why);
-  wake_.release();
+  wake_.ring();
 }
 
 bool Daemon::sleep_unless_stopped(int ms) {
@@ -188,7 +188,7 @@ void Daemon::publisher_main() {
   notifier.ready("publishing " + raw_channel + " and " + status_channel);
   for (;;) {
     notifier.watchdog_if_due();
-    (void)wake_.try_acquire_until(next_status);
+    (void)wake_.wait_until(next_status);
     while (Block* b = queue_.front()) {
       msg.utime = b->utime;
       msg.seq = seq++;

@@ -6,13 +6,13 @@
 #include <utility>
 #include <memory>
 #include <mutex>
-#include <semaphore>
 #include <string>
 #include <thread>
 
 #include "backends/backend.hpp"
 #include "core/acquisition.hpp"
 #include "core/config.hpp"
+#include "core/doorbell.hpp"
 
 namespace pof::daq {
 
@@ -53,7 +53,7 @@ class Daemon {
   std::unique_ptr<Lcm> lcm_;
   SpscQueue<Block> queue_;
   Counters counters_;
-  std::counting_semaphore<> wake_{0};
+  Doorbell wake_;
   std::atomic<bool> stop_{false};
   std::atomic<bool> publisher_stop_{false};
   std::atomic<bool> acquisition_done_{false};

@@ -3,7 +3,6 @@
 // continuous indices, gap handling after a lost session, overruns, timestamps.
 #include <gtest/gtest.h>
 
-#include <semaphore>
 #include <vector>
 
 #include "core/acquisition.hpp"
@@ -49,7 +48,7 @@ struct Rig {
   DaqConfig cfg;
   SpscQueue<Block> queue;
   Counters counters;
-  std::counting_semaphore<> wake{0};
+  pof::daq::Doorbell wake;
   std::unique_ptr<Acquisition> acq;
 };
 

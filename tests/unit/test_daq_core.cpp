@@ -1,12 +1,14 @@
 // The daemon's pure parts: the scan clock (drift, causality), the SPSC hand-off and the
-// configuration errors (each names its key).
+// configuration errors (each names its key), the publisher's doorbell.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <random>
 #include <thread>
 
 #include "core/config.hpp"
+#include "core/doorbell.hpp"
 #include "core/scan_clock.hpp"
 #include "core/spsc_queue.hpp"
 #include "pof/io/errors.hpp"
@@ -158,4 +160,37 @@ TEST(DaqConfig, EveryErrorNamesItsKey) {
   EXPECT_NE(config_error("schema_version = 1\n[daemon]\nretry = 3").find("daemon.retry"), std::string::npos);
   EXPECT_NE(config_error("schema_version = 1\n[acquisition]\nsegment_scans = 1001").find("acquisition.segment_scans"), std::string::npos);
   EXPECT_NE(config_error("schema_version = 1\ndevice = 3").find("'device'"), std::string::npos);
+}
+
+// --- Doorbell (core/doorbell.hpp): the acquisition -> publisher wake-up -------------------------
+
+TEST(Doorbell, RingBeforeWaitIsNotLostAndRingsCoalesce) {
+  pof::daq::Doorbell bell;
+  EXPECT_FALSE(bell.try_wait());
+  bell.ring();
+  bell.ring();
+  bell.ring();
+  EXPECT_TRUE(bell.try_wait());   // three rings, one wake-up: the publisher drains the queue anyway
+  EXPECT_FALSE(bell.try_wait());
+}
+
+TEST(Doorbell, TimesOutWithoutARing) {
+  pof::daq::Doorbell bell;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(20);
+  EXPECT_FALSE(bell.wait_until(deadline));
+  EXPECT_GE(std::chrono::steady_clock::now(), deadline);
+}
+
+TEST(Doorbell, ARingFromAnotherThreadWakesASleepingWaiter) {
+  // The waiter sleeps in FUTEX_WAIT with a 60-s deadline; only the ring can end the wait before
+  // it, and a lost wake-up shows as `false` (after 60 s), not as a flaky timing bound.
+  pof::daq::Doorbell bell;
+  for (int round = 0; round < 20; ++round) {
+    std::thread ringer([&] {
+      std::this_thread::sleep_for(std::chrono::milliseconds(round % 2 == 0 ? 5 : 0));
+      bell.ring();
+    });
+    EXPECT_TRUE(bell.wait_until(std::chrono::steady_clock::now() + std::chrono::seconds(60))) << "round " << round;
+    ringer.join();
+  }
 }

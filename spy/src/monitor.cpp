@@ -121,12 +121,10 @@ void Monitor::on_message(std::string_view channel, const void* data, std::size_t
       ok = decode_into(c.status, data, size);
       if (ok) seq = c.status->seq;
       break;
-    case recorder::PofType::kCompensatorStatus: {  // counted with its seq; its counters are not drawn yet
-      const auto q = recorder::pof_seq_decoded(data, size);
-      ok = q.has_value();
-      if (ok) seq = *q;
+    case recorder::PofType::kCompensatorStatus:
+      ok = decode_into(c.compensator, data, size);
+      if (ok) seq = c.compensator->seq;
       break;
-    }
     case recorder::PofType::kUnknown:
       return;
   }
@@ -234,6 +232,20 @@ std::string render(const Monitor& m, const RenderOptions& o) {
                static_cast<long long>(d.scans), static_cast<long long>(d.blocks), static_cast<long long>(d.dropped_scans),
                static_cast<long long>(d.usb_errors), static_cast<long long>(d.overruns),
                static_cast<long long>(d.reconnects));
+    }
+    if (c.compensator) {  // pof-compensatord's health: what it lost, rejected or flagged
+      const auto& d = *c.compensator;
+      s += "\n" + heading(o, fmt("%s  compensator status", name.c_str())) +
+           fmt("  sensor %s  calibration %s (sensor %s, %s)\n", d.sensor_id.empty() ? "-" : d.sensor_id.c_str(),
+               d.calibration_path.c_str(), d.calibration_sensor_id.empty() ? "-" : d.calibration_sensor_id.c_str(),
+               d.calibration_date.c_str());
+      s += fmt("   blocks %lld  scans %lld  lost_blocks %lld  lost_scans %lld  rejected_blocks %lld  fault_scans %lld\n",
+               static_cast<long long>(d.blocks), static_cast<long long>(d.scans), static_cast<long long>(d.lost_blocks),
+               static_cast<long long>(d.lost_scans), static_cast<long long>(d.rejected_blocks),
+               static_cast<long long>(d.fault_scans));
+      s += fmt("   angles %lld  cycles %lld  reloads %d  reload failures %d%s%s\n", static_cast<long long>(d.angles),
+               static_cast<long long>(d.cycles), d.reloads, d.reload_failures,
+               d.last_error.empty() ? "" : "  last error: ", d.last_error.c_str());
     }
   }
   if (m.channels().empty()) s += "(no messages yet)\n";

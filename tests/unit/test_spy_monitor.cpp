@@ -71,6 +71,15 @@ TEST(SpyMonitor, RendersDecodedValuesOfOurTypesAndFingerprintsOfOthers) {
   d.device_kind = "usb6008";
   d.reconnects = 2;
   feed(m, "POF_DAQ_STATUS_LEFT_KNEE", enc(d), 1);
+  pof::compensator_status_t cs{};
+  cs.sensor_id = "LEFT_KNEE";
+  cs.calibration_path = "/etc/pof/cal.toml";
+  cs.lost_blocks = 4;
+  cs.lost_scans = 200;
+  cs.rejected_blocks = 1;
+  cs.reload_failures = 1;
+  cs.last_error = "cal.toml: key 'model.c9': expected a number";
+  feed(m, "POF_COMPENSATOR_STATUS_LEFT_KNEE", enc(cs), 1);
   const std::vector<unsigned char> foreign{1, 2, 3, 4, 5, 6, 7, 8, 9, 10};
   feed(m, "OTHER", foreign, 1);
 
@@ -87,6 +96,10 @@ TEST(SpyMonitor, RendersDecodedValuesOfOurTypesAndFingerprintsOfOthers) {
   EXPECT_NE(text.find("DISCONNECTED (device unplugged)"), std::string::npos);
   EXPECT_NE(text.find("reconnects 2"), std::string::npos);
   EXPECT_NE(text.find("fp:0102030405060708"), std::string::npos);
+  // The compensator's drops and its failed reload are on screen, not only its message count.
+  EXPECT_NE(text.find("calibration /etc/pof/cal.toml"), std::string::npos) << text;
+  EXPECT_NE(text.find("lost_blocks 4  lost_scans 200  rejected_blocks 1"), std::string::npos) << text;
+  EXPECT_NE(text.find("reload failures 1  last error: cal.toml: key 'model.c9'"), std::string::npos) << text;
   EXPECT_NE(text.find("      7 "), std::string::npos);  // the cycle row
   EXPECT_EQ(text.find("\x1b["), std::string::npos);      // plain text for --once
 }

@@ -15,6 +15,7 @@
 #include <utility>
 
 #include <pof/angle_t.hpp>
+#include <pof/compensator_status_t.hpp>
 #include <pof/cycle_stats_t.hpp>
 #include <pof/daq_status_t.hpp>
 #include <pof/raw_block_t.hpp>
@@ -40,6 +41,7 @@ struct ChannelView {
   std::optional<pof::angle_t> angle;
   std::deque<pof::cycle_stats_t> stats;  // newest last, at most kStatsKept
   std::optional<pof::daq_status_t> status;
+  std::optional<pof::compensator_status_t> compensator;
 };
 
 class Monitor {

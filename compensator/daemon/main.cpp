@@ -63,6 +63,7 @@ struct Options {
   std::string velocity_source = "sensor";
   double output_rate_hz = 0;
   double velocity_window_s = 0.5;
+  double reversal_window_s = pof::core::CompensatorSettings{}.reversal_window_s;
   int queue_capacity = 10000;
   double duration_s = 0;
 };
@@ -72,6 +73,7 @@ int run(const Options& o) {
   ps.sensor_id = o.sensor_id;
   ps.output_rate_hz = o.output_rate_hz;
   ps.compensator.velocity_window_s = o.velocity_window_s;
+  ps.compensator.reversal_window_s = o.reversal_window_s;
   ps.compensator.velocity_source =
       o.velocity_source == "reference" ? pof::core::VelocitySource::kReference : pof::core::VelocitySource::kSensor;
   std::optional<pof::core::PotentiometerCalibration> pot;
@@ -155,6 +157,9 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   app.add_option("--velocity-window", o.velocity_window_s, "Velocity estimator window [s]")
       ->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--reversal-window", o.reversal_window_s,
+                 "Short window that detects reversals early [s] (0: direction from the velocity window alone)")
+      ->check(CLI::Range(0.0, 10.0))->capture_default_str();
   app.add_option("--duration", o.duration_s, "Stop after this many seconds (tests, benchmarks); 0 = until SIGTERM")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--queue-capacity", o.queue_capacity, "LCM subscription queue [messages]")

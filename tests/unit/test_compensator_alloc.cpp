@@ -28,7 +28,9 @@ TEST(CompensatorAlloc, StepResetAndStatisticsNeverAllocate) {
   pof::core::Calibration cal;
   cal.model = pof::core::paper_coefficients();
   cal.reference_level_v = 4.0;
-  pof::core::OnlineCompensator comp(cal);
+  pof::core::CompensatorSettings settings;
+  settings.reversal_window_s = 0.1;  // the optional second window too
+  pof::core::OnlineCompensator comp(cal, settings);
   pof::core::CycleStatistics stats;
   double sink = 0;
   g_armed = true;

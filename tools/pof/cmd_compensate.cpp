@@ -24,6 +24,7 @@ struct CompensateOptions {
   std::string recording, cal, csv, json, pot_cal, channel;
   std::string velocity_source = "sensor";
   double window_s = 0.5;
+  double reversal_window_s = pof::core::CompensatorSettings{}.reversal_window_s;
 };
 
 void print_table(const pof::core::OfflineResult& r) {
@@ -54,6 +55,7 @@ void run(const CompensateOptions& o) {
   }
   pof::core::CompensatorSettings s;
   s.velocity_window_s = o.window_s;
+  s.reversal_window_s = o.reversal_window_s;
   s.velocity_source = o.velocity_source == "reference" ? pof::core::VelocitySource::kReference : pof::core::VelocitySource::kSensor;
   const auto r = pof::core::compensate_recording(rec.t_s, rec.sensor_v, rec.reference_v, ref, cal.cal, s, {},
                                                  [&](Eigen::Index i, Eigen::Index n) { progress.fraction(i, n); });
@@ -83,6 +85,9 @@ void add_compensate(CLI::App& app) {
   cmd->add_option("--velocity-source", o->velocity_source, "Where velocity and direction come from")
       ->check(CLI::IsMember({"sensor", "reference"}))->capture_default_str();
   cmd->add_option("--velocity-window", o->window_s, "Velocity estimator window [s]")->check(CLI::Range(0.02, 10.0))->capture_default_str();
+  cmd->add_option("--reversal-window", o->reversal_window_s,
+                  "Short window that detects reversals early [s] (0: direction from the velocity window alone)")
+      ->check(CLI::Range(0.0, 10.0))->capture_default_str();
   cmd->callback([o] { run(*o); });
 }
 

@@ -1,5 +1,6 @@
 #include "pof/core/compensator.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -23,6 +24,13 @@ OnlineCompensator::OnlineCompensator(const Calibration& cal, const CompensatorSe
   if (n_ < 2) n_ = 2;
   if (n_ > 1'000'000) throw std::invalid_argument("compensator: velocity window too long");
   ring_.assign(static_cast<std::size_t>(n_), 0.0);
+  if (s.reversal_window_s > 0) {
+    if (!(s.reversal_rad_s > s.move_rad_s))
+      throw std::invalid_argument("compensator: reversal_rad_s must exceed move_rad_s");
+    m_ = std::clamp(static_cast<int>(std::lround(s.reversal_window_s * s.scan_rate_hz)), 2, n_);
+    const double m = m_;
+    m_sxx_ = m * (m * m - 1) / 12.0;
+  }
   guard_.level_v = cal.reference_level_v;
   guard_.min_ratio = s.reference_min_ratio;
   guard_.max_ratio = s.reference_max_ratio;
@@ -77,6 +85,19 @@ double OnlineCompensator::push(double y) noexcept {
   return (m * s1_ - sj * s0_) / (m * sjj - sj * sj);
 }
 
+double OnlineCompensator::short_slope() const noexcept {
+  // Direct least squares over the newest m_ scans of the ring (m_ is small: ~20 multiply-adds).
+  if (m_ == 0 || count_ < m_) return std::nan("");
+  const int newest = (head_ + count_ - 1) % n_;
+  const double jbar = (m_ - 1) / 2.0;
+  double sxy = 0;
+  for (int j = 0; j < m_; ++j) {
+    const int i = (newest - (m_ - 1) + j + n_) % n_;
+    sxy += (j - jbar) * ring_[static_cast<std::size_t>(i)];
+  }
+  return sxy / m_sxx_;
+}
+
 CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, double angle_ref_deg) noexcept {
   CompensatedScan out;
   if (gap_pending_) {
@@ -106,17 +127,25 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
   }
   const double w = push(y) * s_.scan_rate_hz * kRadPerDeg;
   out.velocity_rad_s = w;
+  // Direction with a dead band (hold_rad_s < move_rad_s). With the reversal window on, its slope
+  // ws (lag ~(M-1)/2fs) flips flexion <-> extension as soon as it clearly sees the opposite sense,
+  // the long window may only flip when ws agrees (no flip-back while it still lags), and a hold
+  // needs both to be quiet (the long window passes through zero during every reversal).
+  const bool fast = m_ > 0;
+  const double ws = fast ? short_slope() * s_.scan_rate_hz * kRadPerDeg : 0.0;
   if (count_ < n_) {
     out.quality |= quality::kSettling;
     phase_ = Direction::kHold;  // a half-filled window is too noisy to decide a direction
   } else if (phase_ == Direction::kHold) {
     if (w > s_.move_rad_s) phase_ = Direction::kFlexion;
     else if (w < -s_.move_rad_s) phase_ = Direction::kExtension;
-  } else if (std::abs(w) < s_.hold_rad_s) {
+  } else if (std::abs(w) < s_.hold_rad_s && (!fast || std::abs(ws) < s_.reversal_rad_s)) {
     phase_ = Direction::kHold;
-  } else if (phase_ == Direction::kFlexion && w < -s_.move_rad_s) {
+  } else if (phase_ == Direction::kFlexion &&
+             (fast ? (ws < -s_.reversal_rad_s || (w < -s_.move_rad_s && ws < 0)) : w < -s_.move_rad_s)) {
     phase_ = Direction::kExtension;
-  } else if (phase_ == Direction::kExtension && w > s_.move_rad_s) {
+  } else if (phase_ == Direction::kExtension &&
+             (fast ? (ws > s_.reversal_rad_s || (w > s_.move_rad_s && ws > 0)) : w > s_.move_rad_s)) {
     phase_ = Direction::kFlexion;
   }
   out.phase = phase_;

@@ -40,6 +40,11 @@ struct CompensatorSettings {
   double velocity_window_s = 0.5;      // estimator window (delay (N-1)/2fs, noise above)
   double move_rad_s = 0.010;           // |w| above which a hold becomes movement (table 1 starts at 0.0209)
   double hold_rad_s = 0.006;           // |w| below which movement becomes a hold (dead band 0.006-0.010)
+  // Reversal detector: a second, shorter least-squares window over the newest scans that may flip
+  // flexion <-> extension before the long window does (its lag is (M-1)/2fs instead of 0.2475 s);
+  // holds and starts are still decided by the long window. 0 = off (direction from the long window).
+  double reversal_window_s = 0.0;
+  double reversal_rad_s = 0.03;        // the short window's |w| in the opposite sense that flips
   double velocity_tolerance = 0.10;    // relative margin on the calibrated velocity range before flagging
   double angle_margin_deg = 2.0;       // margin on the calibrated angle range before flagging
   double input_limit_v = 10.0;         // |input| at or above this is clipped (USB-6008 +-10 V range)
@@ -79,6 +84,7 @@ class OnlineCompensator {
  private:
   void clear_window() noexcept;
   double push(double y) noexcept;  // returns slope [deg/scan], NaN with < 2 samples
+  double short_slope() const noexcept;  // the reversal window's slope [deg/scan], NaN until it is full
 
   Calibration cal_;
   CompensatorSettings s_;
@@ -87,6 +93,8 @@ class OnlineCompensator {
   std::vector<double> ring_;
   int head_ = 0, count_ = 0;
   double s0_ = 0, s1_ = 0;   // sum y_j, sum j*y_j over the window (j = 0 oldest)
+  int m_ = 0;                // reversal window [scans], 0 = off (m_ <= n_: it reads the same ring)
+  double m_sxx_ = 1;         // sum (j - jbar)^2 over the reversal window
   std::int64_t since_refresh_ = 0;
   Direction phase_ = Direction::kHold;
   bool gap_pending_ = false;

@@ -168,6 +168,9 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
     if (o.velocity_source != "sensor" && o.velocity_source != "reference")
       throw CLI::ValidationError("--velocity-source", "expected 'sensor' or 'reference', got '" + o.velocity_source + "'");
+    if (o.reversal_window_s > o.velocity_window_s)
+      throw CLI::ValidationError("--reversal-window", "must not exceed --velocity-window (" +
+                                 std::to_string(o.velocity_window_s) + " s)");
   } catch (const CLI::ParseError& e) {
     const int rc = app.exit(e);
     return rc == 0 ? 0 : pof::io::kExitUsage;

@@ -37,8 +37,9 @@ DECIMATE=10
 pids+=($!); recorder=$!
 "$BIN_DIR/pof-compensatord" --cal cal.toml --pot-cal pot.toml --lcm-url "$URL" 2>compensatord.log &
 pids+=($!); compensator=$!
-sleep 1.5
+for _ in $(seq 100); do grep -q "POF_RAW -> POF_ANGLE" compensatord.log && break; sleep 0.1; done
 grep -q "POF_RAW -> POF_ANGLE" compensatord.log || fail "pof-compensatord did not start: $(cat compensatord.log)"
+sleep 0.5   # pof record subscribed too
 
 # 34 s: the scenario lasts 34.7 s; the device's signal loops after that, which is not wanted here.
 vdaq --model 6008 --scenario normal --duration 34 --rate 2000 --decimate $DECIMATE --block-scans 1 \
@@ -51,7 +52,7 @@ kill -INT "$recorder"; wait "$recorder" || fail "pof record exit status $?"
 "$POF" record --check live.lcmlog > check.txt || fail "recorded log damaged: $(cat check.txt)"
 cat check.txt
 for ch in POF_RAW POF_ANGLE POF_STATS POF_DAQ_STATUS POF_COMPENSATOR_STATUS; do
-  grep -qE "^  $ch +[a-z_]+ .* 0 gaps" check.txt || fail "$ch missing from the log or with sequence gaps"
+  grep -qE "^  $ch +[a-z_]+ .* 0 gaps \(0 missing\), 0 restarts" check.txt || fail "$ch missing from the log, with sequence gaps or restarts"
 done
 
 # Replay: stock lcm-logplayer plays the recorded raw stream into a fresh compensator.
@@ -59,7 +60,8 @@ done
 pids+=($!); recorder2=$!
 "$BIN_DIR/pof-compensatord" --cal cal.toml --pot-cal pot.toml --lcm-url "$REPLAY_URL" 2>compensatord-replay.log &
 pids+=($!); compensator2=$!
-sleep 1.5
+for _ in $(seq 100); do grep -q "POF_RAW -> POF_ANGLE" compensatord-replay.log && break; sleep 0.1; done
+sleep 0.5
 lcm-logplayer -s 10 -e '^POF_RAW$' -l "$REPLAY_URL" live.lcmlog >/dev/null 2>&1 || fail "lcm-logplayer failed"
 sleep 1
 kill -TERM "$compensator2"; wait "$compensator2" || fail "replay compensator exit status $?"

@@ -264,6 +264,13 @@ TEST(Compensator, RejectsSettingsThatCannotWork) {
   s = {};
   s.scan_rate_hz = 0;
   EXPECT_THROW(OnlineCompensator(paper_calibration(), s), std::invalid_argument);
+  s = {};
+  s.reversal_window_s = 1.0;  // longer than the 0.5-s velocity window
+  EXPECT_THROW(OnlineCompensator(paper_calibration(), s), std::invalid_argument);
+  s = {};
+  s.reversal_window_s = 0.1;
+  s.reversal_rad_s = s.move_rad_s;  // must exceed the long window's threshold
+  EXPECT_THROW(OnlineCompensator(paper_calibration(), s), std::invalid_argument);
 }
 
 // The offline path (pof compensate) is the online one scan by scan; a time gap resets the

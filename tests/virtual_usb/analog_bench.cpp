@@ -1,14 +1,15 @@
 // The simulated knee on the virtual DAQs' analog inputs: see analog_bench.hpp.
 #include "analog_bench.hpp"
 
+#include <algorithm>
 #include <limits>
+#include <span>
 #include <stdexcept>
 
 namespace pof::vusb {
 
 namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr std::size_t kChunkScans = 256;
 
 pof::sim::Scenario load(const std::string& name_or_path) {
   const bool is_path = name_or_path.find('/') != std::string::npos ||
@@ -23,8 +24,7 @@ pof::sim::Scenario load(const std::string& name_or_path) {
 AnalogBench::AnalogBench(const BenchOptions& o)
     : o_(o),
       scenario_(load(o.scenario)),
-      sim_(std::make_unique<pof::sim::Simulator>(scenario_, o.seed, o.scan_rate_hz)),
-      chunk_(kChunkScans) {
+      sim_(std::make_unique<pof::sim::Simulator>(scenario_, o.seed, o.scan_rate_hz)) {
   if (!o.truth_csv.empty()) {
     truth_ = std::fopen(o.truth_csv.c_str(), "w");
     if (truth_ == nullptr) throw std::runtime_error("cannot write the truth file " + o.truth_csv);
@@ -37,9 +37,13 @@ AnalogBench::~AnalogBench() {
   if (truth_ != nullptr) std::fclose(truth_);
 }
 
+int AnalogBench::begin_session() {
+  session_offset_.push_back(generated_);
+  return static_cast<int>(session_offset_.size());
+}
+
 std::int64_t AnalogBench::bench_index(int session, std::int64_t index) {
-  if (session < 1 || index < 0) return -1;
-  while (static_cast<int>(session_offset_.size()) < session) session_offset_.push_back(generated_);
+  if (session < 1 || session > static_cast<int>(session_offset_.size()) || index < 0) return -1;
   const auto s = static_cast<std::size_t>(session - 1);
   const std::int64_t b = session_offset_[s] + index;
   // An earlier session ended where the next one began.
@@ -48,27 +52,30 @@ std::int64_t AnalogBench::bench_index(int session, std::int64_t index) {
 }
 
 void AnalogBench::generate_through(std::int64_t b) {
+  // One scan at a time: a session that begins later starts exactly after the last scan served.
   while (generated_ <= b) {
-    const std::size_t n = sim_->next(chunk_);  // a looping scenario never finishes
-    if (n == 0) throw std::logic_error("the looping scenario '" + scenario_.name + "' finished");
-    const auto session = static_cast<int>(session_offset_.size());
-    const std::int64_t offset = session_offset_.empty() ? 0 : session_offset_.back();
-    for (std::size_t k = 0; k < n; ++k) {
-      const pof::sim::Scan& sc = chunk_[k];
-      rows_.push_back({sc.sensor_v, sc.reference_v, sc.pot_v});
-      if (truth_ != nullptr) {
-        std::fprintf(truth_, "%lld,%d,%lld,%.9g,%.9g,%.9g,%.9g,%.9g\n", static_cast<long long>(generated_), session,
-                     static_cast<long long>(generated_ - offset), static_cast<double>(generated_) / o_.scan_rate_hz,
-                     sc.sensor_v, sc.reference_v, sc.pot_v, sc.angle_true_deg);
-      }
-      ++generated_;
+    pof::sim::Scan sc{};
+    if (sim_->next(std::span(&sc, 1)) != 1) {  // a looping scenario never finishes
+      throw std::logic_error("the looping scenario '" + scenario_.name + "' finished");
     }
+    rows_.push_back({sc.sensor_v, sc.reference_v, sc.pot_v});
+    if (truth_ != nullptr) {
+      const auto session = static_cast<int>(session_offset_.size());
+      const std::int64_t offset = session_offset_.empty() ? 0 : session_offset_.back();
+      std::fprintf(truth_, "%lld,%d,%lld,%.9g,%.9g,%.9g,%.9g,%.9g\n", static_cast<long long>(generated_), session,
+                   static_cast<long long>(generated_ - offset), static_cast<double>(generated_) / o_.scan_rate_hz,
+                   sc.sensor_v, sc.reference_v, sc.pot_v, sc.angle_true_deg);
+    }
+    ++generated_;
   }
 }
 
 double AnalogBench::volts(int session, std::int64_t index, unsigned ai) {
   const std::int64_t b = bench_index(session, index);
-  if (b < base_) return kNaN;
+  if (b < base_) {  // also b == -1
+    ++misses_;
+    return kNaN;
+  }
   generate_through(b);
   const Row& r = rows_[static_cast<std::size_t>(b - base_)];
   switch (ai) {
@@ -80,7 +87,11 @@ double AnalogBench::volts(int session, std::int64_t index, unsigned ai) {
 }
 
 void AnalogBench::forget_before(int session, std::int64_t index) {
-  const std::int64_t b = std::min(bench_index(session, index), generated_);
+  if (session < 1 || session > static_cast<int>(session_offset_.size())) return;
+  const auto s = static_cast<std::size_t>(session - 1);
+  std::int64_t b = session_offset_[s] + std::max<std::int64_t>(index, 0);
+  if (s + 1 < session_offset_.size()) b = std::min(b, session_offset_[s + 1]);
+  b = std::min(b, generated_);
   while (base_ < b && !rows_.empty()) {
     rows_.pop_front();
     ++base_;

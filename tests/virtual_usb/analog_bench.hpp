@@ -7,11 +7,14 @@
 //   every other input is grounded (0 V).
 //
 // The virtual devices sample it on their own scan clock: scan `index` of device session `session`
-// (a session starts at each power-up/configuration: the device's scan index restarts at 0) is
-// bench scan offset(session) + index, and a new session continues the signal where the previous
-// one stopped (the knee does not rewind when the cable is pulled). Scans are generated once, in
-// order, on demand (the Simulator is sequential) and kept until forget_before(), so the device
-// that serves a scan and the checker that verifies the daemon's output read the same numbers.
+// (a session starts at each power-up/configuration: the device's scan index restarts at 0, and
+// the device model calls begin_session()) is bench scan offset(session) + index, and a new session
+// continues the signal where the previous one stopped (the knee does not rewind when the cable is
+// pulled). Scans are generated once, one at a time, in order, on demand (the Simulator is
+// sequential) and kept until forget_before(), so the device that serves a scan and the checker
+// that verifies the daemon's output read the same numbers. A lookup of a scan the bench cannot
+// give (forgotten, past the end of its session, a session never begun) is counted as a miss and
+// answered with NaN: pof-vdaq fails a run with misses (the two sides disagree on what was sent).
 //
 // The scenario's trajectory loops (Scenario::loop): long runs (60-s maximum-rate tests, 10-minute
 // benchmarks) never run out of signal. The simulator's own converter model is
@@ -46,12 +49,15 @@ class AnalogBench {
   AnalogBench(const AnalogBench&) = delete;
   AnalogBench& operator=(const AnalogBench&) = delete;
 
-  /// Volts on analog input `ai` at scan `index` of device session `session` (1, 2, ...). A session
-  /// not seen before starts at the next scan not yet generated. NaN for a scan already forgotten
-  /// or beyond the end of an earlier session (the caller's bookkeeping is wrong).
+  /// The device starts a new session (power-up or reconfiguration): its scan 0 is the next bench
+  /// scan not yet generated. Returns the session's number (1, 2, ...).
+  int begin_session();
+  /// Volts on analog input `ai` at scan `index` of device session `session`; NaN (and a miss) for a
+  /// scan already forgotten, beyond the end of an earlier session or of a session never begun.
   double volts(int session, std::int64_t index, unsigned ai);
   /// Drops the scans before `index` of `session` (and every earlier session's).
   void forget_before(int session, std::int64_t index);
+  [[nodiscard]] long misses() const { return misses_; }
 
   [[nodiscard]] std::int64_t scans_generated() const { return generated_; }
   [[nodiscard]] const std::string& scenario_name() const { return scenario_.name; }
@@ -66,12 +72,12 @@ class AnalogBench {
   BenchOptions o_;
   pof::sim::Scenario scenario_;
   std::unique_ptr<pof::sim::Simulator> sim_;
-  std::vector<pof::sim::Scan> chunk_;
   std::deque<Row> rows_;          // bench scans [base_, generated_)
   std::int64_t base_ = 0;
   std::int64_t generated_ = 0;
   std::vector<std::int64_t> session_offset_;  // bench index of scan 0 of session s at [s - 1]
   std::FILE* truth_ = nullptr;
+  long misses_ = 0;
 };
 
 }  // namespace pof::vusb

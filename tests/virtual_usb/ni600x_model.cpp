@@ -20,7 +20,8 @@ Ni600xModel::Ni600xModel(const NiOptions& o, AnalogBench& bench)
 std::uint16_t Ni600xModel::code(int session, std::int64_t index, std::size_t ch) {
   // The sensor, reference and pot levels differ, so a channel swap shows; the noise toggles the
   // low bits and the knee's motion the high ones, so a byte-order or justification error shows.
-  return ni::volts_to_code(bench_.volts(session, index, ai_[ch % ai_.size()]), coding_.bits, o_.range_v);
+  const double v = bench_.volts(session, index, ai_[ch % ai_.size()]);
+  return ni::volts_to_code(std::isfinite(v) ? v : 0.0, coding_.bits, o_.range_v);  // a miss fails the run
 }
 
 void Ni600xModel::power_cycle() {
@@ -48,8 +49,9 @@ void Ni600xModel::on_out(std::uint8_t ep, std::span<const std::uint8_t> data, st
       prev_end_us_ = -1;
       break;
     case ni::Cmd::kChannelList:
-      if (p.size() >= 2) {  // BE16 length, then one BE16 analog input number per entry
-        n_ch_ = std::min<std::size_t>((static_cast<std::size_t>((p[0] << 8) | p[1]) - 2) / 2, ai_.size());
+      if (const std::size_t len = p.size() >= 2 ? static_cast<std::size_t>((p[0] << 8) | p[1]) : 0; len >= 2) {
+        // BE16 length, then one BE16 analog input number per entry
+        n_ch_ = std::min<std::size_t>((len - 2) / 2, ai_.size());
         for (std::size_t i = 0; i < n_ch_ && 3 + 2 * i < p.size(); ++i) {
           ai_[i] = static_cast<unsigned>((p[2 + 2 * i] << 8) | p[3 + 2 * i]);
         }
@@ -66,7 +68,7 @@ void Ni600xModel::on_out(std::uint8_t ep, std::span<const std::uint8_t> data, st
       break;
     case ni::Cmd::kStart1003: {
       if (session_pending_) {
-        ++session_;
+        session_ = bench_.begin_session();
         index_ = 0;
         session_pending_ = false;
       }

@@ -21,7 +21,8 @@ std::int16_t Usb1208lsModel::counts(int session, std::int64_t sample) {
   const auto scan = sample / static_cast<std::int64_t>(n);
   const auto ch = static_cast<std::size_t>(sample % static_cast<std::int64_t>(n));
   const unsigned ai = channels_.empty() ? 0U : channels_[ch];
-  const double c = std::round(bench_.volts(session, scan, ai) / mcc::gain_range_v(gain_) * 2047.0);
+  const double v = bench_.volts(session, scan, ai);  // NaN: a miss, which fails the run
+  const double c = std::round((std::isfinite(v) ? v : 0.0) / mcc::gain_range_v(gain_) * 2047.0);
   return static_cast<std::int16_t>(std::clamp(c, -2048.0, 2047.0));
 }
 
@@ -31,7 +32,8 @@ double Usb1208lsModel::volts_sent(int session, std::int64_t idx, std::size_t ch)
 }
 
 std::int16_t Usb1208lsModel::se_counts(int session, std::int64_t idx, std::size_t ch) {
-  const double v = bench_.volts(session, idx, static_cast<unsigned>(ch));
+  double v = bench_.volts(session, idx, static_cast<unsigned>(ch));
+  if (!std::isfinite(v)) v = 0.0;  // a miss, which fails the run
   return static_cast<std::int16_t>(std::clamp(std::round(v / 10.0 * 0x3FF), -1024.0, 1023.0));
 }
 
@@ -63,7 +65,7 @@ void Usb1208lsModel::command(std::span<const std::uint8_t> r, std::int64_t now_u
       const double timer = static_cast<double>(r[3] - kSetup[prescale & 7U]);
       rate_hz = mcc::kClockHz / (static_cast<double>(1U << (prescale + 1U)) * (256.0 - timer)) * (1.0 + ppm_ * 1e-6);
       if (queue_loaded_) {  // first burst after a (re)configuration: a new session
-        ++sessions;
+        sessions = bench_.begin_session();
         session_sample_ = 0;
         queue_loaded_ = false;
       }
@@ -76,7 +78,7 @@ void Usb1208lsModel::command(std::span<const std::uint8_t> r, std::int64_t now_u
     }
     case mcc::kAIn: {  // single read: 11-bit single-ended reply {lo, hi} [5]
       if (queue_loaded_) {  // first read after a (re)configuration: a new session
-        ++sessions;
+        sessions = bench_.begin_session();
         std::fill(reads_.begin(), reads_.end(), 0);
         queue_loaded_ = false;
       }

@@ -40,6 +40,8 @@ void print_table(const pof::core::OfflineResult& r) {
 }
 
 void run(const CompensateOptions& o) {
+  if (o.reversal_window_s > o.window_s)
+    throw CLI::ValidationError("--reversal-window", "must not exceed --velocity-window (" + std::to_string(o.window_s) + " s)");
   Progress progress("compensate");
   progress.stage("reading " + o.cal);
   const pof::io::CalibrationFile cal = pof::io::load_calibration(o.cal);

@@ -27,6 +27,8 @@ OnlineCompensator::OnlineCompensator(const Calibration& cal, const CompensatorSe
   if (s.reversal_window_s > 0) {
     if (!(s.reversal_rad_s > s.move_rad_s))
       throw std::invalid_argument("compensator: reversal_rad_s must exceed move_rad_s");
+    if (!(s.reversal_window_s <= s.velocity_window_s))
+      throw std::invalid_argument("compensator: reversal_window_s must not exceed velocity_window_s");
     m_ = std::clamp(static_cast<int>(std::lround(s.reversal_window_s * s.scan_rate_hz)), 2, n_);
     const double m = m_;
     m_sxx_ = m * (m * m - 1) / 12.0;
@@ -86,7 +88,7 @@ double OnlineCompensator::push(double y) noexcept {
 }
 
 double OnlineCompensator::short_slope() const noexcept {
-  // Direct least squares over the newest m_ scans of the ring (m_ is small: ~20 multiply-adds).
+  // Direct least squares over the newest m_ scans of the ring: O(m_), m_ = 20 at 0.1 s x 200 Hz.
   if (m_ == 0 || count_ < m_) return std::nan("");
   const int newest = (head_ + count_ - 1) % n_;
   const double jbar = (m_ - 1) / 2.0;

@@ -129,12 +129,9 @@ class SimBackend final : public Backend {
 std::unique_ptr<SampleSource> make_sample_source(const std::string& scenario, double rate,
                                                  bool has_reference, bool has_pot) {
   if (scenario == "synthetic") return std::make_unique<SyntheticSource>(rate, has_reference, has_pot);
-  // A path (has a '/' or ends in .toml) or a built-in scenario name of the simulator.
-  const bool is_path = scenario.find('/') != std::string::npos ||
-                       (scenario.size() > 5 && scenario.substr(scenario.size() - 5) == ".toml");
   pof::sim::Scenario sc;
   try {
-    sc = is_path ? pof::sim::load_scenario(scenario) : pof::sim::builtin_scenario(scenario);
+    sc = pof::sim::scenario_by_name_or_path(scenario);
   } catch (const pof::io::NoInputError& e) {
     std::string names = "synthetic";
     for (const auto& n : pof::sim::builtin_scenario_names()) names += ", " + n;

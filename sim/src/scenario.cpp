@@ -552,6 +552,12 @@ Scenario builtin_scenario(std::string_view name) {
   throw pof::io::NoInputError("no builtin scenario '" + std::string(name) + "' (builtin: " + list + ")");
 }
 
+Scenario scenario_by_name_or_path(const std::string& name_or_path) {
+  const bool is_path = name_or_path.find('/') != std::string::npos ||
+                       (name_or_path.size() > 5 && name_or_path.ends_with(".toml"));
+  return is_path ? load_scenario(name_or_path) : builtin_scenario(name_or_path);
+}
+
 std::vector<std::string> builtin_scenario_names() {
   std::vector<std::string> v;
   for (const auto& b : detail::kBuiltinScenarios) v.emplace_back(b.name);

@@ -124,6 +124,15 @@ TEST(SimScenario, BuiltinsLoadAndMatchThePaperProtocol) {
   EXPECT_THROW((void)pof::sim::load_scenario("/nonexistent/x.toml"), pof::io::NoInputError);
 }
 
+// How `sim:<x>` (daq.toml) and the virtual devices' --sim-scenario name a scenario.
+TEST(SimScenario, ByNameOrPath) {
+  EXPECT_EQ(pof::sim::scenario_by_name_or_path("session").name, "session");
+  const auto file = pof::sim::scenario_by_name_or_path(std::string(POF_SOURCE_DIR) + "/sim/scenarios/paper.toml");
+  EXPECT_NE(file.source.find("paper.toml"), std::string::npos);
+  EXPECT_THROW((void)pof::sim::scenario_by_name_or_path("no_such_scenario"), pof::io::NoInputError);
+  EXPECT_THROW((void)pof::sim::scenario_by_name_or_path("missing.toml"), pof::io::NoInputError);
+}
+
 TEST(SimScenario, ErrorsNameFileLineAndKey) {
   EXPECT_EQ(config_error(kMinimal), "(no error)");
   std::string e = config_error(kMinimal + "[sensor.creep]\nenabled = true\ntua_s = 3\n");

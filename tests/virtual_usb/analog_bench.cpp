@@ -12,9 +12,7 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 pof::sim::Scenario load(const std::string& name_or_path) {
-  const bool is_path = name_or_path.find('/') != std::string::npos ||
-                       (name_or_path.size() > 5 && name_or_path.ends_with(".toml"));
-  pof::sim::Scenario s = is_path ? pof::sim::load_scenario(name_or_path) : pof::sim::builtin_scenario(name_or_path);
+  pof::sim::Scenario s = pof::sim::scenario_by_name_or_path(name_or_path);
   s.loop = true;      // a streaming device never runs out of signal
   s.duration_s = 0;
   return s;

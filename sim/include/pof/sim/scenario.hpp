@@ -151,6 +151,10 @@ Scenario parse_scenario(std::string_view toml_text, const std::string& source);
 /// Throws pof::io::NoInputError for an unknown name.
 Scenario builtin_scenario(std::string_view name);
 std::vector<std::string> builtin_scenario_names();
+/// A scenario file when `name_or_path` looks like a path (has a '/' or ends in ".toml"), else the
+/// built-in scenario of that name (how daq.toml's `device.kind = "sim:<x>"` and the virtual
+/// devices' --sim-scenario name one). Throws as load_scenario() / builtin_scenario().
+Scenario scenario_by_name_or_path(const std::string& name_or_path);
 /// Re-checks a scenario built in code; throws ConfigError naming the field.
 void validate(const Scenario& s);
 

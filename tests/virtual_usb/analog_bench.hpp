@@ -14,7 +14,7 @@
 // sequential) and kept until forget_before(), so the device that serves a scan and the checker
 // that verifies the daemon's output read the same numbers. A lookup of a scan the bench cannot
 // give (forgotten, past the end of its session, a session never begun) is counted as a miss and
-// answered with NaN: pof-vdaq fails a run with misses (the two sides disagree on what was sent).
+// reads 0 V: pof-vdaq fails a run with misses (the two sides disagree on what was sent).
 //
 // The scenario's trajectory loops (Scenario::loop): long runs (60-s maximum-rate tests, 10-minute
 // benchmarks) never run out of signal. The simulator's own converter model is
@@ -35,7 +35,7 @@
 namespace pof::vusb {
 
 struct BenchOptions {
-  std::string scenario = "session";  // built-in name or scenario file path (pof sim's argument)
+  std::string scenario = "session";  // built-in name or scenario file path (scenario_by_name_or_path)
   std::uint64_t seed = 1;
   double scan_rate_hz = 1000;        // the device's scan rate: the simulator's time step
   std::string truth_csv;             // write every generated scan (ground truth) here; "" = off
@@ -52,8 +52,8 @@ class AnalogBench {
   /// The device starts a new session (power-up or reconfiguration): its scan 0 is the next bench
   /// scan not yet generated. Returns the session's number (1, 2, ...).
   int begin_session();
-  /// Volts on analog input `ai` at scan `index` of device session `session`; NaN (and a miss) for a
-  /// scan already forgotten, beyond the end of an earlier session or of a session never begun.
+  /// Volts on analog input `ai` at scan `index` of device session `session`; 0 V and a counted miss
+  /// for a scan already forgotten, beyond the end of an earlier session or of a session never begun.
   double volts(int session, std::int64_t index, unsigned ai);
   /// Drops the scans before `index` of `session` (and every earlier session's).
   void forget_before(int session, std::int64_t index);

@@ -47,3 +47,35 @@ TEST(CompensatorAlloc, StepResetAndStatisticsNeverAllocate) {
   EXPECT_GT(stats.cycles_kept(), 0);
   EXPECT_TRUE(std::isfinite(sink));
 }
+
+TEST(CompensatorAlloc, DynamicModelStepNeverAllocates) {
+  pof::core::Calibration cal;
+  cal.model = pof::core::paper_coefficients();
+  cal.reference_level_v = 4.0;
+  pof::core::DynamicModel m;
+  m.degree = 3;
+  m.poly = {2.35, -0.99, 0.03, 0.02, 0, 0};
+  m.n_operators = 8;
+  for (int i = 0; i < 8; ++i) {
+    m.threshold_deg[static_cast<std::size_t>(i)] = 0.5 * (i + 1);
+    m.weight_v_per_deg[static_cast<std::size_t>(i)] = 0.001;
+  }
+  m.n_prony = 3;
+  m.prony_tau_s = {1, 5, 30};
+  m.prony_gain_v_per_deg = {-0.0005, -0.0003, -0.0001};
+  m.rate_gain_s_per_rad = -1;
+  cal.dynamic = m;
+  cal.active = pof::core::ModelKind::kDynamic;
+  pof::core::OnlineCompensator comp(cal);
+  double sink = 0;
+  g_armed = true;
+  for (int i = 0; i < 20000; ++i) {
+    const double ang = 45 + 40 * std::sin(i / 400.0);
+    const auto s = comp.step(m.quasi_static_v(ang), 4.0);
+    if (i == 10000) comp.reset();
+    sink += s.angle_deg;
+  }
+  g_armed = false;
+  EXPECT_EQ(g_allocs.load(), 0);
+  EXPECT_TRUE(std::isfinite(sink));
+}

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
+#include <string>
 
 namespace pof::core {
 
@@ -33,6 +34,13 @@ OnlineCompensator::OnlineCompensator(const Calibration& cal, const CompensatorSe
     const double m = m_;
     m_sxx_ = m * (m * m - 1) / 12.0;
   }
+  if (cal.active == ModelKind::kDynamic) {
+    if (!cal.dynamic) throw std::invalid_argument("compensator: the dynamic model is selected but the calibration has none");
+    if (const char* why = cal.dynamic->invalid_reason(); *why != '\0')
+      throw std::invalid_argument(std::string("compensator: dynamic model: ") + why);
+    dynamic_ = true;
+    inverter_ = DynamicInverter(*cal.dynamic, s.scan_rate_hz);
+  }
   guard_.level_v = cal.reference_level_v;
   guard_.min_ratio = s.reference_min_ratio;
   guard_.max_ratio = s.reference_max_ratio;
@@ -48,6 +56,7 @@ void OnlineCompensator::clear_window() noexcept {
 
 void OnlineCompensator::reset() noexcept {
   clear_window();
+  inverter_.reset();  // the memory of the lost scans is unknown: start from a relaxed state
   gap_pending_ = true;
 }
 
@@ -122,7 +131,8 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
   const double y = s_.velocity_source == VelocitySource::kReference ? angle_ref_deg : out.angle_uncomp_deg;
   if (!std::isfinite(y)) {
     out.quality |= quality::kInvalidInput | quality::kSettling;
-    out.angle_deg = out.angle_uncomp_deg;  // f5: the best we can do without a velocity
+    // The dynamic model needs no velocity; the paper's falls back to f5 without one.
+    out.angle_deg = dynamic_ ? inverter_.step(nz.v).angle_deg : out.angle_uncomp_deg;
     out.velocity_rad_s = nan;
     clear_window();
     return out;
@@ -152,7 +162,13 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
   }
   out.phase = phase_;
   const double aw = std::abs(w);
-  out.angle_deg = compensated_angle(cal_.model, nz.v, aw, phase_);
+  if (dynamic_) {
+    const DynamicInverter::Result d = inverter_.step(nz.v);
+    out.angle_deg = d.angle_deg;
+    if (d.clamped) out.quality |= quality::kAngleExtrapolated;
+  } else {
+    out.angle_deg = compensated_angle(cal_.model, nz.v, aw, phase_);
+  }
   if (phase_ != Direction::kHold &&
       (aw < cal_.velocity_min_rad_s * (1 - s_.velocity_tolerance) || aw > cal_.velocity_max_rad_s * (1 + s_.velocity_tolerance)))
     out.quality |= quality::kVelocityExtrapolated;

@@ -103,3 +103,83 @@ Hysteresis hysteresis_eq1(const LineAccumulator& flexion, const LineAccumulator&
 }
 
 }  // namespace pof::core
+
+namespace pof::core {
+
+namespace {
+// Least squares restricted to the passive columns (the others are 0), on the scaled system.
+Eigen::VectorXd solve_passive(const Eigen::MatrixXd& Gs, const Eigen::VectorXd& gs, const std::vector<bool>& passive) {
+  const Eigen::Index p = Gs.rows();
+  std::vector<Eigen::Index> idx;
+  for (Eigen::Index i = 0; i < p; ++i)
+    if (passive[static_cast<std::size_t>(i)]) idx.push_back(i);
+  Eigen::VectorXd z = Eigen::VectorXd::Zero(p);
+  const auto k = static_cast<Eigen::Index>(idx.size());
+  if (k == 0) return z;
+  Eigen::MatrixXd A(k, k);
+  Eigen::VectorXd rhs(k);
+  for (Eigen::Index r = 0; r < k; ++r) {
+    rhs(r) = gs(idx[static_cast<std::size_t>(r)]);
+    for (Eigen::Index c = 0; c < k; ++c) A(r, c) = Gs(idx[static_cast<std::size_t>(r)], idx[static_cast<std::size_t>(c)]);
+  }
+  A.diagonal().array() += 1e-10;
+  const Eigen::VectorXd sol = A.ldlt().solve(rhs);
+  for (Eigen::Index r = 0; r < k; ++r) z(idx[static_cast<std::size_t>(r)]) = sol(r);
+  return z;
+}
+}  // namespace
+
+bool nnls_normal(const Eigen::Ref<const Eigen::MatrixXd>& G, const Eigen::Ref<const Eigen::VectorXd>& g,
+                 const std::vector<bool>& nonneg, Eigen::VectorXd& b) {
+  const Eigen::Index p = G.rows();
+  Eigen::VectorXd d(p);
+  for (Eigen::Index i = 0; i < p; ++i) d(i) = G(i, i) > 1e-300 ? 1.0 / std::sqrt(G(i, i)) : 0.0;
+  const Eigen::MatrixXd Gs = d.asDiagonal() * G * d.asDiagonal();
+  const Eigen::VectorXd gs = d.asDiagonal() * g;
+  std::vector<bool> passive(static_cast<std::size_t>(p));
+  for (Eigen::Index i = 0; i < p; ++i) passive[static_cast<std::size_t>(i)] = !nonneg[static_cast<std::size_t>(i)];
+  Eigen::VectorXd x = solve_passive(Gs, gs, passive);  // the free variables alone
+  bool converged = false;
+  for (Eigen::Index it = 0; it < 4 * p + 4; ++it) {
+    // Outer loop: the constrained variable whose gradient most wants to grow joins the passive set.
+    const Eigen::VectorXd w = gs - Gs * x;
+    Eigen::Index j = -1;
+    double best = 1e-12;
+    for (Eigen::Index i = 0; i < p; ++i)
+      if (nonneg[static_cast<std::size_t>(i)] && !passive[static_cast<std::size_t>(i)] && w(i) > best) {
+        best = w(i);
+        j = i;
+      }
+    if (j < 0) {
+      converged = true;
+      break;
+    }
+    passive[static_cast<std::size_t>(j)] = true;
+    for (Eigen::Index inner = 0; inner <= p; ++inner) {
+      // Inner loop: step towards the unconstrained solution on the passive set until it is feasible.
+      const Eigen::VectorXd z = solve_passive(Gs, gs, passive);
+      double alpha = 1.0;
+      bool feasible = true;
+      for (Eigen::Index i = 0; i < p; ++i)
+        if (nonneg[static_cast<std::size_t>(i)] && passive[static_cast<std::size_t>(i)] && z(i) <= 0) {
+          feasible = false;
+          const double den = x(i) - z(i);
+          if (den > 0) alpha = std::min(alpha, x(i) / den);
+        }
+      if (feasible) {
+        x = z;
+        break;
+      }
+      x += alpha * (z - x);
+      for (Eigen::Index i = 0; i < p; ++i)
+        if (nonneg[static_cast<std::size_t>(i)] && passive[static_cast<std::size_t>(i)] && x(i) <= 1e-15) {
+          passive[static_cast<std::size_t>(i)] = false;
+          x(i) = 0;
+        }
+    }
+  }
+  b = d.asDiagonal() * x;
+  return converged;
+}
+
+}  // namespace pof::core

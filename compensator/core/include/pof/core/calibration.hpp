@@ -11,21 +11,29 @@
 //       hysteresis the combined equation will evaluate, rather than the scattered measured h.
 //   f4  per direction, all dynamic samples: V_qs = c7 V1 - c8 with V1 = a_x(f1(w)) V + b_x(f1(w))
 // The combined equations (11)/(12) follow from combined_equation(model, direction).
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "pof/core/dynamic_model.hpp"
 #include "pof/core/fit.hpp"
 #include "pof/core/model.hpp"
 #include "pof/core/segmentation.hpp"
 
 namespace pof::core {
 
-/// What the online compensator needs: the model, the reference level and the calibrated ranges.
+/// Which sensor model turns voltage into angle: the paper's step model (eqs. (11)/(12) switched by
+/// a velocity estimate, f5 in holds) or the dynamic model (dynamic_model.hpp, inverted online).
+enum class ModelKind : int { kPaper = 0, kDynamic = 1 };
+
+/// What the online compensator needs: the models, the reference level and the calibrated ranges.
 struct Calibration {
-  ModelCoefficients model;
+  ModelCoefficients model;             // the paper's model (always present; f5 is the uncompensated angle)
+  std::optional<DynamicModel> dynamic; // the dynamic model, when one was identified
+  ModelKind active = ModelKind::kPaper;
   double reference_level_v = 1.0;      // reference voltage at calibration time [V]
   double angle_min_deg = 0, angle_max_deg = 90;
   double velocity_min_rad_s = 0.0209, velocity_max_rad_s = 0.4304;  // table 1

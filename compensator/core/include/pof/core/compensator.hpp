@@ -15,6 +15,10 @@
 // sigma * sqrt(12 / (N (N^2 - 1))) * fs [deg/s] (velocity_noise_rad_s()); 0.1 deg gives 0.0012 rad/s
 // at the defaults, five times below the hold threshold.
 //
+// With the dynamic model active (Calibration::active), angle_deg is its online inverse instead
+// (dynamic_model.hpp): no direction is decided, so the estimator above only reports velocity and
+// phase (POF_ANGLE, the statistics) and sets the same quality flags.
+//
 // Threading: one instance per sensor stream, used from one thread. step() and reset() never
 // allocate, never throw and never block; the constructor allocates the window.
 #include <cstdint>
@@ -22,6 +26,7 @@
 #include <vector>
 
 #include "pof/core/calibration.hpp"
+#include "pof/core/dynamic_model.hpp"
 #include "pof/core/model.hpp"
 #include "pof/core/normalise.hpp"
 #include "pof/core/quality.hpp"
@@ -63,7 +68,8 @@ struct CompensatedScan {
 
 class OnlineCompensator {
  public:
-  /// Throws std::invalid_argument on settings that cannot work (rate or window <= 0, hold >= move).
+  /// Throws std::invalid_argument on settings that cannot work (rate or window <= 0, hold >= move)
+  /// or a dynamic model marked active that is absent or invalid.
   OnlineCompensator(const Calibration& cal, const CompensatorSettings& s = {});
 
   /// One scan. angle_ref_deg is only used with VelocitySource::kReference (pass NaN otherwise).
@@ -88,6 +94,8 @@ class OnlineCompensator {
 
   Calibration cal_;
   CompensatorSettings s_;
+  bool dynamic_ = false;
+  DynamicInverter inverter_;
   ReferenceGuard guard_;
   int n_ = 1;
   std::vector<double> ring_;

@@ -3,6 +3,7 @@
 // (f2, f3, f4, f5) and the exponential f1. Every fit reports its residuals and the standard errors
 // of its parameters (ordinary least squares: cov = s^2 (J^T J)^-1, s^2 = SSR / (n - p)).
 #include <limits>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -77,5 +78,18 @@ struct Hysteresis {
   bool valid = false;
 };
 Hysteresis hysteresis_eq1(const LineAccumulator& flexion, const LineAccumulator& extension);
+
+}  // namespace pof::core
+
+namespace pof::core {
+
+/// Least squares with sign constraints, from the normal equations G = X^T X, g = X^T y:
+/// minimise |y - X b|^2 subject to b_i >= 0 for every i with nonneg[i] set (the others are free).
+/// Lawson & Hanson, "Solving Least Squares Problems" (1974), ch. 23 (NNLS), with the free
+/// variables always in the passive set. Columns are Jacobi-scaled and a 1e-10 ridge keeps an
+/// all-zero column at 0. Returns false if the active-set loop does not converge in 4 p iterations
+/// (b then holds the last feasible point).
+bool nnls_normal(const Eigen::Ref<const Eigen::MatrixXd>& G, const Eigen::Ref<const Eigen::VectorXd>& g,
+                 const std::vector<bool>& nonneg, Eigen::VectorXd& b);
 
 }  // namespace pof::core

@@ -1,0 +1,91 @@
+#pragma once
+// Identification of the dynamic model (dynamic_model.hpp) from the recording the paper's protocol
+// already makes: quasi-static steps with holds (the line, the memory at rest, the relaxation over
+// each hold) and the table-1 constant-velocity cycles (the loop and its rate dependence). No extra
+// protocol is needed.
+//
+// With the thresholds r_i, the Prony time constants tau_j and the rate gain kappa fixed, the model
+// is linear in its coefficients: the operators, Prony states and speed filter are run over the
+// reference angle (potentiometer), exactly as the online inverse runs them over its own angle,
+// and the normalised voltage is regressed on
+//     [ x^0 .. x^d | phi(w) S_1 .. phi(w) S_n | m_1 .. m_k ]
+// by least squares with the operator weights constrained to one sign (nnls_normal, both signs
+// tried). The structure (d, n, k, kappa) is chosen by blocked cross-validation: K contiguous
+// blocks cut at holds (as `pof gap` does, so no movement is split), each held out in turn, the
+// coefficients fitted on the others. Candidates whose inverse would not be monotone over the
+// search range are refused. docs/calibration.md, "The dynamic model".
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "pof/core/dynamic_model.hpp"
+#include "pof/core/segmentation.hpp"
+
+namespace pof::core {
+
+struct DynamicFitSettings {
+  std::vector<int> degrees{1, 3, 5};                 // quasi-static polynomial degrees tried
+  std::vector<int> operator_counts{0, 3, 5, 8, 12};  // stop operators tried
+  std::vector<int> prony_counts{0, 1, 2, 3, 4};      // Prony terms tried
+  std::vector<double> rate_gains_s_per_rad{-4, -2, -1, -0.5, 0, 0.5, 1, 2};  // kappa tried
+  double min_threshold_deg = 0.5;       // smallest operator threshold (above angle noise)
+  double max_threshold_fraction = 0.4;  // largest threshold as a fraction of the angle span
+  double min_tau_s = 0.5, max_tau_s = 60;  // Prony time constants spread log-uniformly in here
+  double speed_filter_s = 0.1;
+  int folds = 5;
+  double fit_rate_hz = 50;              // rows of the normal equations are decimated to about this
+  SegmentationSettings segmentation;
+  double min_hold_s = 3.0;              // a hold at least this long counts for the "needs holds" check
+};
+
+/// One structure tried, with its cross-validated error.
+struct DynamicCandidate {
+  int degree = 0, n_operators = 0, n_prony = 0;
+  double rate_gain_s_per_rad = 0;
+  double cv_rmse_v = 0;      // held-out voltage RMSE [V]
+  double cv_rmse_deg = 0;    // the same over the quasi-static sensitivity [deg]
+  bool admissible = true;    // false: some fold's fit would not be invertible
+};
+
+struct DynamicFitResult {
+  DynamicModel model;                 // the chosen structure refitted on the whole recording
+  DynamicCandidate chosen;
+  std::vector<DynamicCandidate> candidates;
+  double train_rmse_v = 0, train_rmse_deg = 0;
+  double sensitivity_v_per_deg = 0;   // |dV/dtheta| of the least-squares line through the data
+  std::vector<Eigen::Index> fold_begin, fold_end;  // the held-out blocks [begin, end)
+  Eigen::Index n_used = 0;            // scans in the regression
+};
+
+struct DynamicFitError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// Thresholds and time constants of a structure (the grids fit_dynamic tries).
+std::vector<double> operator_thresholds(int n, double min_deg, double max_deg);
+std::vector<double> prony_time_constants(int k, double min_s, double max_s);
+
+/// K contiguous blocks of [0, n) whose boundaries are moved to the nearest hold sample, so that
+/// no movement is split. Used for both models' held-out errors.
+void hold_blocks(const std::vector<Segment>& segments, Eigen::Index n, int folds, std::vector<Eigen::Index>& begin,
+                 std::vector<Eigen::Index>& end);
+
+/// v_norm: the reference-normalised sensor voltage (NaN where unusable); angle_ref_deg: the
+/// reference angle (NaN where unusable). Throws DynamicFitError saying what the recording lacks
+/// (holds, both directions) or that no candidate could be inverted.
+DynamicFitResult fit_dynamic(const Eigen::VectorXd& t_s, const Eigen::VectorXd& v_norm, const Eigen::VectorXd& angle_ref_deg,
+                             const DynamicFitSettings& s = {});
+
+/// Refits a fixed structure (that of `structure`) on the scans where `use` is true, for held-out
+/// tests. Throws DynamicFitError when the fit is not invertible.
+DynamicModel refit_dynamic(const DynamicModel& structure, const Eigen::VectorXd& t_s, const Eigen::VectorXd& v_norm,
+                           const Eigen::VectorXd& angle_ref_deg, const std::vector<bool>& use,
+                           const DynamicFitSettings& s = {});
+
+/// The forward model over a whole angle history at scan rate fs: V for each scan (NaN angles hold
+/// the previous one). For plots and tests.
+Eigen::VectorXd forward_dynamic(const DynamicModel& m, const Eigen::VectorXd& angle_deg, double scan_rate_hz);
+
+}  // namespace pof::core

@@ -1,0 +1,138 @@
+#pragma once
+// The dynamic sensor model: beyond Leal-Junior et al. 2017, whose section 4 names variable
+// velocity, acceleration and the fibre's viscoelastic parameters as future work. Forward model
+// from the angle history theta(t) [deg] to the normalised sensor voltage V [V] (docs/calibration.md,
+// "The dynamic model"):
+//
+//   V_k = q(x_k)                                   quasi-static polynomial, x = (theta - c) / s
+//       + phi(w_k) * sum_i c_i S_i[theta]_k        rate-independent hysteresis with memory
+//       + sum_j g_j m_j,k                          viscoelastic relaxation (Prony series)
+//
+//  * q is a polynomial of degree 1..kMaxDegree in the centred, scaled angle x (degree 1 is the
+//    paper's f5 line, V = (c10 - theta) / c9).
+//  * S_i are Prandtl-Ishlinskii stop operators of threshold r_i [deg] (Brokate & Sprekels 1996,
+//    "Hysteresis and Phase Transitions", ch. 2; Kuhnen 2003, Eur. J. Control 9: 407-418):
+//        S_i,k = clamp(S_i,k-1 + theta_k - theta_k-1, -r_i, r_i)
+//    elastic until the element slips, i.e. a Maxwell-slip model. They carry the direction and
+//    the memory: a hold keeps every S_i (no relaxation of the loop itself), a reversal half-way
+//    unsaturates only the operators whose 2 r_i exceeds the stroke (minor loops, nested inside
+//    the major loop, the return-point memory of the Preisach class). All c_i share one sign so
+//    the branch between reversals is monotone and the inverse exists (Kuhnen 2003).
+//  * phi is the rate dependence of that loop, a function of the causal speed estimate w [rad/s]
+//    (two cascaded first-order filters of the angle's rate, speed_filter_s each):
+//        phi = 1 + kappa w          kappa >= 0: the loop widens with speed (a lagging fibre);
+//        phi = 1 / (1 - kappa w)    kappa <  0: it narrows with speed, as the paper's f1 measured
+//    phi uses the speed of the previous scans only, so the model stays causal, and is held at its
+//    value at the fastest identified speed beyond it (a loop is never extrapolated in speed).
+//  * m_j is the generalised-Maxwell (Prony) state of time constant tau_j [s],
+//        m_j' = theta' - m_j / tau_j     (exact for an angle ramping linearly within a scan)
+//    a step of the angle gives g_j immediately, relaxing with tau_j (PMMA creep and relaxation:
+//    Leal-Junior, Frizera, Pontes, Opt. Laser Technol. 93 (2017) 92-98); during a ramp at w it
+//    offsets the branch by g_j tau_j w (1 - e^-t/tau_j): a second, linear rate dependence.
+//
+// The model is linear in (q, c, g) once the thresholds r, time constants tau and kappa are fixed:
+// that is how it is identified (dynamic_fit.hpp). Everything here is fixed-size: copying a model
+// or running it never allocates.
+#include <array>
+#include <cstdint>
+
+namespace pof::core {
+
+inline constexpr int kMaxDegree = 5;
+inline constexpr int kMaxOperators = 16;
+inline constexpr int kMaxPronyTerms = 8;
+
+struct DynamicModel {
+  int degree = 1;
+  double angle_centre_deg = 45, angle_scale_deg = 45;  // x = (theta - centre) / scale
+  std::array<double, kMaxDegree + 1> poly{};           // q(x) = sum_k poly[k] x^k [V]
+  int n_operators = 0;
+  std::array<double, kMaxOperators> threshold_deg{};   // r_i > 0, ascending
+  std::array<double, kMaxOperators> weight_v_per_deg{};  // c_i, one common sign
+  double rate_gain_s_per_rad = 0;                      // kappa
+  double speed_filter_s = 0.1;                         // each of the two speed filters
+  double speed_limit_rad_s = 0.5;  // phi is held at its value here beyond it (no extrapolation of the loop)
+  int n_prony = 0;
+  std::array<double, kMaxPronyTerms> prony_tau_s{};
+  std::array<double, kMaxPronyTerms> prony_gain_v_per_deg{};
+  // The angle range the model was identified on; the inverse searches a margin around it.
+  double angle_min_deg = 0, angle_max_deg = 90;
+
+  /// q(theta) [V] and dq/dtheta [V/deg].
+  [[nodiscard]] double quasi_static_v(double theta_deg) const;
+  [[nodiscard]] double quasi_static_slope(double theta_deg) const;
+  /// The rate factor phi at speed |w| [rad/s].
+  [[nodiscard]] double rate_factor(double speed_rad_s) const;
+  /// Half the height of the saturated major loop at rest [V]: sum c_i r_i.
+  [[nodiscard]] double loop_half_height_v() const;
+  /// A human-readable error if the parameters cannot be run (non-finite, thresholds not positive,
+  /// mixed weight signs, too many terms), else an empty string.
+  [[nodiscard]] const char* invalid_reason() const;
+};
+
+/// The model's memory at one scan: stop operators, Prony states, speed filters, last angle.
+struct DynamicState {
+  std::array<double, kMaxOperators> stop{};
+  std::array<double, kMaxPronyTerms> prony{};
+  double speed_f1 = 0, speed_f2 = 0;  // cascaded filters of the signed angle rate [deg/s]
+  double angle_deg = 0;
+  bool started = false;
+};
+
+/// Per-scan constants of a model at one scan rate (decays of the Prony terms and speed filters).
+struct DynamicKernel {
+  DynamicModel model;
+  double dt_s = 0.005;
+  std::array<double, kMaxPronyTerms> decay{}, ramp_gain{};  // e^{-dt/tau}, tau/dt (1 - e^{-dt/tau})
+  double speed_alpha = 1;                                    // 1 - e^{-dt/speed_filter_s}
+
+  DynamicKernel() = default;
+  DynamicKernel(const DynamicModel& m, double scan_rate_hz);
+
+  /// The model's voltage if the angle now is theta, given the state after the previous scan
+  /// (state.started must be true). d_v_d_theta receives dV/dtheta there (may be null).
+  [[nodiscard]] double voltage_at(const DynamicState& s, double theta_deg, double* d_v_d_theta) const;
+  /// Commits theta as this scan's angle: updates every operator, Prony state and speed filter.
+  void advance(DynamicState& s, double theta_deg) const;
+  /// Forward model, one scan: advances the state to theta and returns V.
+  double forward(DynamicState& s, double theta_deg) const;
+  /// The causal speed estimate the rate factor uses now [rad/s] (magnitude).
+  [[nodiscard]] double speed_rad_s(const DynamicState& s) const;
+};
+
+/// Online inversion, one scan at a time, from the sensor alone: finds the angle whose forward
+/// voltage, given the memory of the previous scans, equals the measured one. The branch is
+/// monotone in theta between kinks (DynamicModel's sign rule), so a Newton step from the previous
+/// angle, safeguarded by bisection inside a bracket of the model's range plus a margin, converges
+/// in 2-4 evaluations of O(operators + Prony terms). No flexion/extension decision is taken: the
+/// stop operators carry the direction, so there is nothing to decide late at a reversal.
+/// Never allocates, never throws.
+class DynamicInverter {
+ public:
+  DynamicInverter() = default;
+  DynamicInverter(const DynamicModel& m, double scan_rate_hz);
+
+  struct Result {
+    double angle_deg = 0;
+    bool clamped = false;  // the measured voltage lies beyond the model's range: angle at the bound
+    int iterations = 0;
+  };
+  /// The angle of this scan's normalised voltage v [V]; commits it to the memory. A non-finite v
+  /// returns NaN and leaves the memory untouched.
+  Result step(double v) noexcept;
+  /// Forget the history (after lost scans): the next scan starts from a relaxed, centred state.
+  void reset() noexcept { state_ = {}; }
+  [[nodiscard]] const DynamicState& state() const noexcept { return state_; }
+  [[nodiscard]] const DynamicKernel& kernel() const noexcept { return k_; }
+  /// The search bracket [deg]: the identified range plus a margin of a quarter of its span.
+  [[nodiscard]] double lower_deg() const noexcept { return lo_; }
+  [[nodiscard]] double upper_deg() const noexcept { return hi_; }
+
+ private:
+  DynamicKernel k_;
+  DynamicState state_;
+  double lo_ = -22.5, hi_ = 112.5;
+  double sign_ = -1;  // sign of dV/dtheta (a POF loses light as it bends: negative)
+};
+
+}  // namespace pof::core

@@ -1,0 +1,397 @@
+#include "pof/core/dynamic_fit.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include <Eigen/Dense>
+
+#include "pof/core/fit.hpp"
+#include "pof/core/offline.hpp"
+
+namespace pof::core {
+
+using Eigen::Index;
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// The regression rows of one structure: the operators, Prony states and speed filter run over
+// the reference angle at the recording's rate; every `decim`-th usable scan becomes a row.
+struct Design {
+  MatrixXd X;
+  VectorXd y;
+  std::vector<Index> scan;  // scan index of each row
+  int n_poly = 0, n_ops = 0, n_prony = 0;
+};
+
+Design build_design(const DynamicModel& st, const VectorXd& v, const VectorXd& ang, double rate_hz, int decim) {
+  const Index n = v.size();
+  Design d;
+  d.n_poly = st.degree + 1;
+  d.n_ops = st.n_operators;
+  d.n_prony = st.n_prony;
+  const Index p = d.n_poly + d.n_ops + d.n_prony;
+  Index rows = 0;
+  for (Index i = 0; i < n; i += decim) rows += std::isfinite(v(i)) && std::isfinite(ang(i));
+  d.X.resize(rows, p);
+  d.y.resize(rows);
+  d.scan.reserve(static_cast<std::size_t>(rows));
+  const DynamicKernel k(st, rate_hz);
+  DynamicState s;
+  Index r = 0;
+  for (Index i = 0; i < n; ++i) {
+    if (!std::isfinite(ang(i))) continue;  // an unusable reference: the operators hold their state
+    const double theta = ang(i);
+    if (i % decim == 0 && std::isfinite(v(i))) {
+      const double delta = s.started ? theta - s.angle_deg : 0.0;
+      const double x = (theta - st.angle_centre_deg) / st.angle_scale_deg;
+      double xp = 1;
+      for (int c = 0; c < d.n_poly; ++c, xp *= x) d.X(r, c) = xp;
+      const double phi = st.rate_factor(k.speed_rad_s(s));
+      for (int o = 0; o < d.n_ops; ++o) {
+        const auto u = static_cast<std::size_t>(o);
+        d.X(r, d.n_poly + o) = phi * std::clamp(s.stop[u] + delta, -st.threshold_deg[u], st.threshold_deg[u]);
+      }
+      for (int j = 0; j < d.n_prony; ++j) {
+        const auto u = static_cast<std::size_t>(j);
+        d.X(r, d.n_poly + d.n_ops + j) = s.prony[u] * k.decay[u] + k.ramp_gain[u] * delta;
+      }
+      d.y(r) = v(i);
+      d.scan.push_back(i);
+      ++r;
+    }
+    k.advance(s, theta);
+  }
+  return d;
+}
+
+struct Grams {
+  std::vector<MatrixXd> G;
+  std::vector<VectorXd> g;
+  std::vector<double> yy;
+  std::vector<Index> rows;
+};
+
+// One normal-equation block per held-out block (rows by their scan index).
+Grams block_grams(const Design& d, const std::vector<Index>& fb, const std::vector<Index>& fe) {
+  Grams gr;
+  const Index p = d.X.cols();
+  std::size_t row = 0;
+  for (std::size_t b = 0; b < fb.size(); ++b) {
+    while (row < d.scan.size() && d.scan[row] < fb[b]) ++row;
+    const std::size_t r0 = row;
+    while (row < d.scan.size() && d.scan[row] < fe[b]) ++row;
+    const auto len = static_cast<Index>(row - r0);
+    const auto Xb = d.X.middleRows(static_cast<Index>(r0), len);
+    const auto yb = d.y.segment(static_cast<Index>(r0), len);
+    MatrixXd G = MatrixXd::Zero(p, p);
+    G.selfadjointView<Eigen::Lower>().rankUpdate(Xb.transpose());
+    gr.G.emplace_back(G.selfadjointView<Eigen::Lower>());
+    gr.g.emplace_back(Xb.transpose() * yb);
+    gr.yy.push_back(yb.squaredNorm());
+    gr.rows.push_back(len);
+  }
+  return gr;
+}
+
+double rss_of(double yy, const VectorXd& g, const MatrixXd& G, const VectorXd& b) {
+  return std::max(0.0, yy - 2.0 * b.dot(g) + b.dot(G * b));
+}
+
+// Sign-constrained least squares: the operator weights all >= 0 or all <= 0, whichever fits better.
+VectorXd solve_signed(const MatrixXd& G, const VectorXd& g, double yy, const Design& d, double* rss) {
+  const Index p = G.rows();
+  std::vector<bool> nonneg(static_cast<std::size_t>(p), false);
+  for (int o = 0; o < d.n_ops; ++o) nonneg[static_cast<std::size_t>(d.n_poly + o)] = true;
+  VectorXd best;
+  double best_rss = kInf;
+  for (double sign : {1.0, -1.0}) {
+    if (d.n_ops == 0 && sign < 0) break;
+    VectorXd flip = VectorXd::Ones(p);
+    for (int o = 0; o < d.n_ops; ++o) flip(d.n_poly + o) = sign;
+    const MatrixXd Gf = flip.asDiagonal() * G * flip.asDiagonal();
+    const VectorXd gf = flip.asDiagonal() * g;
+    VectorXd b;
+    nnls_normal(Gf, gf, nonneg, b);  // not converging leaves a feasible point: still scored
+    b = flip.asDiagonal() * b;
+    const double r = rss_of(yy, g, G, b);
+    if (r < best_rss) {
+      best_rss = r;
+      best = b;
+    }
+  }
+  if (rss != nullptr) *rss = best_rss;
+  return best;
+}
+
+DynamicModel with_coefficients(DynamicModel m, const VectorXd& b, const Design& d) {
+  for (int c = 0; c <= kMaxDegree; ++c) m.poly[static_cast<std::size_t>(c)] = c < d.n_poly ? b(c) : 0.0;
+  for (int o = 0; o < d.n_ops; ++o) m.weight_v_per_deg[static_cast<std::size_t>(o)] = b(d.n_poly + o);
+  for (int j = 0; j < d.n_prony; ++j) m.prony_gain_v_per_deg[static_cast<std::size_t>(j)] = b(d.n_poly + d.n_ops + j);
+  return m;
+}
+
+// The inverse needs V(theta) strictly monotone over the search bracket for every state the
+// operators can be in: the quasi-static slope must dominate the worst case of the operators
+// whose weights oppose it (all elastic, phi at its largest) plus the Prony terms' instant slope.
+bool invertible(const DynamicModel& m, double rate_hz) {
+  if (*m.invalid_reason() != '\0') return false;
+  const DynamicKernel k(m, rate_hz);
+  const double span = m.angle_max_deg - m.angle_min_deg;
+  const double lo = m.angle_min_deg - 0.25 * span, hi = m.angle_max_deg + 0.25 * span;
+  const double centre_slope = m.quasi_static_slope(0.5 * (m.angle_min_deg + m.angle_max_deg));
+  const double sign = centre_slope < 0 ? -1.0 : 1.0;
+  const double phi_max = std::max(m.rate_factor(0), m.rate_factor(m.speed_limit_rad_s));
+  double ops = 0, prony = 0;
+  for (int i = 0; i < m.n_operators; ++i) ops += sign * m.weight_v_per_deg[static_cast<std::size_t>(i)];
+  for (int j = 0; j < m.n_prony; ++j)
+    prony += sign * m.prony_gain_v_per_deg[static_cast<std::size_t>(j)] * k.ramp_gain[static_cast<std::size_t>(j)];
+  const double worst_extra = std::min(0.0, phi_max * ops) + prony;
+  for (int g = 0; g <= 200; ++g) {
+    const double th = lo + (hi - lo) * g / 200.0;
+    if (!(sign * m.quasi_static_slope(th) + worst_extra > 0.2 * std::abs(centre_slope))) return false;
+  }
+  return true;
+}
+
+struct Prepared {
+  double rate_hz = 200;
+  int decim = 1;
+  double angle_min = 0, angle_max = 90, speed_max = 0.5;
+  std::vector<Index> fb, fe;
+};
+
+DynamicModel structure_of(const Prepared& pr, const DynamicFitSettings& s, int degree, int n_ops, int n_prony, double kappa) {
+  DynamicModel m;
+  m.degree = degree;
+  m.angle_centre_deg = 0.5 * (pr.angle_min + pr.angle_max);
+  m.angle_scale_deg = std::max(1.0, 0.5 * (pr.angle_max - pr.angle_min));
+  m.angle_min_deg = pr.angle_min;
+  m.angle_max_deg = pr.angle_max;
+  const std::vector<double> r = operator_thresholds(n_ops, s.min_threshold_deg, s.max_threshold_fraction * (pr.angle_max - pr.angle_min));
+  m.n_operators = n_ops;
+  for (int i = 0; i < n_ops; ++i) m.threshold_deg[static_cast<std::size_t>(i)] = r[static_cast<std::size_t>(i)];
+  const std::vector<double> tau = prony_time_constants(n_prony, s.min_tau_s, s.max_tau_s);
+  m.n_prony = n_prony;
+  for (int j = 0; j < n_prony; ++j) m.prony_tau_s[static_cast<std::size_t>(j)] = tau[static_cast<std::size_t>(j)];
+  m.rate_gain_s_per_rad = kappa;
+  m.speed_filter_s = s.speed_filter_s;
+  m.speed_limit_rad_s = pr.speed_max;
+  return m;
+}
+
+// Blocked cross-validation of one structure.
+DynamicCandidate cross_validate(const DynamicModel& st, const Prepared& pr, const VectorXd& v, const VectorXd& ang,
+                                double sensitivity) {
+  DynamicCandidate c;
+  c.degree = st.degree;
+  c.n_operators = st.n_operators;
+  c.n_prony = st.n_prony;
+  c.rate_gain_s_per_rad = st.rate_gain_s_per_rad;
+  const Design d = build_design(st, v, ang, pr.rate_hz, pr.decim);
+  const Grams gr = block_grams(d, pr.fb, pr.fe);
+  const Index p = d.X.cols();
+  MatrixXd Gt = MatrixXd::Zero(p, p);
+  VectorXd gt = VectorXd::Zero(p);
+  double yt = 0;
+  Index nt = 0;
+  for (std::size_t b = 0; b < gr.G.size(); ++b) {
+    Gt += gr.G[b];
+    gt += gr.g[b];
+    yt += gr.yy[b];
+    nt += gr.rows[b];
+  }
+  double held = 0;
+  for (std::size_t b = 0; b < gr.G.size(); ++b) {
+    if (gr.rows[b] == 0) continue;
+    const VectorXd beta = solve_signed(Gt - gr.G[b], gt - gr.g[b], yt - gr.yy[b], d, nullptr);
+    if (!invertible(with_coefficients(st, beta, d), pr.rate_hz)) c.admissible = false;
+    held += rss_of(gr.yy[b], gr.g[b], gr.G[b], beta);
+  }
+  c.cv_rmse_v = nt > 0 ? std::sqrt(held / static_cast<double>(nt)) : kInf;
+  c.cv_rmse_deg = c.cv_rmse_v / sensitivity;
+  return c;
+}
+
+std::string fmt(const char* f, double x) {
+  char b[64];
+  std::snprintf(b, sizeof b, f, x);
+  return b;
+}
+
+}  // namespace
+
+std::vector<double> operator_thresholds(int n, double min_deg, double max_deg) {
+  std::vector<double> r;
+  max_deg = std::max(max_deg, min_deg);
+  for (int i = 0; i < n; ++i)
+    r.push_back(n == 1 ? std::sqrt(min_deg * max_deg) : min_deg * std::pow(max_deg / min_deg, static_cast<double>(i) / (n - 1)));
+  return r;
+}
+
+std::vector<double> prony_time_constants(int k, double min_s, double max_s) {
+  // k points at the centres of k equal log-intervals of [min_s, max_s]: 1 term -> the geometric mean.
+  std::vector<double> tau;
+  for (int j = 0; j < k; ++j) tau.push_back(min_s * std::pow(max_s / min_s, (j + 0.5) / k));
+  return tau;
+}
+
+void hold_blocks(const std::vector<Segment>& segments, Index n, int folds, std::vector<Index>& begin, std::vector<Index>& end) {
+  std::vector<char> hold(static_cast<std::size_t>(n), 0);
+  for (const Segment& g : segments)
+    if (g.kind == Direction::kHold)
+      for (Index i = g.begin; i < g.end; ++i) hold[static_cast<std::size_t>(i)] = 1;
+  const auto nf = static_cast<Index>(std::max(2, folds));
+  std::vector<Index> cut{0};
+  for (Index f = 1; f < nf; ++f) {
+    const Index target = f * n / nf, reach = n / (2 * nf);
+    Index best = target;
+    for (Index d = 0; d <= reach; ++d) {
+      if (target + d < n && hold[static_cast<std::size_t>(target + d)]) { best = target + d; break; }
+      if (target - d >= 0 && hold[static_cast<std::size_t>(target - d)]) { best = target - d; break; }
+    }
+    if (best > cut.back() + 10) cut.push_back(best);
+  }
+  cut.push_back(n);
+  begin.clear();
+  end.clear();
+  for (std::size_t i = 0; i + 1 < cut.size(); ++i) {
+    begin.push_back(cut[i]);
+    end.push_back(cut[i + 1]);
+  }
+}
+
+DynamicFitResult fit_dynamic(const VectorXd& t, const VectorXd& v, const VectorXd& ang, const DynamicFitSettings& s) {
+  const Index n = t.size();
+  if (v.size() != n || ang.size() != n) throw DynamicFitError("dynamic fit: the columns differ in length");
+  Prepared pr;
+  pr.rate_hz = median_rate_hz(t);
+  if (!(pr.rate_hz > 0)) throw DynamicFitError("dynamic fit: the time column does not increase");
+  pr.decim = std::max(1, static_cast<int>(std::lround(pr.rate_hz / s.fit_rate_hz)));
+
+  // What the recording must hold: holds (the line and the relaxation) and both directions (the loop).
+  const std::vector<Segment> seg = segment(t, ang, s.segmentation);
+  int holds = 0, flex = 0, ext = 0;
+  for (const Segment& g : seg) {
+    if (g.kind == Direction::kHold && g.duration_s() >= s.min_hold_s) ++holds;
+    if (g.kind == Direction::kFlexion && std::abs(g.amplitude_deg()) >= 5) ++flex;
+    if (g.kind == Direction::kExtension && std::abs(g.amplitude_deg()) >= 5) ++ext;
+  }
+  if (holds < 3)
+    throw DynamicFitError("dynamic fit: found " + std::to_string(holds) + " hold(s) of at least " + fmt("%g", s.min_hold_s) +
+                          " s; the quasi-static line and the relaxation need at least 3 (the paper's quasi-static steps)");
+  if (flex == 0 || ext == 0)
+    throw DynamicFitError("dynamic fit: found " + std::to_string(flex) + " flexion and " + std::to_string(ext) +
+                          " extension movement(s) of at least 5 deg; the hysteresis loop needs both directions");
+
+  // Range, speed and sensitivity of the data.
+  LineAccumulator line;
+  pr.angle_min = kInf;
+  pr.angle_max = -kInf;
+  for (Index i = 0; i < n; ++i)
+    if (std::isfinite(v(i)) && std::isfinite(ang(i))) {
+      line.add(ang(i), v(i));
+      pr.angle_min = std::min(pr.angle_min, ang(i));
+      pr.angle_max = std::max(pr.angle_max, ang(i));
+    }
+  if (!line.ok() || !(pr.angle_max - pr.angle_min > 5))
+    throw DynamicFitError("dynamic fit: the reference angle spans less than 5 deg");
+  const double sensitivity = std::abs(line.slope());
+  if (!(sensitivity > 0)) throw DynamicFitError("dynamic fit: the sensor voltage does not change with the angle");
+  double vmax = 0;
+  for (const Segment& g : seg) vmax = std::max(vmax, std::abs(g.velocity_rad_s));
+  pr.speed_max = std::max(0.05, vmax);
+  hold_blocks(seg, n, s.folds, pr.fb, pr.fe);
+
+  DynamicFitResult res;
+  res.sensitivity_v_per_deg = sensitivity;
+  res.fold_begin = pr.fb;
+  res.fold_end = pr.fe;
+  auto best_of = [&](const std::vector<DynamicCandidate>& cs) {
+    const DynamicCandidate* b = nullptr;
+    for (const DynamicCandidate& c : cs)
+      if (c.admissible && std::isfinite(c.cv_rmse_v) && (b == nullptr || c.cv_rmse_v < b->cv_rmse_v)) b = &c;
+    return b;
+  };
+  auto try_structure = [&](int deg, int ops, int k, double kappa) {
+    for (const DynamicCandidate& c : res.candidates)  // each structure is scored once
+      if (c.degree == deg && c.n_operators == ops && c.n_prony == k && c.rate_gain_s_per_rad == kappa) return;
+    res.candidates.push_back(cross_validate(structure_of(pr, s, deg, ops, k, kappa), pr, v, ang, sensitivity));
+  };
+  // Staged search: the polynomial with a middle structure, then operators x Prony terms, then the
+  // rate gain, then the Prony terms once more with that gain.
+  const int mid_ops = s.operator_counts[s.operator_counts.size() / 2];
+  const int mid_k = s.prony_counts[s.prony_counts.size() / 2];
+  for (int deg : s.degrees) try_structure(deg, mid_ops, mid_k, 0.0);
+  const DynamicCandidate* b = best_of(res.candidates);
+  if (b == nullptr) throw DynamicFitError("dynamic fit: no quasi-static polynomial gives an invertible model on this recording");
+  const int deg = b->degree;
+  for (int ops : s.operator_counts)
+    for (int k : s.prony_counts) try_structure(deg, ops, k, 0.0);
+  b = best_of(res.candidates);
+  const int ops = b->n_operators;
+  int k = b->n_prony;
+  for (double kappa : s.rate_gains_s_per_rad) try_structure(deg, ops, k, kappa);
+  b = best_of(res.candidates);
+  const double kappa = b->rate_gain_s_per_rad;
+  for (int kk : s.prony_counts) try_structure(deg, ops, kk, kappa);
+  for (int oo : s.operator_counts) try_structure(deg, oo, k, kappa);
+  b = best_of(res.candidates);
+  res.chosen = *b;
+
+  // The chosen structure on every scan.
+  const DynamicModel st = structure_of(pr, s, b->degree, b->n_operators, b->n_prony, b->rate_gain_s_per_rad);
+  const Design d = build_design(st, v, ang, pr.rate_hz, pr.decim);
+  const MatrixXd G = d.X.transpose() * d.X;
+  const VectorXd g = d.X.transpose() * d.y;
+  double rss = 0;
+  const VectorXd beta = solve_signed(G, g, d.y.squaredNorm(), d, &rss);
+  res.model = with_coefficients(st, beta, d);
+  if (!invertible(res.model, pr.rate_hz))
+    throw DynamicFitError("dynamic fit: the fitted model is not invertible over the angle range (the hysteresis or relaxation terms outweigh the quasi-static slope)");
+  res.n_used = d.y.size();
+  res.train_rmse_v = std::sqrt(rss / static_cast<double>(std::max<Index>(1, d.y.size())));
+  res.train_rmse_deg = res.train_rmse_v / sensitivity;
+  return res;
+}
+
+DynamicModel refit_dynamic(const DynamicModel& st, const VectorXd& t, const VectorXd& v, const VectorXd& ang,
+                           const std::vector<bool>& use, const DynamicFitSettings& s) {
+  const double rate = median_rate_hz(t);
+  if (!(rate > 0)) throw DynamicFitError("dynamic fit: the time column does not increase");
+  const int decim = std::max(1, static_cast<int>(std::lround(rate / s.fit_rate_hz)));
+  const Design d = build_design(st, v, ang, rate, decim);
+  const Index p = d.X.cols();
+  MatrixXd G = MatrixXd::Zero(p, p);
+  VectorXd g = VectorXd::Zero(p);
+  double yy = 0;
+  for (Index r = 0; r < d.X.rows(); ++r) {
+    if (!use[static_cast<std::size_t>(d.scan[static_cast<std::size_t>(r)])]) continue;
+    G.selfadjointView<Eigen::Lower>().rankUpdate(d.X.row(r).transpose());
+    g += d.X.row(r).transpose() * d.y(r);
+    yy += d.y(r) * d.y(r);
+  }
+  G = G.selfadjointView<Eigen::Lower>();
+  const DynamicModel m = with_coefficients(st, solve_signed(G, g, yy, d, nullptr), d);
+  if (!invertible(m, rate)) throw DynamicFitError("dynamic fit: the refitted model is not invertible");
+  return m;
+}
+
+VectorXd forward_dynamic(const DynamicModel& m, const VectorXd& angle, double rate_hz) {
+  const DynamicKernel k(m, rate_hz);
+  DynamicState s;
+  VectorXd out(angle.size());
+  double last = std::nan("");
+  for (Index i = 0; i < angle.size(); ++i) {
+    if (std::isfinite(angle(i))) last = angle(i);
+    out(i) = std::isfinite(last) ? k.forward(s, last) : std::nan("");
+  }
+  return out;
+}
+
+}  // namespace pof::core

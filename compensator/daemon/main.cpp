@@ -61,6 +61,7 @@ struct Options {
   std::string lcm_url;
   std::string pot_cal;
   std::string velocity_source = "sensor";
+  std::string model = "file";
   double output_rate_hz = 0;
   double velocity_window_s = 0.5;
   double reversal_window_s = pof::core::CompensatorSettings{}.reversal_window_s;
@@ -79,7 +80,7 @@ int run(const Options& o) {
   std::optional<pof::core::PotentiometerCalibration> pot;
   if (!o.pot_cal.empty()) pot = pof::io::load_potentiometer(o.pot_cal);
 
-  pof::compensatord::Pipeline pipeline(pof::io::load_calibration(o.cal), o.cal, ps, pot);
+  pof::compensatord::Pipeline pipeline(pof::io::load_calibration(o.cal, o.model), o.cal, ps, pot);
 
   const std::string url = pof::lcmutil::resolve_url(o.lcm_url);
   lcm::LCM lc(url);
@@ -116,7 +117,7 @@ int run(const Options& o) {
 
     if (g_reload.exchange(false)) {
       try {
-        pipeline.replace_calibration(pof::io::load_calibration(o.cal), o.cal);
+        pipeline.replace_calibration(pof::io::load_calibration(o.cal, o.model), o.cal);
         spdlog::info("reloaded calibration {}", o.cal);
       } catch (const std::exception& e) {
         pipeline.note_reload_failure(e.what());
@@ -153,6 +154,8 @@ int main(int argc, char** argv) {
   app.add_option("--pot-cal", o.pot_cal, "Potentiometer calibration (TOML) when blocks carry `pot` volts and the calibration has none");
   app.add_option("--velocity-source", o.velocity_source, "Where velocity and direction come from: sensor | reference")
       ->capture_default_str();
+  app.add_option("--model", o.model, "Sensor model: file (the calibration's active_model), paper or dynamic")
+      ->check(CLI::IsMember({"file", "paper", "dynamic"}))->capture_default_str();
   app.add_option("--output-rate", o.output_rate_hz, "Published angle rate [Hz] (boxcar decimation); 0 = every scan")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   app.add_option("--velocity-window", o.velocity_window_s, "Velocity estimator window [s]")

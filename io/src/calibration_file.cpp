@@ -8,6 +8,7 @@
 #include <cstring>
 #include <fstream>
 #include <sstream>
+#include <vector>
 
 #include <toml++/toml.h>
 
@@ -127,6 +128,75 @@ std::string read_text(const std::string& path) {
   return ss.str();
 }
 
+std::vector<double> numbers(const Keys& k, const toml::table& t, const std::string& key, std::size_t max) {
+  auto n = t.at_path(key);
+  if (!n) k.fail(key, "missing");
+  const auto* arr = n.as_array();
+  if (!arr) k.fail(key, std::string("expected an array of numbers, got ") + type_name(n.type()));
+  if (arr->size() > max) k.fail(key, "expected at most " + std::to_string(max) + " numbers, got " + std::to_string(arr->size()));
+  std::vector<double> out;
+  for (std::size_t i = 0; i < arr->size(); ++i) {
+    const auto& e = (*arr)[i];
+    double v;
+    if (const auto* f = e.as_floating_point()) v = f->get();
+    else if (const auto* m = e.as_integer()) v = static_cast<double>(m->get());
+    else k.fail(key + "[" + std::to_string(i) + "]", "expected a number");
+    if (!std::isfinite(v)) k.fail(key + "[" + std::to_string(i) + "]", "expected a finite number");
+    out.push_back(v);
+  }
+  return out;
+}
+
+std::string number_list(const double* v, int n) {
+  std::string s = "[";
+  for (int i = 0; i < n; ++i) s += (i ? ", " : "") + num(v[i]);
+  return s + "]";
+}
+
+// [dynamic]: every key checked, array lengths consistent, then the model's own validity rule
+// (one weight sign, positive thresholds and time constants) reported on the key it concerns.
+pof::core::DynamicModel read_dynamic(const Keys& k, const toml::table& t) {
+  using pof::core::kMaxDegree;
+  using pof::core::kMaxOperators;
+  using pof::core::kMaxPronyTerms;
+  pof::core::DynamicModel m;
+  const std::int64_t degree = k.integer("dynamic.degree");
+  if (degree < 1 || degree > kMaxDegree) k.fail("dynamic.degree", "expected 1.." + std::to_string(kMaxDegree) + ", got " + std::to_string(degree));
+  m.degree = static_cast<int>(degree);
+  m.angle_centre_deg = k.number("dynamic.angle_centre_deg");
+  m.angle_scale_deg = k.positive("dynamic.angle_scale_deg");
+  m.angle_min_deg = k.number("dynamic.angle_min_deg");
+  m.angle_max_deg = k.number("dynamic.angle_max_deg");
+  if (!(m.angle_max_deg > m.angle_min_deg)) k.fail("dynamic.angle_max_deg", "must exceed dynamic.angle_min_deg");
+  const auto poly = numbers(k, t, "dynamic.poly", kMaxDegree + 1);
+  if (poly.size() != static_cast<std::size_t>(degree + 1))
+    k.fail("dynamic.poly", "expected degree + 1 = " + std::to_string(degree + 1) + " coefficients, got " + std::to_string(poly.size()));
+  std::copy(poly.begin(), poly.end(), m.poly.begin());
+  const auto r = numbers(k, t, "dynamic.thresholds_deg", kMaxOperators);
+  const auto c = numbers(k, t, "dynamic.weights_v_per_deg", kMaxOperators);
+  if (r.size() != c.size()) k.fail("dynamic.weights_v_per_deg", "expected one weight per threshold (" + std::to_string(r.size()) + ")");
+  m.n_operators = static_cast<int>(r.size());
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    if (!(r[i] > 0)) k.fail("dynamic.thresholds_deg[" + std::to_string(i) + "]", "expected a threshold > 0 deg");
+    m.threshold_deg[i] = r[i];
+    m.weight_v_per_deg[i] = c[i];
+  }
+  m.rate_gain_s_per_rad = k.number("dynamic.rate_gain_s_per_rad");
+  m.speed_filter_s = k.positive("dynamic.speed_filter_s");
+  m.speed_limit_rad_s = k.positive("dynamic.speed_limit_rad_s");
+  const auto tau = numbers(k, t, "dynamic.prony_tau_s", kMaxPronyTerms);
+  const auto g = numbers(k, t, "dynamic.prony_gain_v_per_deg", kMaxPronyTerms);
+  if (tau.size() != g.size()) k.fail("dynamic.prony_gain_v_per_deg", "expected one gain per time constant (" + std::to_string(tau.size()) + ")");
+  m.n_prony = static_cast<int>(tau.size());
+  for (std::size_t j = 0; j < tau.size(); ++j) {
+    if (!(tau[j] > 0)) k.fail("dynamic.prony_tau_s[" + std::to_string(j) + "]", "expected a time constant > 0 s");
+    m.prony_tau_s[j] = tau[j];
+    m.prony_gain_v_per_deg[j] = g[j];
+  }
+  if (const char* why = m.invalid_reason(); *why != '\0') k.fail("dynamic", why);
+  return m;
+}
+
 pof::core::PotentiometerCalibration read_potentiometer(const Keys& k, const toml::table& t) {
   pof::core::PotentiometerCalibration p;
   p.deg_per_volt = k.number("potentiometer.deg_per_volt");
@@ -155,6 +225,14 @@ pof::core::PotentiometerCalibration read_potentiometer(const Keys& k, const toml
 }
 
 }  // namespace
+
+const char* to_string(pof::core::ModelKind k) { return k == pof::core::ModelKind::kDynamic ? "dynamic" : "paper"; }
+
+pof::core::ModelKind parse_model_kind(const std::string& text, const std::string& key) {
+  if (text == "paper") return pof::core::ModelKind::kPaper;
+  if (text == "dynamic") return pof::core::ModelKind::kDynamic;
+  throw ConfigError("key '" + key + "': expected \"paper\" or \"dynamic\", got \"" + text.substr(0, 40) + "\"");
+}
 
 CalibrationFile make_calibration_file(const pof::core::CalibrationResult& r, const std::string& sensor_id,
                                       const std::string& source_recording, const std::string& date_utc) {
@@ -185,8 +263,12 @@ std::string to_toml(const CalibrationFile& f) {
     << "date = " << quoted(f.date) << "\n"
     << "source_recording = " << quoted(f.source_recording) << "\n"
     << "# reference photodiode voltage at calibration time [V]: v = sensor_v * reference_level_v / reference_v\n"
-    << "reference_level_v = " << num(f.cal.reference_level_v) << "\n\n"
-    << "[model]\n"
+    << "reference_level_v = " << num(f.cal.reference_level_v) << "\n"
+    << "# the model the compensator runs: \"paper\" (eqs. (11)/(12)) or \"dynamic\" ([dynamic]); the lower\n"
+    << "# held-out error chose it ([held_out]); pof compensate / pof-compensatord --model overrides it\n"
+    << "active_model = " << quoted(to_string(f.cal.active)) << "\n";
+  if (!f.dynamic_note.empty()) o << "# " << f.dynamic_note << "\n";
+  o << "\n[model]    # the paper's model, table 2\n"
     << "c1 = " << num(m.c1) << "    # f1: h = c1 exp(c2 w) [%]\n"
     << "c2 = " << num(m.c2) << "    # [s/rad]\n"
     << "c9 = " << num(m.c9) << "    # f5: alpha = -c9 V2 + c10 [deg/V]\n"
@@ -218,6 +300,32 @@ std::string to_toml(const CalibrationFile& f) {
     << "\n[equations]    # eq. (11)/(12) in the paper's form; informational, not read back\n"
     << "flexion = " << quoted(f.equation_flexion) << "\n"
     << "extension = " << quoted(f.equation_extension) << "\n";
+  if (f.cal.dynamic) {
+    const auto& d = *f.cal.dynamic;
+    o << "\n[dynamic]    # V = q(x) + phi(w) sum c_i S_i[theta] + sum g_j m_j (docs/calibration.md, \"The dynamic model\")\n"
+      << "degree = " << d.degree << "    # of the quasi-static polynomial q in x = (theta - centre) / scale\n"
+      << "angle_centre_deg = " << num(d.angle_centre_deg) << "\n"
+      << "angle_scale_deg = " << num(d.angle_scale_deg) << "\n"
+      << "angle_min_deg = " << num(d.angle_min_deg) << "    # the identified range\n"
+      << "angle_max_deg = " << num(d.angle_max_deg) << "\n"
+      << "poly = " << number_list(d.poly.data(), d.degree + 1) << "    # q(x) = sum poly[k] x^k [V]\n"
+      << "thresholds_deg = " << number_list(d.threshold_deg.data(), d.n_operators) << "    # stop operators r_i\n"
+      << "weights_v_per_deg = " << number_list(d.weight_v_per_deg.data(), d.n_operators) << "    # c_i, one sign\n"
+      << "rate_gain_s_per_rad = " << num(d.rate_gain_s_per_rad) << "    # kappa: phi = 1 + kappa w (>= 0), 1 / (1 - kappa w) (< 0)\n"
+      << "speed_filter_s = " << num(d.speed_filter_s) << "\n"
+      << "speed_limit_rad_s = " << num(d.speed_limit_rad_s) << "    # phi is held beyond this speed\n"
+      << "prony_tau_s = " << number_list(d.prony_tau_s.data(), d.n_prony) << "\n"
+      << "prony_gain_v_per_deg = " << number_list(d.prony_gain_v_per_deg.data(), d.n_prony) << "\n";
+  }
+  if (f.held_out) {
+    const auto& h = *f.held_out;
+    o << "\n[held_out]    # online angle vs reference on blocks held out of each fit; informational\n"
+      << "paper_rmse_deg = " << num(h.paper_rmse_deg) << "\n"
+      << "paper_p99_deg = " << num(h.paper_p99_deg) << "\n"
+      << "dynamic_rmse_deg = " << num(h.dynamic_rmse_deg) << "\n"
+      << "dynamic_p99_deg = " << num(h.dynamic_p99_deg) << "\n"
+      << "folds = " << h.folds << "\n";
+  }
   if (f.potentiometer) {
     const auto& p = *f.potentiometer;
     o << "\n[potentiometer]    # angle_deg = deg_per_volt * (pot_v - zero_v) + offset(angle)\n"
@@ -237,8 +345,8 @@ CalibrationFile parse_calibration(const std::string& text, const std::string& na
   const toml::table t = parse_toml(text, name);
   const Keys k(t, name);
   const std::int64_t version = k.integer("schema_version");
-  if (version != kCalibrationSchemaVersion)
-    k.fail("schema_version", "expected " + std::to_string(kCalibrationSchemaVersion) + ", got " + std::to_string(version));
+  if (version != 1 && version != kCalibrationSchemaVersion)
+    k.fail("schema_version", "expected 1 or " + std::to_string(kCalibrationSchemaVersion) + ", got " + std::to_string(version));
   CalibrationFile f;
   f.sensor_id = k.string("sensor_id");
   f.date = k.string("date");
@@ -289,10 +397,46 @@ CalibrationFile parse_calibration(const std::string& text, const std::string& na
   f.equation_flexion = k.string("equations.flexion", false);
   f.equation_extension = k.string("equations.extension", false);
   if (t.contains("potentiometer")) f.potentiometer = read_potentiometer(k, t);
+  if (version >= 2) {
+    // Version 1 files hold the paper model only and keep it active.
+    if (t.contains("dynamic")) f.cal.dynamic = read_dynamic(k, t);
+    const std::string active = k.string("active_model", false);
+    if (!active.empty()) {
+      try {
+        f.cal.active = parse_model_kind(active, "active_model");
+      } catch (const ConfigError&) {
+        k.fail("active_model", "expected \"paper\" or \"dynamic\", got \"" + active.substr(0, 40) + "\"");
+      }
+    }
+    if (f.cal.active == pof::core::ModelKind::kDynamic && !f.cal.dynamic)
+      k.fail("active_model", "is \"dynamic\" but the file has no [dynamic] section");
+    if (t.contains("held_out")) {
+      HeldOutSummary h;
+      h.paper_rmse_deg = k.number("held_out.paper_rmse_deg");
+      h.paper_p99_deg = k.number("held_out.paper_p99_deg");
+      h.dynamic_rmse_deg = k.number("held_out.dynamic_rmse_deg");
+      h.dynamic_p99_deg = k.number("held_out.dynamic_p99_deg");
+      h.folds = k.integer("held_out.folds");
+      f.held_out = h;
+    }
+  }
   return f;
 }
 
 CalibrationFile load_calibration(const std::string& path) { return parse_calibration(read_text(path), path); }
+
+void choose_model(CalibrationFile& f, const std::string& choice, const std::string& source) {
+  if (choice.empty() || choice == "file") return;
+  f.cal.active = parse_model_kind(choice, "--model");
+  if (f.cal.active == pof::core::ModelKind::kDynamic && !f.cal.dynamic)
+    throw ConfigError(source + ": --model dynamic: the file has no [dynamic] section (recalibrate with pof calibrate)");
+}
+
+CalibrationFile load_calibration(const std::string& path, const std::string& model_choice) {
+  CalibrationFile f = load_calibration(path);
+  choose_model(f, model_choice, path);
+  return f;
+}
 
 pof::core::PotentiometerCalibration load_potentiometer(const std::string& path) {
   const toml::table t = parse_toml(read_text(path), path);

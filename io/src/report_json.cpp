@@ -46,7 +46,39 @@ void scrub(json& j) {
     for (auto& e : j) scrub(e);
 }
 
+json held(const pof::core::HeldOutError& e) {
+  return {{"rmse_deg", e.rmse_deg}, {"p99_abs_deg", e.p99_abs_deg}, {"max_abs_deg", e.max_abs_deg}, {"n", e.n}};
+}
+
 }  // namespace
+
+json dynamic_report(const pof::core::DynamicFitResult& d, const pof::core::ModelComparison* c) {
+  const auto& m = d.model;
+  json j;
+  j["degree"] = m.degree;
+  j["angle_centre_deg"] = m.angle_centre_deg;
+  j["angle_scale_deg"] = m.angle_scale_deg;
+  j["poly"] = std::vector<double>(m.poly.begin(), m.poly.begin() + m.degree + 1);
+  j["thresholds_deg"] = std::vector<double>(m.threshold_deg.begin(), m.threshold_deg.begin() + m.n_operators);
+  j["weights_v_per_deg"] = std::vector<double>(m.weight_v_per_deg.begin(), m.weight_v_per_deg.begin() + m.n_operators);
+  j["loop_half_height_v"] = m.loop_half_height_v();
+  j["rate_gain_s_per_rad"] = m.rate_gain_s_per_rad;
+  j["prony_tau_s"] = std::vector<double>(m.prony_tau_s.begin(), m.prony_tau_s.begin() + m.n_prony);
+  j["prony_gain_v_per_deg"] = std::vector<double>(m.prony_gain_v_per_deg.begin(), m.prony_gain_v_per_deg.begin() + m.n_prony);
+  j["train_rmse_deg"] = d.train_rmse_deg;
+  j["cv_rmse_deg"] = d.chosen.cv_rmse_deg;
+  j["sensitivity_v_per_deg"] = d.sensitivity_v_per_deg;
+  json cs = json::array();
+  for (const auto& k : d.candidates)
+    cs.push_back({{"degree", k.degree}, {"n_operators", k.n_operators}, {"n_prony", k.n_prony},
+                  {"rate_gain_s_per_rad", k.rate_gain_s_per_rad}, {"cv_rmse_deg", k.cv_rmse_deg}, {"admissible", k.admissible}});
+  j["candidates"] = cs;
+  if (c != nullptr) {
+    j["held_out"] = {{"paper", held(c->paper)}, {"dynamic", held(c->dynamic)}, {"folds", c->folds},
+                     {"folds_used", c->folds_used}, {"notes", c->notes}};
+  }
+  return j;
+}
 
 json calibration_report(const pof::core::CalibrationResult& r) {
   using pof::core::Direction;

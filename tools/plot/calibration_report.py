@@ -6,6 +6,11 @@ Reads DIR/calibration.json and DIR/compensated.csv (written by pof calibrate) an
   fig7_regressions.png   f1 (hysteresis vs velocity), f3 per velocity, f2 (a_x, b_x vs h) (fig. 7)
   loops.png              sensor angle vs reference angle, before and after compensation
   error_vs_angle.png     error against the reference angle, before and after (fig. 12)
+  dynamic_loop.png       the dynamic model: fitted forward voltage against the measured one, as a
+                         loop (minus the quasi-static polynomial) against the reference angle
+  heldout_error.png      both models' error on held-out blocks against angle and against time
+                         (each block predicted by models fitted without it)
+The dynamic figures need DIR/dynamic.csv (written when the dynamic model was fitted).
 Run with /usr/bin/python3 (Debian's matplotlib). Usage: calibration_report.py DIR
 """
 import json
@@ -169,6 +174,62 @@ def error_vs_angle(rep, out):
     plt.close(fig)
 
 
+def load_dynamic(path):
+    data = np.genfromtxt(path, delimiter=",", names=True)
+    return {name: np.asarray(data[name], dtype=float) for name in data.dtype.names}
+
+
+def dynamic_loop(dyn, rep, out):
+    d = rep["dynamic"]
+    poly = np.asarray(d["poly"])
+    a = dyn["angle_ref_deg"]
+    ok = np.isfinite(a) & np.isfinite(dyn["v_meas"])
+    # q(x) of the fitted model, the line both loops are drawn around (x = (a - centre) / scale).
+    centre, scale = d["angle_centre_deg"], d["angle_scale_deg"]
+    q = np.polyval(poly[::-1], (a - centre) / scale)
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4.6))
+    step = max(1, int(ok.sum() // 20000))
+    idx = np.flatnonzero(ok)[::step]
+    ax[0].plot(a[idx], (dyn["v_meas"] - q)[idx] * 1e3, ",", color="0.5", label="measured")
+    ax[0].plot(a[idx], (dyn["v_dynamic"] - q)[idx] * 1e3, ",", color="tab:red", label="dynamic model")
+    ax[0].set_xlabel("reference angle [deg]")
+    ax[0].set_ylabel("V minus quasi-static polynomial [mV]")
+    ax[0].set_title("loop: measured (grey) and fitted dynamic model (red)")
+    t = dyn["t_s"]
+    ax[1].plot(t[idx], (dyn["v_meas"] - dyn["v_dynamic"])[idx] * 1e3, ",", color="k")
+    ax[1].set_xlabel("time [s]")
+    ax[1].set_ylabel("measured minus model [mV]")
+    ax[1].set_title(f"fit residual (train RMSE {d['train_rmse_deg']:.3f} deg)")
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "dynamic_loop.png"), dpi=110)
+    plt.close(fig)
+
+
+def heldout_error(dyn, rep, out):
+    h = rep["dynamic"].get("held_out")
+    a, t = dyn["angle_ref_deg"], dyn["t_s"]
+    ep = dyn["heldout_paper_deg"] - a
+    ed = dyn["heldout_dynamic_deg"] - a
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4.6))
+    for e, name, color in ((ep, "paper", "tab:blue"), (ed, "dynamic", "tab:red")):
+        ok = np.isfinite(e)
+        label = name
+        if h:
+            label += f" (RMSE {h[name]['rmse_deg']:.3f}, p99 {h[name]['p99_abs_deg']:.2f} deg)"
+        ax[0].plot(a[ok], e[ok], ",", color=color, alpha=0.6)
+        ax[1].plot(t[ok], e[ok], lw=0.5, color=color, label=label)
+    ax[0].set_xlabel("reference angle [deg]")
+    ax[0].set_ylabel("error on held-out blocks [deg]")
+    ax[0].set_title("held-out error against angle (blue paper, red dynamic)")
+    ax[1].set_xlabel("time [s]")
+    ax[1].set_ylabel("error on held-out blocks [deg]")
+    ax[1].set_title("held-out error against time")
+    ax[1].legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "heldout_error.png"), dpi=110)
+    plt.close(fig)
+
+
 def main():
     if len(sys.argv) != 2:
         print(__doc__, file=sys.stderr)
@@ -185,6 +246,11 @@ def main():
     fig7(rep, out)
     loops(d, rep, out)
     error_vs_angle(rep, out)
+    dyn_path = os.path.join(out, "dynamic.csv")
+    if "poly" in rep.get("dynamic", {}) and os.path.exists(dyn_path):
+        dyn = load_dynamic(dyn_path)
+        dynamic_loop(dyn, rep, out)
+        heldout_error(dyn, rep, out)
     return 0
 
 

@@ -1,7 +1,9 @@
-// `pof calibrate <recording> -o cal.toml [--report dir]`: fits the model chain of Leal-Junior et
-// al. 2017 (table 2, f1..f5) to a recording of the calibration protocol (quasi-static steps +
-// constant-velocity cycles), writes the calibration file and, with --report, a JSON with every
-// figure and PNG plots (tools/plot/calibration_report.py).
+// `pof calibrate <recording> -o cal.toml [--report dir] [--model paper|dynamic]`: fits the model
+// chain of Leal-Junior et al. 2017 (table 2, f1..f5) and the dynamic model (dynamic_model.hpp) to a
+// recording of the calibration protocol (quasi-static steps + constant-velocity cycles), scores
+// both on held-out blocks (model_selection.hpp), marks the better one active, writes the
+// calibration file and, with --report, a JSON with every figure and PNG plots
+// (tools/plot/calibration_report.py).
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -19,6 +21,9 @@
 #include "plot.hpp"
 #include "compensation_csv.hpp"
 #include "pof/core/calibration.hpp"
+#include "pof/core/dynamic_fit.hpp"
+#include "pof/core/model_selection.hpp"
+#include "pof/core/normalise.hpp"
 #include "pof/core/offline.hpp"
 #include "pof/io/atomic_file.hpp"
 #include "pof/io/calibration_file.hpp"
@@ -33,9 +38,24 @@ namespace {
 
 struct CalibrateOptions {
   std::string recording, output, report, pot_cal, channel, sensor_id;
+  std::string model = "auto";  // auto: the lower held-out error
   double min_hold_s = 3.0, min_sweep_deg = 20.0;
   bool no_plots = false;
 };
+
+// Per-scan series of the dynamic model for the report's plots: the fitted forward model against
+// the measured voltage, and both models' held-out angles.
+std::string dynamic_csv(const Eigen::VectorXd& t, const Eigen::VectorXd& ref, const Eigen::VectorXd& v,
+                        const Eigen::VectorXd& v_model, const pof::core::ModelComparison& c) {
+  std::string out = "t_s,angle_ref_deg,v_meas,v_dynamic,heldout_paper_deg,heldout_dynamic_deg\n";
+  char buf[256];
+  for (Eigen::Index i = 0; i < t.size(); ++i) {
+    std::snprintf(buf, sizeof buf, "%.6f,%.5f,%.6f,%.6f,%.5f,%.5f\n", t(i), ref(i), v(i), v_model(i), c.paper_deg(i),
+                  c.dynamic_deg(i));
+    out += buf;
+  }
+  return out;
+}
 
 std::string utc_now() {
   const std::time_t t = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
@@ -77,6 +97,38 @@ void run(const CalibrateOptions& o) {
   pof::io::CalibrationFile f = pof::io::make_calibration_file(
       r, o.sensor_id, std::filesystem::path(o.recording).filename().string(), utc_now());
   f.potentiometer = pot;
+
+  // The dynamic model from the same recording, and both models scored on held-out blocks. A
+  // recording the dynamic fit cannot use leaves the paper model active and says why.
+  progress.stage("fitting the dynamic model");
+  pof::core::ReferenceGuard guard;
+  guard.level_v = r.cal.reference_level_v;
+  const Eigen::VectorXd v = pof::core::normalise(rec.sensor_v, rec.reference_v, guard);
+  std::optional<pof::core::DynamicFitResult> dyn;
+  std::optional<pof::core::ModelComparison> cmp;
+  try {
+    dyn = pof::core::fit_dynamic(rec.t_s, v, ref);
+    progress.stage("held-out comparison of both models");
+    cmp = pof::core::compare_held_out(rec.t_s, rec.sensor_v, rec.reference_v, ref, *dyn, s);
+  } catch (const pof::core::DynamicFitError& e) {
+    f.dynamic_note = std::string("no dynamic model: ") + e.what();
+    if (o.model == "dynamic") throw pof::io::DataError(rec.source + ": --model dynamic: " + e.what());
+  }
+  if (dyn) {
+    f.cal.dynamic = dyn->model;
+    if (cmp && cmp->folds_used > 0) {
+      f.held_out = pof::io::HeldOutSummary{cmp->paper.rmse_deg, cmp->paper.p99_abs_deg, cmp->dynamic.rmse_deg,
+                                           cmp->dynamic.p99_abs_deg, cmp->folds_used};
+      if (cmp->dynamic.rmse_deg < cmp->paper.rmse_deg) f.cal.active = pof::core::ModelKind::kDynamic;
+      else f.dynamic_note = "the dynamic model is not active: its held-out error is not lower than the paper model's";
+    } else {
+      f.dynamic_note = "the dynamic model is not active: no held-out block could be scored for both models";
+    }
+  }
+  if (o.model != "auto") {
+    f.cal.active = pof::io::parse_model_kind(o.model, "--model");
+    f.dynamic_note = "active model chosen with --model " + o.model;
+  }
   // Validate what we are about to write with the loader's own rules: a fit that the loader would
   // refuse must fail here, not later in the daemon.
   f = pof::io::parse_calibration(pof::io::to_toml(f), o.output + " (about to be written)");
@@ -91,6 +143,22 @@ void run(const CalibrateOptions& o) {
   std::printf("f1  h = %.4g exp(%.4g w)   (SE %.2g, %.2g; R^2 %.4f)\n", r.f1.c1, r.f1.c2, r.f1.c1_se, r.f1.c2_se, r.f1.r2);
   std::printf("eq. (11)  %s\n", f.equation_flexion.c_str());
   std::printf("eq. (12)  %s\n", f.equation_extension.c_str());
+  if (dyn) {
+    const auto& m = dyn->model;
+    std::printf("dynamic   degree %d, %d stop operators (%.3g-%.3g deg, loop +-%.4f V), rate gain %+.3g s/rad, %d Prony term(s); "
+                "train RMSE %.3f deg, CV %.3f deg over %zu structures\n",
+                m.degree, m.n_operators, m.n_operators ? m.threshold_deg[0] : 0.0,
+                m.n_operators ? m.threshold_deg[static_cast<std::size_t>(m.n_operators - 1)] : 0.0, m.loop_half_height_v(),
+                m.rate_gain_s_per_rad, m.n_prony, dyn->train_rmse_deg, dyn->chosen.cv_rmse_deg, dyn->candidates.size());
+  }
+  if (f.held_out)
+    std::printf("held-out  (%lld blocks) paper RMSE %.3f deg (p99 %.3f), dynamic RMSE %.3f deg (p99 %.3f)\n",
+                static_cast<long long>(f.held_out->folds), f.held_out->paper_rmse_deg, f.held_out->paper_p99_deg,
+                f.held_out->dynamic_rmse_deg, f.held_out->dynamic_p99_deg);
+  if (cmp)
+    for (const auto& note : cmp->notes) std::printf("          note: %s\n", note.c_str());
+  std::printf("active    %s%s%s\n", pof::io::to_string(f.cal.active), f.dynamic_note.empty() ? "" : " (",
+              f.dynamic_note.empty() ? "" : (f.dynamic_note + ")").c_str());
   std::printf("wrote %s\n", o.output.c_str());
 
   if (!o.report.empty()) {
@@ -104,6 +172,13 @@ void run(const CalibrateOptions& o) {
     j["source_recording"] = rec.source;
     j["date"] = f.date;
     j["self_check"] = pof::io::statistics_report(self.cycles, self.overall, self.profile);
+    j["active_model"] = pof::io::to_string(f.cal.active);
+    if (dyn) j["dynamic"] = pof::io::dynamic_report(*dyn, cmp ? &*cmp : nullptr);
+    else j["dynamic"] = {{"error", f.dynamic_note}};
+    if (dyn && cmp) {
+      const Eigen::VectorXd vm = pof::core::forward_dynamic(dyn->model, ref, pof::core::median_rate_hz(rec.t_s));
+      pof::io::write_file_atomic(o.report + "/dynamic.csv", dynamic_csv(rec.t_s, ref, v, vm, *cmp));
+    }
     pof::io::write_file_atomic(o.report + "/calibration.json", pof::io::dump(j));
     pof::io::write_file_atomic(o.report + "/compensated.csv", compensation_csv(rec.t_s, ref, self));
     progress.stage("plots");
@@ -127,6 +202,8 @@ void add_calibrate(CLI::App& app) {
   cmd->add_option("--sensor-id", o->sensor_id, "Sensor/joint identifier stored in the file, e.g. LEFT_KNEE");
   cmd->add_option("--min-hold", o->min_hold_s, "Shortest hold [s] used by the quasi-static fit")->check(CLI::Range(0.5, 600.0))->capture_default_str();
   cmd->add_option("--min-sweep", o->min_sweep_deg, "Smallest sweep [deg] counted as a dynamic test")->check(CLI::Range(2.0, 180.0))->capture_default_str();
+  cmd->add_option("--model", o->model, "Model marked active: auto (the lower held-out error), paper or dynamic")
+      ->check(CLI::IsMember({"auto", "paper", "dynamic"}))->capture_default_str();
   cmd->add_flag("--no-plots", o->no_plots, "Write the JSON report only");
   cmd->callback([o] { run(*o); });
 }

@@ -23,6 +23,7 @@ namespace {
 struct CompensateOptions {
   std::string recording, cal, csv, json, pot_cal, channel;
   std::string velocity_source = "sensor";
+  std::string model = "file";
   double window_s = 0.5;
   double reversal_window_s = pof::core::CompensatorSettings{}.reversal_window_s;
 };
@@ -44,7 +45,7 @@ void run(const CompensateOptions& o) {
     throw CLI::ValidationError("--reversal-window", "must not exceed --velocity-window (" + std::to_string(o.window_s) + " s)");
   Progress progress("compensate");
   progress.stage("reading " + o.cal);
-  const pof::io::CalibrationFile cal = pof::io::load_calibration(o.cal);
+  const pof::io::CalibrationFile cal = pof::io::load_calibration(o.cal, o.model);
   std::optional<pof::core::PotentiometerCalibration> pot = cal.potentiometer;
   if (!o.pot_cal.empty()) pot = pof::io::load_potentiometer(o.pot_cal);
   progress.stage("reading " + o.recording);
@@ -67,8 +68,8 @@ void run(const CompensateOptions& o) {
     pof::io::write_file_atomic(o.json, pof::io::dump(pof::io::statistics_report(r.cycles, r.overall, r.profile)));
   long flagged = 0;
   for (const auto q : r.quality) flagged += q != 0 ? 1 : 0;
-  std::printf("%s: %ld scans at %.1f Hz, calibration %s (sensor '%s'), velocity from the %s; %ld scans flagged, %d gap reset(s), %d partial cycle(s) dropped\n",
-              rec.source.c_str(), static_cast<long>(rec.size()), r.scan_rate_hz, o.cal.c_str(), cal.sensor_id.c_str(),
+  std::printf("%s: %ld scans at %.1f Hz, calibration %s (sensor '%s', %s model), velocity from the %s; %ld scans flagged, %d gap reset(s), %d partial cycle(s) dropped\n",
+              rec.source.c_str(), static_cast<long>(rec.size()), r.scan_rate_hz, o.cal.c_str(), cal.sensor_id.c_str(), pof::io::to_string(cal.cal.active),
               o.velocity_source == "reference" ? "reference angle" : "sensor angle", flagged, r.resets, r.cycles_dropped);
   print_table(r);
 }
@@ -84,6 +85,8 @@ void add_compensate(CLI::App& app) {
   cmd->add_option("--json", o->json, "Write the per-cycle and overall statistics as JSON");
   cmd->add_option("--pot-cal", o->pot_cal, "TOML with a [potentiometer] section, for recordings with pot_v only");
   cmd->add_option("--channel", o->channel, "LCM channel of the raw blocks (default: the first POF_RAW*)");
+  cmd->add_option("--model", o->model, "Sensor model: file (the calibration's active_model), paper or dynamic")
+      ->check(CLI::IsMember({"file", "paper", "dynamic"}))->capture_default_str();
   cmd->add_option("--velocity-source", o->velocity_source, "Where velocity and direction come from")
       ->check(CLI::IsMember({"sensor", "reference"}))->capture_default_str();
   cmd->add_option("--velocity-window", o->window_s, "Velocity estimator window [s]")->check(CLI::Range(0.02, 10.0))->capture_default_str();

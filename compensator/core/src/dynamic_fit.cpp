@@ -218,9 +218,9 @@ DynamicCandidate cross_validate(const DynamicModel& st, const Prepared& pr, cons
   return c;
 }
 
-std::string fmt(const char* f, double x) {
+std::string fmt_g(double x) {
   char b[64];
-  std::snprintf(b, sizeof b, f, x);
+  std::snprintf(b, sizeof b, "%g", x);
   return b;
 }
 
@@ -283,7 +283,7 @@ DynamicFitResult fit_dynamic(const VectorXd& t, const VectorXd& v, const VectorX
     if (g.kind == Direction::kExtension && std::abs(g.amplitude_deg()) >= 5) ++ext;
   }
   if (holds < 3)
-    throw DynamicFitError("dynamic fit: found " + std::to_string(holds) + " hold(s) of at least " + fmt("%g", s.min_hold_s) +
+    throw DynamicFitError("dynamic fit: found " + std::to_string(holds) + " hold(s) of at least " + fmt_g(s.min_hold_s) +
                           " s; the quasi-static line and the relaxation need at least 3 (the paper's quasi-static steps)");
   if (flex == 0 || ext == 0)
     throw DynamicFitError("dynamic fit: found " + std::to_string(flex) + " flexion and " + std::to_string(ext) +

@@ -1,10 +1,18 @@
 #pragma once
-// The calibration file (TOML, schema_version 1), written by `pof calibrate`, read by
-// `pof compensate` and pof-compensatord. Layout (docs/calibration.md):
+// The calibration file (TOML, schema_version 2; version 1 files still load, with the paper model
+// active), written by `pof calibrate`, read by `pof compensate` and pof-compensatord. Layout
+// (docs/calibration.md):
 //
-//   schema_version = 1
+//   schema_version = 2
 //   sensor_id = "LEFT_KNEE"            date = "2026-11-21T05:50:00Z"   source_recording = "cal.csv"
 //   reference_level_v = 4.0            # reference voltage at calibration time [V] (normalisation)
+//   active_model = "dynamic"           # "paper" or "dynamic": the one the compensator runs
+//   [dynamic]          degree, angle_centre_deg, angle_scale_deg, angle_min_deg, angle_max_deg,
+//                      poly = [...], thresholds_deg = [...], weights_v_per_deg = [...],
+//                      rate_gain_s_per_rad, speed_filter_s, speed_limit_rad_s,
+//                      prony_tau_s = [...], prony_gain_v_per_deg = [...]   (dynamic_model.hpp)
+//   [held_out]         paper_rmse_deg, paper_p99_deg, dynamic_rmse_deg, dynamic_p99_deg, folds
+//                      (informational: what chose active_model)
 //   [model]            c1, c2, c9, c10 # table 2
 //   [model.flexion]    c3 .. c8        # f2 and f4 for flexion
 //   [model.extension]  c3 .. c8
@@ -25,7 +33,13 @@
 
 namespace pof::io {
 
-inline constexpr int kCalibrationSchemaVersion = 1;
+inline constexpr int kCalibrationSchemaVersion = 2;
+
+/// Both models' error against the reference angle on blocks held out of their fits.
+struct HeldOutSummary {
+  double paper_rmse_deg = 0, paper_p99_deg = 0, dynamic_rmse_deg = 0, dynamic_p99_deg = 0;
+  std::int64_t folds = 0;
+};
 
 struct FitQuality {
   double sensitivity_v_per_deg = 0;  // |dV/dalpha| of the quasi-static line (paper: 0.0229)
@@ -43,7 +57,21 @@ struct CalibrationFile {
   FitQuality quality;
   std::string equation_flexion, equation_extension;  // informational
   std::optional<pof::core::PotentiometerCalibration> potentiometer;
+  std::optional<HeldOutSummary> held_out;
+  std::string dynamic_note;  // why there is no dynamic model, or why it is not active (a comment)
 };
+
+/// "paper" / "dynamic"; parse_model_kind throws ConfigError naming `key` for anything else.
+const char* to_string(pof::core::ModelKind k);
+pof::core::ModelKind parse_model_kind(const std::string& text, const std::string& key);
+
+/// The model the compensator runs: `choice` "" or "file" keeps the file's active_model, "paper" or
+/// "dynamic" overrides it (the --model option of pof compensate and pof-compensatord). Throws
+/// ConfigError naming `source` when "dynamic" is asked of a file without a [dynamic] section.
+void choose_model(CalibrationFile& f, const std::string& choice, const std::string& source);
+
+/// Loads a calibration and applies choose_model(): what pof compensate and pof-compensatord read.
+CalibrationFile load_calibration(const std::string& path, const std::string& model_choice);
 
 /// Builds the file contents from a fit.
 CalibrationFile make_calibration_file(const pof::core::CalibrationResult& r, const std::string& sensor_id,

@@ -8,11 +8,17 @@
 #include <nlohmann/json.hpp>
 
 #include "pof/core/calibration.hpp"
+#include "pof/core/dynamic_fit.hpp"
+#include "pof/core/model_selection.hpp"
 #include "pof/core/statistics.hpp"
 
 namespace pof::io {
 
 nlohmann::json calibration_report(const pof::core::CalibrationResult& r);
+
+/// The dynamic model: parameters, every structure cross-validated, and (if given) both models'
+/// held-out errors.
+nlohmann::json dynamic_report(const pof::core::DynamicFitResult& d, const pof::core::ModelComparison* held_out);
 
 nlohmann::json statistics_report(const std::vector<pof::core::CycleStats>& cycles, const pof::core::CycleStats& overall,
                                  const pof::core::ErrorProfile& profile);

@@ -178,6 +178,14 @@ auto positive = [](double v) { return v > 0 ? std::string{} : std::string("a num
 auto non_negative = [](double v) { return v >= 0 ? std::string{} : std::string("a number >= 0"); };
 auto angle_range = [](double v) { return v >= -10 && v <= 100 ? std::string{} : std::string("an angle in [-10, 100] deg"); };
 auto velocity = [](double v) { return v > 0 && v <= 10 ? std::string{} : std::string("a velocity in (0, 10] rad/s"); };
+// Memory hysteresis and lag: ranges that keep the physics meaningful (and exp() finite).
+auto amplitude_range = [](double v) { return std::abs(v) <= 1 ? std::string{} : std::string("a voltage in [-1, 1] V"); };
+auto rate_sensitivity_range = [](double v) { return std::abs(v) <= 20 ? std::string{} : std::string("a number in [-20, 20] s/rad"); };
+auto width_range = [](double v) { return v > 0 && v <= 180 ? std::string{} : std::string("an angle in (0, 180] deg"); };
+auto shape_range = [](double v) { return v >= 0.5 && v <= 20 ? std::string{} : std::string("an exponent in [0.5, 20]"); };
+auto beta_fraction_range = [](double v) { return v > 0 && v <= 1 ? std::string{} : std::string("a fraction in (0, 1]"); };
+auto lag_tau_range = [](double v) { return v > 0 && v <= 600 ? std::string{} : std::string("a time constant in (0, 600] s"); };
+auto probability = [](double v) { return v >= 0 && v <= 1 ? std::string{} : std::string("a probability in [0, 1]"); };
 
 // Runs `fn` on sub-table `key` when present and then checks its keys.
 template <class F>
@@ -201,7 +209,7 @@ void read_direction(Section& s, pof::core::DirectionCoefficients& d) {
 Segment read_segment(Section& s) {
   Segment g;
   const toml::node* kind_node = s.get("kind");
-  if (kind_node == nullptr) s.fail_at(nullptr, "kind", "missing (one of 'quasi_static', 'cycles', 'table1', 'table3', 'subject', 'gait', 'hold')");
+  if (kind_node == nullptr) s.fail_at(nullptr, "kind", "missing (one of 'quasi_static', 'cycles', 'table1', 'table3', 'subject', 'gait', 'hold', 'random_moves')");
   if (!kind_node->is_string()) s.fail_at(kind_node, "kind", "expected a string, got " + describe(*kind_node));
   g.label = *kind_node->value<std::string>();
   if (g.label == "quasi_static") {
@@ -231,8 +239,12 @@ Segment read_segment(Section& s) {
     g.max_deg = 60;
   } else if (g.label == "hold") {
     g.kind = SegmentKind::kHold;
+  } else if (g.label == "random_moves") {
+    g.kind = SegmentKind::kRandomMoves;
+    g.min_deg = 10;
+    g.max_deg = 80;
   } else {
-    s.fail_at(kind_node, "kind", "expected one of 'quasi_static', 'cycles', 'table1', 'table3', 'subject', 'gait', 'hold', got '" + g.label + "'");
+    s.fail_at(kind_node, "kind", "expected one of 'quasi_static', 'cycles', 'table1', 'table3', 'subject', 'gait', 'hold', 'random_moves', got '" + g.label + "'");
   }
   s.number("move_velocity_rad_s", g.move_velocity_rad_s, velocity);
   switch (g.kind) {
@@ -263,6 +275,20 @@ Segment read_segment(Section& s) {
       s.number("max_deg", g.max_deg, angle_range);
       s.number("stance_peak_deg", g.stance_peak_deg, non_negative);
       break;
+    case SegmentKind::kRandomMoves:
+      s.integer("moves", g.moves, 1, 100000);
+      s.number("min_deg", g.min_deg, angle_range);
+      s.number("max_deg", g.max_deg, angle_range);
+      s.number("min_velocity_rad_s", g.min_velocity_rad_s, velocity);
+      s.number("max_velocity_rad_s", g.max_velocity_rad_s, velocity);
+      s.number("min_hold_s", g.min_hold_s, non_negative);
+      s.number("max_hold_s", g.max_hold_s, non_negative);
+      s.number("reversal_probability", g.reversal_probability, probability);
+      if (g.max_velocity_rad_s < g.min_velocity_rad_s)
+        s.fail_at(s.get("max_velocity_rad_s"), "max_velocity_rad_s", "expected max_velocity_rad_s >= min_velocity_rad_s, got " + fmt_num(g.max_velocity_rad_s) + " < " + fmt_num(g.min_velocity_rad_s));
+      if (g.max_hold_s < g.min_hold_s)
+        s.fail_at(s.get("max_hold_s"), "max_hold_s", "expected max_hold_s >= min_hold_s, got " + fmt_num(g.max_hold_s) + " < " + fmt_num(g.min_hold_s));
+      break;
     case SegmentKind::kHold:
       s.number("duration_s", g.duration_s, non_negative);
       if (s.get("angle_deg") != nullptr) {
@@ -271,7 +297,8 @@ Segment read_segment(Section& s) {
       }
       break;
   }
-  if ((g.kind == SegmentKind::kCycles || g.kind == SegmentKind::kSubject || g.kind == SegmentKind::kGait) && !(g.max_deg > g.min_deg))
+  if ((g.kind == SegmentKind::kCycles || g.kind == SegmentKind::kSubject || g.kind == SegmentKind::kGait ||
+       g.kind == SegmentKind::kRandomMoves) && !(g.max_deg > g.min_deg))
     s.fail_at(s.get("max_deg"), "max_deg", "expected max_deg > min_deg, got " + fmt_num(g.max_deg) + " <= " + fmt_num(g.min_deg));
   if (g.kind == SegmentKind::kQuasiStatic && !(g.to_deg > g.from_deg))
     s.fail_at(s.get("to_deg"), "to_deg", "expected to_deg > from_deg");
@@ -378,6 +405,31 @@ Scenario read_scenario(const toml::table& root, const std::string& source) {
       d.boolean("enabled", se.drift.enabled);
       d.number("rate_v_per_hour", se.drift.rate_v_per_hour);
       d.number("random_walk_v_per_sqrt_hour", se.drift.random_walk_v_per_sqrt_hour, non_negative);
+    });
+    with_table(s, "memory_hysteresis", [&](Section& h) {
+      auto& mh = se.memory_hysteresis;
+      h.boolean("enabled", mh.enabled);
+      h.choice("family", mh.family, {{"bouc_wen", MemoryHysteresisFamily::kBoucWen}, {"maxwell_slip", MemoryHysteresisFamily::kMaxwellSlip}});
+      h.number("amplitude_v", mh.amplitude_v, amplitude_range);
+      h.number("rate_sensitivity_s_per_rad", mh.rate_sensitivity_s_per_rad, rate_sensitivity_range);
+      h.number("rate_filter_s", mh.rate_filter_s, non_negative);
+      h.number("width_deg", mh.width_deg, width_range);
+      h.number("shape", mh.shape, shape_range);
+      h.number("beta_fraction", mh.beta_fraction, beta_fraction_range);
+      const bool has_thresholds = h.get("thresholds_deg") != nullptr, has_weights = h.get("weights") != nullptr;
+      h.numbers("thresholds_deg", mh.thresholds_deg, width_range);
+      h.numbers("weights", mh.weights, non_negative);
+      if (has_thresholds && mh.thresholds_deg.empty()) h.fail_at(h.get("thresholds_deg"), "thresholds_deg", "expected at least one threshold");
+      if (has_thresholds && !has_weights) mh.weights.assign(mh.thresholds_deg.size(), 1.0);  // equal weights
+      if (mh.weights.size() != mh.thresholds_deg.size())
+        h.fail_at(h.get("weights"), "weights", "expected as many entries as thresholds_deg (" + std::to_string(mh.thresholds_deg.size()) + "), got " + std::to_string(mh.weights.size()));
+      double wsum = 0;
+      for (double w : mh.weights) wsum += w;
+      if (!(wsum > 0)) h.fail_at(h.get("weights"), "weights", "expected at least one weight > 0");
+    });
+    with_table(s, "viscoelastic_lag", [&](Section& l) {
+      l.boolean("enabled", se.viscoelastic_lag.enabled);
+      l.number("tau_s", se.viscoelastic_lag.tau_s, lag_tau_range);
     });
   });
 
@@ -502,6 +554,35 @@ void validate(const Scenario& s) {
   if (s.sensor.creep.enabled && s.sensor.creep.terms.empty()) bad("sensor.creep.terms", "expected at least one term");
   for (std::size_t i = 0; i < s.sensor.creep.terms.size(); ++i)
     if (!(s.sensor.creep.terms[i].tau_s > 0)) bad("sensor.creep.terms[" + std::to_string(i) + "].tau_s", "expected a number > 0");
+  {
+    const auto& mh = s.sensor.memory_hysteresis;
+    const std::string k = "sensor.memory_hysteresis.";
+    auto check = [&](const std::string& key, double v, const auto& rule) {
+      const std::string want = std::isfinite(v) ? rule(v) : std::string("a finite number");
+      if (!want.empty()) bad(k + key, "expected " + want + ", got " + fmt_num(v));
+    };
+    if (mh.family != MemoryHysteresisFamily::kBoucWen && mh.family != MemoryHysteresisFamily::kMaxwellSlip)
+      bad(k + "family", "expected 'bouc_wen' or 'maxwell_slip'");
+    check("amplitude_v", mh.amplitude_v, amplitude_range);
+    check("rate_sensitivity_s_per_rad", mh.rate_sensitivity_s_per_rad, rate_sensitivity_range);
+    check("rate_filter_s", mh.rate_filter_s, non_negative);
+    check("width_deg", mh.width_deg, width_range);
+    check("shape", mh.shape, shape_range);
+    check("beta_fraction", mh.beta_fraction, beta_fraction_range);
+    if (mh.family == MemoryHysteresisFamily::kMaxwellSlip || !mh.thresholds_deg.empty()) {
+      if (mh.thresholds_deg.empty()) bad(k + "thresholds_deg", "expected at least one threshold");
+      if (mh.weights.size() != mh.thresholds_deg.size())
+        bad(k + "weights", "expected as many entries as thresholds_deg (" + std::to_string(mh.thresholds_deg.size()) + "), got " + std::to_string(mh.weights.size()));
+      double wsum = 0;
+      for (std::size_t i = 0; i < mh.thresholds_deg.size(); ++i) {
+        check("thresholds_deg[" + std::to_string(i) + "]", mh.thresholds_deg[i], width_range);
+        check("weights[" + std::to_string(i) + "]", mh.weights[i], non_negative);
+        wsum += mh.weights[i];
+      }
+      if (!(wsum > 0)) bad(k + "weights", "expected at least one weight > 0");
+    }
+    check("viscoelastic_lag.tau_s", s.sensor.viscoelastic_lag.tau_s, lag_tau_range);
+  }
   if (s.light.wander.enabled && !(s.light.wander.tau_s > 0)) bad("light.wander.tau_s", "expected a number > 0");
   if (s.daq.time_delay.enabled && !(s.daq.time_delay.delay_s >= 0)) bad("daq.time_delay.delay_s", "expected a number >= 0");
   for (std::size_t i = 0; i < s.trajectory.size(); ++i) {
@@ -514,6 +595,14 @@ void validate(const Scenario& s) {
     if (g.kind == SegmentKind::kQuasiStatic && !(g.step_deg > 0)) bad(k + ".step_deg", "expected a number > 0");
     if (g.kind == SegmentKind::kGait && !(g.period_s > 0)) bad(k + ".period_s", "expected a number > 0");
     if (!(g.move_velocity_rad_s > 0)) bad(k + ".move_velocity_rad_s", "expected a number > 0");
+    if (g.kind == SegmentKind::kRandomMoves) {
+      if (g.moves < 1) bad(k + ".moves", "expected at least 1 move");
+      if (!(g.max_deg > g.min_deg)) bad(k + ".max_deg", "expected max_deg > min_deg");
+      if (!(g.min_velocity_rad_s > 0) || !(g.max_velocity_rad_s >= g.min_velocity_rad_s))
+        bad(k + ".max_velocity_rad_s", "expected 0 < min_velocity_rad_s <= max_velocity_rad_s");
+      if (!(g.min_hold_s >= 0) || !(g.max_hold_s >= g.min_hold_s)) bad(k + ".max_hold_s", "expected 0 <= min_hold_s <= max_hold_s");
+      if (!(g.reversal_probability >= 0 && g.reversal_probability <= 1)) bad(k + ".reversal_probability", "expected a probability in [0, 1]");
+    }
   }
 }
 

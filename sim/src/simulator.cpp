@@ -53,6 +53,51 @@ Simulator::Simulator(const Scenario& s, std::uint64_t seed, double scan_rate_hz)
     creep_gain_.push_back(c.tau_s / dt_ * (1.0 - e));
     creep_m_.push_back(0.0);
   }
+  // Viscoelastic lag, theta_f' = (theta - theta_f) / tau: exact update of the lag
+  // eps = theta - theta_f for a knee angle ramping linearly within the tick (as creep above).
+  {
+    const double tau = s.sensor.viscoelastic_lag.tau_s;
+    lag_decay_ = std::exp(-dt_ / tau);
+    lag_gain_ = tau / dt_ * (1.0 - lag_decay_);
+  }
+  const auto& mh = s.sensor.memory_hysteresis;
+  {
+    // Bouc-Wen (Bouc 1967; Wen 1976, J. Eng. Mech. Div. 102(2) 249-263), rate-independent form:
+    //   dz = A dtheta - beta |dtheta| |z|^(n-1) z - gamma dtheta |z|^n.
+    // With beta + gamma = A the loop saturates at |z| = 1, and per unit A the shape is
+    //   dz/dtheta = A f_s(z),  f_s(z) = 1 - |z|^n (b s sgn(z) + 1 - b),  s = sgn(dtheta),
+    // b = beta_fraction. A is chosen so that z goes from -1 (saturated in extension) to +0.95
+    // in width_deg of flexion: A = L / width_deg with L = integral_{-1}^{0.95} dz / f_+(z).
+    const double n = mh.shape, b = mh.beta_fraction;
+    auto inv_f = [&](double z) { return 1.0 / (1.0 - std::pow(std::abs(z), n) * ((z < 0 ? -b : b) + 1.0 - b)); };
+    auto simpson = [&](double lo, double hi) {
+      constexpr int kIntervals = 2000;  // even
+      const double h = (hi - lo) / kIntervals;
+      double acc = inv_f(lo) + inv_f(hi);
+      for (int i = 1; i < kIntervals; ++i) acc += (i % 2 == 1 ? 4.0 : 2.0) * inv_f(lo + i * h);
+      return acc * h / 3.0;
+    };
+    // Split at 0, where sgn(z) (and |z|^n for n < 1) is not smooth.
+    const double span = simpson(-1.0, 0.0) + simpson(0.0, 0.95);
+    bw_a_ = mh.width_deg > 0 && std::isfinite(span) ? span / mh.width_deg : 0.0;
+    bw_beta_ = b;
+    bw_gamma_ = 1.0 - b;
+    // RK4 sub-steps small enough that A dtheta <= 0.1 (z moves by at most ~0.2 per sub-step).
+    bw_max_substep_deg_ = bw_a_ > 0 ? 0.1 / bw_a_ : 1.0;
+  }
+  if (mh.enabled && mh.family == MemoryHysteresisFamily::kMaxwellSlip) {
+    double wsum = 0;
+    for (double w : mh.weights) wsum += w;
+    for (std::size_t i = 0; i < mh.thresholds_deg.size(); ++i) {
+      slip_e_.push_back(0.0);
+      slip_r_.push_back(mh.thresholds_deg[i]);
+      slip_w_.push_back(mh.weights[i] / wsum / mh.thresholds_deg[i]);
+    }
+  }
+  speed_alpha_ = mh.rate_filter_s > 0 ? 1.0 - std::exp(-dt_ / mh.rate_filter_s) : 1.0;
+  fibre_angle_ = s.knee.start_deg;
+  prev_knee_angle_ = s.knee.start_deg;
+  mem_prev_angle_ = s.knee.start_deg;
   drift_rw_step_ = s.sensor.drift.random_walk_v_per_sqrt_hour * std::sqrt(dt_ / 3600.0);
   wander_decay_ = std::exp(-dt_ / s.light.wander.tau_s);
   wander_kick_ = s.light.wander.sigma_rel * std::sqrt(1.0 - wander_decay_ * wander_decay_);
@@ -91,6 +136,33 @@ double Simulator::quantise(double v, int channel, std::uint8_t& over) const {
   return code * lsb_ - range_;
 }
 
+double Simulator::bouc_wen_step(double dtheta_deg) {
+  // Classical RK4 on dz/dtheta = A f_s(z) (constructor), in sub-steps of at most
+  // bw_max_substep_deg_; the direction s is constant within one scan's increment.
+  if (dtheta_deg == 0.0) return bw_z_;
+  const double n = sc_.sensor.memory_hysteresis.shape;
+  const bool linear = n == 1.0;
+  const double sb = dtheta_deg > 0 ? bw_beta_ : -bw_beta_;
+  auto f = [&](double z) {
+    const double az = std::abs(z);
+    const double p = linear ? az : std::pow(az, n);
+    return bw_a_ * (1.0 - p * ((z < 0 ? -sb : sb) + bw_gamma_));
+  };
+  const double m = std::ceil(std::abs(dtheta_deg) / bw_max_substep_deg_);
+  const int subs = m < 1 ? 1 : (m > 1e6 ? 1000000 : static_cast<int>(m));
+  const double h = dtheta_deg / subs;
+  double z = bw_z_;
+  for (int i = 0; i < subs; ++i) {
+    const double k1 = f(z);
+    const double k2 = f(z + 0.5 * h * k1);
+    const double k3 = f(z + 0.5 * h * k2);
+    const double k4 = f(z + h * k3);
+    z = std::clamp(z + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4), -1.0, 1.0);
+  }
+  bw_z_ = z;
+  return z;
+}
+
 void Simulator::step(Scan& out, EffectTrace* tr) {
   if (k_ > 0) traj_.step();
   const KneeState& ks = traj_.state();
@@ -104,39 +176,71 @@ void Simulator::step(Scan& out, EffectTrace* tr) {
   const double w = std::abs(omega);
   using pof::core::Direction;
   const Direction dir = w >= se.hold_threshold_rad_s ? (omega > 0 ? Direction::kFlexion : Direction::kExtension) : Direction::kHold;
-  const double v_line = pof::core::quasi_static_voltage(se.model, theta);
-  double snl = 0;
-  if (se.static_nonlinearity.enabled) {
+  // The fibre's effective bend: the knee angle, or with viscoelastic_lag a first-order lag of it.
+  // Every fibre-side term below is evaluated at theta_f (without the lag theta_f == theta exactly,
+  // so scenarios without it are unchanged bit for bit); the potentiometer keeps the true angle.
+  if (se.viscoelastic_lag.enabled && k_ > 0) {
+    const double eps = lag_decay_ * (prev_knee_angle_ - fibre_angle_) + (theta - prev_knee_angle_) * lag_gain_;
+    fibre_angle_ = theta - eps;
+  } else {
+    fibre_angle_ = theta;
+  }
+  prev_knee_angle_ = theta;
+  const double theta_f = fibre_angle_;
+  auto nonlinearity = [&se](double th) {
     // Deviation from the straight f5 line over 0-90 deg: a bow (zero at the ends, bow_v at 45 deg)
     // and an S (zero at 0, 45 and 90 deg, +-s_v at 45 -+ 26 deg).
-    const double u = (theta - 45.0) / 45.0;
-    snl = se.static_nonlinearity.bow_v * (1.0 - u * u) + se.static_nonlinearity.s_v * 2.598076211353316 * u * (1.0 - u * u);
-  }
+    const double u = (th - 45.0) / 45.0;
+    return se.static_nonlinearity.bow_v * (1.0 - u * u) + se.static_nonlinearity.s_v * 2.598076211353316 * u * (1.0 - u * u);
+  };
+  const double v_line = pof::core::quasi_static_voltage(se.model, theta_f);
+  const double snl = se.static_nonlinearity.enabled ? nonlinearity(theta_f) : 0.0;
   double hyst = 0;
   if (se.hysteresis.enabled && dir != Direction::kHold)
-    hyst = se.hysteresis.scale * (pof::core::model_voltage(se.model, theta, w, dir) - v_line);  // eqs. (10)-(12)
+    hyst = se.hysteresis.scale * (pof::core::model_voltage(se.model, theta_f, w, dir) - v_line);  // eqs. (10)-(12)
   double rdh = 0;
   if (se.rate_dependent_hysteresis.enabled && dir != Direction::kHold) {
     const auto& r = se.rate_dependent_hysteresis;
     const double sgn = dir == Direction::kFlexion ? 1.0 : -1.0;
-    rdh = sgn * r.amplitude_v * (1.0 - std::exp(-w / r.velocity_scale_rad_s)) * std::sin(std::numbers::pi * std::clamp(theta, 0.0, 90.0) / 90.0);
+    rdh = sgn * r.amplitude_v * (1.0 - std::exp(-w / r.velocity_scale_rad_s)) * std::sin(std::numbers::pi * std::clamp(theta_f, 0.0, 90.0) / 90.0);
   }
   double creep = 0;
   if (se.creep.enabled) {
-    const double dtheta = theta - prev_angle_;
+    const double dtheta = theta_f - prev_angle_;
     for (std::size_t i = 0; i < creep_m_.size(); ++i) {
       creep_m_[i] = creep_m_[i] * creep_decay_[i] + dtheta * creep_gain_[i];
       creep += se.creep.terms[i].gain_v_per_deg * creep_m_[i];
     }
   }
-  prev_angle_ = theta;
+  prev_angle_ = theta_f;
+  double mem = 0, mem_state = 0;
+  if (se.memory_hysteresis.enabled) {
+    const auto& mh = se.memory_hysteresis;
+    const double dtheta = theta_f - mem_prev_angle_;
+    mem_prev_angle_ = theta_f;
+    if (mh.family == MemoryHysteresisFamily::kBoucWen) {
+      mem_state = bouc_wen_step(dtheta);
+    } else {
+      // Maxwell-slip (Lampaert, Al-Bender, Swevers 2003; Goldfarb and Celanovic 1997): element i
+      // is elastic until its slip threshold r_i, e_i <- clamp(e_i + dtheta, -r_i, r_i) (the stop
+      // operator); the weighted sum of stop operators is a Prandtl-Ishlinskii operator.
+      for (std::size_t i = 0; i < slip_e_.size(); ++i) {
+        slip_e_[i] = std::clamp(slip_e_[i] + dtheta, -slip_r_[i], slip_r_[i]);
+        mem_state += slip_w_[i] * slip_e_[i];
+      }
+    }
+    // Speed factor exp(k |omega|_f): |omega| low-passed (exact for a step-held input) so the
+    // factor changes smoothly at the start and end of a movement.
+    speed_filt_ += speed_alpha_ * (w - speed_filt_);
+    mem = mh.amplitude_v * mem_state * std::exp(mh.rate_sensitivity_s_per_rad * speed_filt_);
+  }
   const double acc = se.acceleration_dependence.enabled ? se.acceleration_dependence.gain_v_per_rad_s2 * alpha : 0.0;
   double drift = 0;
   if (se.drift.enabled) {
     drift = se.drift.rate_v_per_hour * t / 3600.0 + drift_rw_;
     if (drift_rw_step_ > 0) drift_rw_ += drift_rw_step_ * rng_drift_.normal();
   }
-  const double v_norm = v_line + snl + hyst + rdh + creep + acc + drift;
+  const double v_norm = v_line + snl + hyst + rdh + creep + acc + drift + mem;
 
   // --- light path: one source feeds both fibres, so the reference cancels its power changes ---
   const LightSettings& li = sc_.light;
@@ -233,13 +337,20 @@ void Simulator::step(Scan& out, EffectTrace* tr) {
     tr->velocity_rad_s = omega;
     tr->acceleration_rad_s2 = alpha;
     tr->direction = static_cast<int>(dir);
-    tr->quasi_static_v = v_line + snl;
-    tr->static_nonlinearity_v = snl;
+    // The quasi-static terms at the true angle; what the lag shifts them by is viscoelastic_lag_v.
+    const double snl_true = se.static_nonlinearity.enabled ? nonlinearity(theta) : 0.0;
+    const double qs_true = theta_f == theta ? v_line + snl : pof::core::quasi_static_voltage(se.model, theta) + snl_true;
+    tr->quasi_static_v = qs_true;
+    tr->static_nonlinearity_v = snl_true;
     tr->hysteresis_v = hyst;
     tr->rate_dependent_hysteresis_v = rdh;
     tr->creep_v = creep;
     tr->acceleration_v = acc;
     tr->drift_v = drift;
+    tr->memory_hysteresis_v = mem;
+    tr->viscoelastic_lag_v = theta_f == theta ? 0.0 : (v_line + snl) - qs_true;
+    tr->lag_deg = theta - theta_f;
+    tr->memory_state = mem_state;
     tr->normalised_v = v_norm;
     tr->source_power_rel = power;
     tr->pot_error_deg = pot_angle - theta;

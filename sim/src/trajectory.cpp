@@ -14,6 +14,9 @@ namespace pof::sim {
 namespace {
 constexpr double kDegPerRad = 180.0 / std::numbers::pi;
 constexpr std::uint64_t kStreamSubject = 101;
+// random_moves segment i draws from stream kStreamRandomMoves + i: adding or changing one such
+// segment does not change the draws of the subject segments or of another random_moves segment.
+constexpr std::uint64_t kStreamRandomMoves = 201;
 
 // Periodic bump (von Mises shape) of width sigma (fraction of a period) centred on c, peak 1.
 double bump(double phase, double c, double sigma, double& dbump_dphase) {
@@ -123,6 +126,38 @@ Trajectory::Trajectory(const Scenario& s, std::uint64_t seed, double dt_s)
         if (g.has_angle) move(seg, g.angle_deg, g.move_velocity_rad_s);
         hold(seg, g.duration_s);
         break;
+      case SegmentKind::kRandomMoves: {
+        // Point-to-point moves as an operator or a subject makes them: a random target, a random
+        // cruise speed, a random hold (0: the next move starts as soon as the knee has stopped).
+        // With reversal_probability a move is abandoned part-way: the knee stops at 30-70 % of the
+        // way and at once heads for a new target on the other side of where it turned.
+        Rng r(seed, kStreamRandomMoves + i);
+        auto uniform = [&r](double lo, double hi) { return lo + (hi - lo) * r.uniform(); };
+        const double span = g.max_deg - g.min_deg;
+        const double min_travel = std::min(2.0, 0.25 * span);  // no trivial moves
+        double at = std::clamp(pos, g.min_deg, g.max_deg);
+        if (at != pos) move(seg, at, g.move_velocity_rad_s);  // into the range first
+        for (int k = 0; k < g.moves; ++k) {
+          double target = uniform(g.min_deg, g.max_deg);
+          for (int tries = 0; tries < 16 && std::abs(target - at) < min_travel; ++tries) target = uniform(g.min_deg, g.max_deg);
+          const double speed = uniform(g.min_velocity_rad_s, g.max_velocity_rad_s);
+          // Always draw the reversal's numbers, so the sequence of targets does not depend on p.
+          const double u_rev = r.uniform(), frac = uniform(0.3, 0.7), back_u = r.uniform();
+          const double back_speed = uniform(g.min_velocity_rad_s, g.max_velocity_rad_s);
+          if (u_rev < g.reversal_probability) {
+            const double turn = at + frac * (target - at);
+            move(seg, turn, speed);
+            const double bound = target > at ? g.min_deg : g.max_deg;  // the other side of the turn
+            target = turn + (bound - turn) * (0.2 + 0.8 * back_u);
+            move(seg, target, back_speed);
+          } else {
+            move(seg, target, speed);
+          }
+          at = target;
+          hold(seg, uniform(g.min_hold_s, g.max_hold_s));
+        }
+        break;
+      }
     }
   }
   st_.angle_deg = s.knee.start_deg;

@@ -102,7 +102,9 @@ std::vector<std::pair<std::size_t, std::size_t>> holds(const SimRun& r, std::siz
 // ------------------------------------------------------------------------------ scenarios
 TEST(SimScenario, BuiltinsLoadAndMatchThePaperProtocol) {
   const auto names = pof::sim::builtin_scenario_names();
-  ASSERT_EQ(names, (std::vector<std::string>{"paper", "validation", "session", "realistic"}));
+  ASSERT_EQ(names, (std::vector<std::string>{"paper", "validation", "session", "realistic", "fibre_calibration",
+                                             "fibre_session", "heldout_gait", "heldout_rehab", "heldout_random"}));
+  for (const auto& n : names) EXPECT_NO_THROW((void)pof::sim::builtin_scenario(n)) << n;
   const Scenario p = pof::sim::builtin_scenario("paper");
   EXPECT_EQ(p.name, "paper");
   EXPECT_EQ(p.daq.scan_rate_hz, 200.0);

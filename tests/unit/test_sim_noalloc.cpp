@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cstdlib>
 #include <new>
+#include <string>
 #include <vector>
 
 #include "pof/sim/simulator.hpp"
@@ -32,11 +33,14 @@ TEST(SimStreaming, TheCounterSeesAllocations) {
 }
 
 TEST(SimStreaming, NextDoesNotAllocate) {
-  for (const char* name : {"paper", "realistic"}) {
-    pof::sim::Scenario s = pof::sim::builtin_scenario(name);
+  for (const char* name : {"paper", "realistic", "fibre_calibration", "heldout_random", "maxwell_slip"}) {
+    const bool slip = std::string(name) == "maxwell_slip";
+    pof::sim::Scenario s = pof::sim::builtin_scenario(slip ? "heldout_gait" : name);
     s.loop = true;
     s.daq.time_delay.enabled = true;  // every optional state in use
     s.sensor.rate_dependent_hysteresis.enabled = true;
+    s.sensor.viscoelastic_lag.enabled = true;
+    if (slip) s.sensor.memory_hysteresis.family = pof::sim::MemoryHysteresisFamily::kMaxwellSlip;
     pof::sim::Simulator sim(s, 1, 16000);
     std::vector<pof::sim::Scan> buf(512);
     std::vector<pof::sim::EffectTrace> tr(512);

@@ -24,6 +24,7 @@ enum class SegmentKind : int {
   kSubject,      // a session with a subject: cycles whose velocity and end angle vary per cycle
   kGait,         // gait-like variable-velocity cycles (two flexion peaks per cycle)
   kHold,         // stay (optionally after moving to angle_deg)
+  kRandomMoves,  // point-to-point moves to random targets at random speeds, random holds, reversals
 };
 
 struct Segment {
@@ -48,6 +49,11 @@ struct Segment {
   double duration_s = 10;
   bool has_angle = false;
   double angle_deg = 0;
+  // kRandomMoves (targets in [min_deg, max_deg]; its own random stream per segment)
+  int moves = 20;
+  double min_velocity_rad_s = 0.05, max_velocity_rad_s = 0.5;  // cruise speed of each move, uniform
+  double min_hold_s = 0, max_hold_s = 3;                        // hold after each move, uniform
+  double reversal_probability = 0.3;  // a move is abandoned at 30-70 % and reversed at once
 };
 
 // ---------------------------------------------------------------- knee, belt, potentiometer
@@ -74,6 +80,11 @@ struct CreepTerm {
   double gain_v_per_deg = -0.002;  // voltage per degree of sudden bend that relaxes with tau_s
 };
 
+enum class MemoryHysteresisFamily : int {
+  kBoucWen,      // smooth Bouc-Wen loop (Bouc 1967, Wen 1976)
+  kMaxwellSlip,  // Maxwell-slip / Prandtl-Ishlinskii: weighted stop operators
+};
+
 struct SensorSettings {
   pof::core::ModelCoefficients model = pof::core::paper_coefficients();
   double hold_threshold_rad_s = 0.01;  // |w| below this is a hold (issue 7's baseline rule)
@@ -83,6 +94,25 @@ struct SensorSettings {
   struct Creep { bool enabled = false; std::vector<CreepTerm> terms{CreepTerm{}}; } creep;
   struct AccelerationDependence { bool enabled = false; double gain_v_per_rad_s2 = 0.02; } acceleration_dependence;
   struct Drift { bool enabled = false; double rate_v_per_hour = 0.02, random_walk_v_per_sqrt_hour = 0; } drift;
+  // Continuous hysteresis with memory (rate independent in itself, times an optional speed factor
+  // exp(rate_sensitivity_s_per_rad * |omega|_lowpassed)); its state persists through holds.
+  struct MemoryHysteresis {
+    bool enabled = false;
+    MemoryHysteresisFamily family = MemoryHysteresisFamily::kBoucWen;
+    double amplitude_v = 0.025;  // half-height at saturation; > 0: the flexion branch lies above
+    double rate_sensitivity_s_per_rad = 0;  // < 0: the loop narrows with speed, > 0: widens
+    double rate_filter_s = 0.2;  // low-pass of |omega| for the speed factor (0: none)
+    // bouc_wen
+    double width_deg = 10;       // angle to go from one saturation to 95 % of the other
+    double shape = 1;            // Bouc-Wen exponent n
+    double beta_fraction = 0.5;  // beta / (beta + gamma)
+    // maxwell_slip
+    std::vector<double> thresholds_deg{2, 5, 10};  // slip threshold of each element
+    std::vector<double> weights{1, 1, 1};          // relative, normalised to sum 1
+  } memory_hysteresis;
+  // First-order lag of the fibre's effective bend behind the knee (Kelvin-Voigt-like):
+  // theta_f' = (theta - theta_f) / tau. The fibre-side terms are evaluated at theta_f.
+  struct ViscoelasticLag { bool enabled = false; double tau_s = 0.3; } viscoelastic_lag;
 };
 
 // ---------------------------------------------------------------- light path

@@ -33,9 +33,13 @@ struct EffectTrace {
   double velocity_rad_s;       // true, signed (+ flexion)
   double acceleration_rad_s2;  // true
   int direction;               // pof::core::Direction of the sensor model
-  double quasi_static_v;       // f5^-1(angle) + static nonlinearity [V, normalised]
+  double quasi_static_v;       // f5^-1(angle) + static nonlinearity at the true angle [V, normalised]
   double static_nonlinearity_v, hysteresis_v, rate_dependent_hysteresis_v, creep_v,
       acceleration_v, drift_v;  // [V, normalised]
+  double memory_hysteresis_v;  // sensor.memory_hysteresis [V, normalised]
+  double viscoelastic_lag_v;   // quasi-static line + nonlinearity at the lagged angle minus at the true one
+  double lag_deg;              // true angle - the fibre's effective (lagged) angle [deg]
+  double memory_state;         // the hysteresis state: Bouc-Wen z or sum w_i e_i / r_i, in [-1, 1]
   double normalised_v;         // sum of the above: the noise-free normalised sensor voltage
   double source_power_rel;     // light-source power / nominal
   double pot_error_deg;        // potentiometer angle - true angle (backlash, linearity, vibration)
@@ -62,6 +66,7 @@ class Simulator {
 
  private:
   void step(Scan& out, EffectTrace* tr);
+  double bouc_wen_step(double dtheta_deg);
   double quantise(double v, int channel, std::uint8_t& over) const;
 
   Scenario sc_;
@@ -78,7 +83,14 @@ class Simulator {
 
   // State of the memory effects.
   std::vector<double> creep_m_, creep_decay_, creep_gain_;  // Prony terms: state, e^{-dt/tau}, input weight
-  double prev_angle_ = 0;
+  double prev_angle_ = 0;      // the fibre's angle of the previous scan (creep input)
+  // Viscoelastic lag: the fibre's effective angle, e^{-dt/tau} and the ramp gain tau/dt (1 - e).
+  double fibre_angle_ = 0, prev_knee_angle_ = 0, lag_decay_ = 0, lag_gain_ = 0;
+  // Memory hysteresis: Bouc-Wen state z and its constants, or the stop operators of Maxwell-slip.
+  double bw_z_ = 0, bw_a_ = 0, bw_beta_ = 0, bw_gamma_ = 0, bw_max_substep_deg_ = 1;
+  std::vector<double> slip_e_, slip_r_, slip_w_;  // element strain [deg], threshold [deg], weight / threshold
+  double mem_prev_angle_ = 0;  // fibre angle at the last hysteresis update
+  double speed_filt_ = 0, speed_alpha_ = 1;  // low-passed |omega| [rad/s] and its update gain
   double drift_rw_ = 0, drift_rw_step_ = 0;
   double wander_ = 0, wander_decay_ = 0, wander_kick_ = 0;
   double power_steps_ = 1;

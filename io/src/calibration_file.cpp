@@ -400,14 +400,10 @@ CalibrationFile parse_calibration(const std::string& text, const std::string& na
   if (version >= 2) {
     // Version 1 files hold the paper model only and keep it active.
     if (t.contains("dynamic")) f.cal.dynamic = read_dynamic(k, t);
-    const std::string active = k.string("active_model", false);
-    if (!active.empty()) {
-      try {
-        f.cal.active = parse_model_kind(active, "active_model");
-      } catch (const ConfigError&) {
-        k.fail("active_model", "expected \"paper\" or \"dynamic\", got \"" + active.substr(0, 40) + "\"");
-      }
-    }
+    const std::string active = k.string("active_model");
+    if (active != "paper" && active != "dynamic")
+      k.fail("active_model", "expected \"paper\" or \"dynamic\", got \"" + active.substr(0, 40) + "\"");
+    f.cal.active = parse_model_kind(active, "active_model");
     if (f.cal.active == pof::core::ModelKind::kDynamic && !f.cal.dynamic)
       k.fail("active_model", "is \"dynamic\" but the file has no [dynamic] section");
     if (t.contains("held_out")) {

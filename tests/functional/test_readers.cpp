@@ -13,6 +13,7 @@
 
 #include "paper_protocol.hpp"
 #include "pof/core/calibration.hpp"
+#include "pof/core/offline.hpp"
 #include "pof/io/atomic_file.hpp"
 #include "pof/io/calibration_file.hpp"
 #include "pof/io/errors.hpp"
@@ -281,6 +282,122 @@ TEST(CalibrationFile, InvalidValuesAreNamed) {
   EXPECT_NE(with("sensor_id", "sensor_id = 3").find("key 'sensor_id': expected a string"), std::string::npos);
   const std::string pot = text + "\n[potentiometer]\ndeg_per_volt = 18.0\nzero_v = 0.0\noffsets = [[10.0, 1.0], [5.0, 0.0]]\n";
   EXPECT_NE(error_of([&] { pof::io::parse_calibration(pot, "cal.toml"); }).find("key 'potentiometer.offsets[1]': angles must increase"), std::string::npos);
+}
+
+namespace {
+
+pof::io::CalibrationFile with_dynamic_model() {
+  auto f = pof::io::make_calibration_file(fitted(), "S", "cal.csv", "2026-11-21T00:00:00Z");
+  pof::core::DynamicModel m;
+  m.degree = 3;
+  m.poly = {2.35, -0.99, 0.03, 0.02, 0, 0};
+  m.n_operators = 2;
+  m.threshold_deg = {1.0, 8.0};
+  m.weight_v_per_deg = {0.004, 0.001};
+  m.rate_gain_s_per_rad = -1.5;
+  m.n_prony = 1;
+  m.prony_tau_s = {5.0};
+  m.prony_gain_v_per_deg = {-0.0004};
+  f.cal.dynamic = m;
+  f.cal.active = pof::core::ModelKind::kDynamic;
+  f.held_out = pof::io::HeldOutSummary{0.9, 2.8, 0.2, 0.6, 5};
+  return f;
+}
+
+std::string replace_line(const std::string& text, const std::string& line_start, const std::string& replacement) {
+  std::istringstream in(text);
+  std::string out;
+  bool done = false;
+  for (std::string l; std::getline(in, l);) {
+    if (!done && l.rfind(line_start, 0) == 0) {
+      done = true;
+      if (replacement.empty()) continue;
+      l = replacement;
+    }
+    out += l + "\n";
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST(CalibrationFile, DynamicModelRoundTripsExactlyAndEveryKeyIsNamed) {
+  const auto f = with_dynamic_model();
+  const std::string text = pof::io::to_toml(f);
+  const auto g = pof::io::parse_calibration(text, "mem.toml");
+  ASSERT_TRUE(g.cal.dynamic);
+  EXPECT_EQ(g.cal.active, pof::core::ModelKind::kDynamic);
+  EXPECT_EQ(g.cal.dynamic->poly, f.cal.dynamic->poly);
+  EXPECT_EQ(g.cal.dynamic->threshold_deg, f.cal.dynamic->threshold_deg);
+  EXPECT_EQ(g.cal.dynamic->weight_v_per_deg, f.cal.dynamic->weight_v_per_deg);
+  EXPECT_EQ(g.cal.dynamic->prony_gain_v_per_deg, f.cal.dynamic->prony_gain_v_per_deg);
+  EXPECT_EQ(g.cal.dynamic->rate_gain_s_per_rad, -1.5);
+  ASSERT_TRUE(g.held_out);
+  EXPECT_EQ(g.held_out->dynamic_rmse_deg, 0.2);
+  // Every key of [dynamic] and [held_out] is required once the section is there.
+  std::istringstream in(text);
+  std::string table;
+  int checked = 0;
+  for (std::string l; std::getline(in, l);) {
+    if (!l.empty() && l[0] == '[') {
+      table = l.substr(1, l.find(']') - 1);
+      continue;
+    }
+    const auto eq = l.find(" = ");
+    if ((table != "dynamic" && table != "held_out") || eq == std::string::npos) continue;
+    const std::string key = table + "." + l.substr(0, eq);
+    const std::string e = error_of([&] { pof::io::parse_calibration(replace_line(text, l, ""), "cal.toml"); });
+    EXPECT_NE(e.find("key '" + key + "'"), std::string::npos) << e;
+    ++checked;
+  }
+  EXPECT_GE(checked, 17);
+}
+
+TEST(CalibrationFile, DamagedDynamicSectionsAreRefusedNamingTheKey) {
+  const std::string text = pof::io::to_toml(with_dynamic_model());
+  auto err = [&](const std::string& start, const std::string& repl) {
+    return error_of([&] { pof::io::parse_calibration(replace_line(text, start, repl), "cal.toml"); });
+  };
+  EXPECT_NE(err("weights_v_per_deg", "weights_v_per_deg = [0.004, -0.001]").find("key 'dynamic': operator weights must share one sign"), std::string::npos);
+  EXPECT_NE(err("poly = ", "poly = [1.0, 2.0]").find("key 'dynamic.poly': expected degree + 1 = 4"), std::string::npos);
+  EXPECT_NE(err("thresholds_deg", "thresholds_deg = [1.0, -8.0]").find("key 'dynamic.thresholds_deg[1]'"), std::string::npos);
+  EXPECT_NE(err("prony_tau_s", "prony_tau_s = [5.0, 9.0]").find("key 'dynamic.prony_gain_v_per_deg'"), std::string::npos);
+  EXPECT_NE(err("degree", "degree = 9").find("key 'dynamic.degree'"), std::string::npos);
+  EXPECT_NE(err("poly = ", "poly = \"x\"").find("key 'dynamic.poly': expected an array"), std::string::npos);
+  EXPECT_NE(err("active_model", "active_model = \"lstm\"").find("key 'active_model'"), std::string::npos);
+  // "dynamic" active with the section gone.
+  std::string no_section;
+  {
+    std::istringstream in(text);
+    bool skip = false;
+    for (std::string l; std::getline(in, l);) {
+      if (!l.empty() && l[0] == '[') skip = l.rfind("[dynamic]", 0) == 0;
+      if (!skip) no_section += l + "\n";
+    }
+  }
+  EXPECT_NE(error_of([&] { pof::io::parse_calibration(no_section, "cal.toml"); }).find("key 'active_model': is \"dynamic\" but the file has no [dynamic]"),
+            std::string::npos);
+  // --model dynamic on a file without one is a configuration error naming the file.
+  auto paper_only = pof::io::parse_calibration(pof::io::to_toml(pof::io::make_calibration_file(fitted(), "S", "c.csv", "d")), "c.toml");
+  EXPECT_THROW(pof::io::choose_model(paper_only, "dynamic", "c.toml"), ConfigError);
+}
+
+TEST(CalibrationFile, Version1FilesLoadWithThePaperModelAndCompensateBitIdentically) {
+  auto f = pof::io::make_calibration_file(fitted(), "S", "cal.csv", "2026-11-21T00:00:00Z");
+  std::string v1 = replace_line(pof::io::to_toml(f), "schema_version", "schema_version = 1");
+  v1 = replace_line(v1, "active_model", "");
+  const auto g = pof::io::parse_calibration(v1, "old.toml");
+  EXPECT_EQ(g.cal.active, pof::core::ModelKind::kPaper);
+  EXPECT_FALSE(g.cal.dynamic);
+  const auto rec = pof::testing::paper_recording();
+  const auto a = pof::core::compensate_recording(rec.t_s, rec.sensor_v, rec.reference_v, rec.angle_ref_deg, fitted().cal);
+  const auto b = pof::core::compensate_recording(rec.t_s, rec.sensor_v, rec.reference_v, rec.angle_ref_deg, g.cal);
+  ASSERT_EQ(a.angle_deg.size(), b.angle_deg.size());
+  for (Eigen::Index i = 0; i < a.angle_deg.size(); ++i) {
+    if (!(std::isnan(a.angle_deg(i)) && std::isnan(b.angle_deg(i)))) {
+      ASSERT_EQ(a.angle_deg(i), b.angle_deg(i)) << i;
+    }
+  }
 }
 
 TEST(AtomicWrite, ReplacesWholeFilesAndLeavesNothingOnFailure) {

@@ -2,8 +2,12 @@
 # The main job on the built-in simulated exoskeleton (`./pofkit demo` runs this after building).
 #
 #   1. calibration: the paper's protocol (quasi-static steps + table-1 velocity cycles) is simulated
-#      and fitted: `pof calibrate` writes cal.toml and a report with the paper's figures;
-#   2. live session: pof-daqd streams the simulated 5-cycle subject session (sim:session, real time,
+#      on a viscoelastic PMMA fibre (sim/scenarios/fibre_calibration.toml: a hysteresis loop with
+#      memory and Prony relaxation, not the paper's step model) and fitted: `pof calibrate` fits the
+#      paper's model and the dynamic model, marks the one with the lower held-out error active and
+#      writes cal.toml and a report with the paper's figures and the dynamic model's;
+#   2. live session: pof-daqd streams a simulated session on the same fibre (sim:fibre_session: 5
+#      subject cycles, then point-to-point moves with half-way reversals and holds; real time,
 #      ~95 s) over LCM on this host; pof-compensatord compensates every scan; pof record records
 #      every POF_* channel losslessly;
 #   3. summary: the per-cycle statistics (table 3) the daemon published, and a plot.
@@ -22,7 +26,7 @@ cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; }
 trap cleanup EXIT
 
 say "1/3 calibration on the simulated rig (paper protocol)"
-"$BIN/pof" sim paper -o calibration-session.csv --seed 1
+"$BIN/pof" sim fibre_calibration -o calibration-session.csv --seed 1
 "$BIN/pof" calibrate calibration-session.csv -o cal.toml --report calibration-report
 # The simulated potentiometer: angle = 22.5 deg/V (pot_v - 0.5 V) (sim/scenarios/*.toml, [knee]).
 cat > pot.toml <<'TOML'
@@ -32,13 +36,13 @@ deg_per_volt = 22.5
 zero_v = 0.5
 TOML
 
-say "2/3 live session: pof-daqd (sim:session) -> pof-compensatord -> pof record, LCM $URL"
+say "2/3 live session: pof-daqd (sim:fibre_session) -> pof-compensatord -> pof record, LCM $URL"
 "$BIN/pof" record -o session.lcmlog --lcm-url "$URL" -q 2>record.log &
 pids+=($!); recorder=$!
 "$BIN/pof-compensatord" --cal cal.toml --pot-cal pot.toml --lcm-url "$URL" 2>compensatord.log &
 pids+=($!); compensator=$!
 sleep 1
-"$BIN/pof-daqd" --device sim:session --lcm-url "$URL" 2>daqd.log &
+"$BIN/pof-daqd" --device sim:fibre_session --lcm-url "$URL" 2>daqd.log &
 pids+=($!); daqd=$!
 sleep 20
 echo "what is on the bus 20 s in (pof spy snapshot; run 'build/bin/pof spy --lcm-url \"$URL\"' for the live view):"

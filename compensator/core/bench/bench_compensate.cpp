@@ -6,6 +6,7 @@
 
 #include "paper_protocol.hpp"
 #include "pof/core/compensator.hpp"
+#include "pof/core/dynamic_fit.hpp"
 #include "pof/core/normalise.hpp"
 #include "pof/core/statistics.hpp"
 
@@ -72,6 +73,47 @@ void BM_OnlineCompensatorStepWithStatistics(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations());
 }
 BENCHMARK(BM_OnlineCompensatorStepWithStatistics);
+
+// The dynamic model's online inverse in place of eq. (11)/(12) (the rest of step() unchanged).
+// Arg 0: the model pof calibrate fits to this recording; arg 1: the largest structure the fit
+// tries (12 stop operators, 4 Prony terms, a rate factor), the worst case per scan.
+pof::core::Calibration dynamic_calibration(bool largest) {
+  auto c = calibration();
+  const auto& g = data();
+  pof::core::DynamicModel m = pof::core::fit_dynamic(g.t_s, g.sensor_v.array() * (4.0 / g.reference_v.array()), g.angle_ref_deg).model;
+  if (largest) {
+    const auto r = pof::core::operator_thresholds(12, 0.5, 36);
+    const auto tau = pof::core::prony_time_constants(4, 0.5, 60);
+    m.n_operators = 12;
+    for (std::size_t i = 0; i < 12; ++i) {
+      m.threshold_deg[i] = r[i];
+      m.weight_v_per_deg[i] = 0.0002;
+    }
+    m.n_prony = 4;
+    for (std::size_t j = 0; j < 4; ++j) {
+      m.prony_tau_s[j] = tau[j];
+      m.prony_gain_v_per_deg[j] = -0.0001;
+    }
+    m.rate_gain_s_per_rad = -1;
+  }
+  c.dynamic = m;
+  c.active = pof::core::ModelKind::kDynamic;
+  return c;
+}
+
+void BM_OnlineCompensatorStepDynamic(benchmark::State& state) {
+  const auto& g = data();
+  pof::core::OnlineCompensator comp(dynamic_calibration(state.range(0) == 1));
+  const Eigen::Index n = g.size();
+  Eigen::Index i = 0;
+  for (auto _ : state) {
+    auto s = comp.step(g.sensor_v(i), g.reference_v(i));
+    benchmark::DoNotOptimize(s);
+    if (++i == n) i = 0;
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_OnlineCompensatorStepDynamic)->Arg(0)->Arg(1);
 
 }  // namespace
 

@@ -61,7 +61,7 @@ Simulator::Simulator(const Scenario& s, std::uint64_t seed, double scan_rate_hz)
     lag_gain_ = tau / dt_ * (1.0 - lag_decay_);
   }
   const auto& mh = s.sensor.memory_hysteresis;
-  {
+  if (mh.enabled && mh.family == MemoryHysteresisFamily::kBoucWen) {
     // Bouc-Wen (Bouc 1967; Wen 1976, J. Eng. Mech. Div. 102(2) 249-263), rate-independent form:
     //   dz = A dtheta - beta |dtheta| |z|^(n-1) z - gamma dtheta |z|^n.
     // With beta + gamma = A the loop saturates at |z| = 1, and per unit A the shape is
@@ -80,8 +80,8 @@ Simulator::Simulator(const Scenario& s, std::uint64_t seed, double scan_rate_hz)
     // Split at 0, where sgn(z) (and |z|^n for n < 1) is not smooth.
     const double span = simpson(-1.0, 0.0) + simpson(0.0, 0.95);
     bw_a_ = mh.width_deg > 0 && std::isfinite(span) ? span / mh.width_deg : 0.0;
-    bw_beta_ = b;
-    bw_gamma_ = 1.0 - b;
+    bw_beta_ = b;  // beta / A
+    bw_gamma_ = 1.0 - b;  // gamma / A
     // RK4 sub-steps small enough that A dtheta <= 0.1 (z moves by at most ~0.2 per sub-step).
     bw_max_substep_deg_ = bw_a_ > 0 ? 0.1 / bw_a_ : 1.0;
   }

@@ -86,7 +86,8 @@ class Simulator {
   double prev_angle_ = 0;      // the fibre's angle of the previous scan (creep input)
   // Viscoelastic lag: the fibre's effective angle, e^{-dt/tau} and the ramp gain tau/dt (1 - e).
   double fibre_angle_ = 0, prev_knee_angle_ = 0, lag_decay_ = 0, lag_gain_ = 0;
-  // Memory hysteresis: Bouc-Wen state z and its constants, or the stop operators of Maxwell-slip.
+  // Memory hysteresis: Bouc-Wen state z, A [1/deg], beta/A, gamma/A and the RK4 sub-step, or the
+  // stop operators of Maxwell-slip.
   double bw_z_ = 0, bw_a_ = 0, bw_beta_ = 0, bw_gamma_ = 0, bw_max_substep_deg_ = 1;
   std::vector<double> slip_e_, slip_r_, slip_w_;  // element strain [deg], threshold [deg], weight / threshold
   double mem_prev_angle_ = 0;  // fibre angle at the last hysteresis update

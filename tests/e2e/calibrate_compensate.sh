@@ -12,20 +12,26 @@ PY=/usr/bin/python3
 
 # --- calibrate, with the report
 expect_exit 0 "$POF" calibrate cal.csv -o cal.toml --report rep --sensor-id LEFT_KNEE
-grep -q '^schema_version = 1$' cal.toml || fail "cal.toml has no schema_version = 1"
+grep -q '^schema_version = 2$' cal.toml || fail "cal.toml has no schema_version = 2"
+grep -Eq '^active_model = "(paper|dynamic)"$' cal.toml || fail "cal.toml has no active_model"
+grep -q '^\[dynamic\]$' cal.toml || fail "cal.toml has no [dynamic] model"
+grep -Eq 'held-out .*paper RMSE [0-9.]+ deg.*dynamic RMSE [0-9.]+ deg' <<<"$out" || fail "both held-out errors not printed: $out"
 grep -q '^sensor_id = "LEFT_KNEE"$' cal.toml || fail "sensor id not stored"
 grep -q 'alpha_f = (' <<<"$out" || fail "eq. (11) not printed: $out"
 grep -q 'alpha_e = (' <<<"$out" || fail "eq. (12) not printed: $out"
 [[ "$out$err" != *$'\r'* ]] || fail "progress output in a pipe"
-for f in calibration.json compensated.csv fig6_quasi_static.png fig7_regressions.png loops.png error_vs_angle.png; do
+for f in calibration.json compensated.csv fig6_quasi_static.png fig7_regressions.png loops.png error_vs_angle.png \
+  dynamic.csv dynamic_loop.png heldout_error.png; do
   [ -s "rep/$f" ] || fail "report file rep/$f missing or empty"
 done
 "$PY" - rep/calibration.json <<'PYEOF' || fail "calibration.json lacks figures"
 import json, sys
 r = json.load(open(sys.argv[1]))
 assert len(r["velocity_tests"]) == 9, len(r["velocity_tests"])
-for k in ("quasi_static", "f1", "f2", "f4", "combined", "range", "segments", "self_check"):
+for k in ("quasi_static", "f1", "f2", "f4", "combined", "range", "segments", "self_check", "active_model", "dynamic"):
     assert k in r, k
+h = r["dynamic"]["held_out"]
+assert h["paper"]["rmse_deg"] > 0 and h["dynamic"]["rmse_deg"] > 0 and h["folds_used"] >= 3, h
 assert r["f1"]["c1_se"] > 0 and len(r["f1"]["residuals_pct"]) == 9
 assert abs(r["quasi_static"]["sensitivity_v_per_deg"] - 0.022) < 0.001
 PYEOF
@@ -50,6 +56,21 @@ o = s["overall"]
 assert o["rmse_comp_deg"] < o["rmse_uncomp_deg"], o
 assert o["hysteresis_comp_pct"] < 0.5 * o["hysteresis_uncomp_pct"], o
 PYEOF
+
+# --- the model: the file's active one, or either by --model
+expect_exit 0 "$POF" compensate val.csv --cal cal.toml --model dynamic
+grep -q "dynamic model" <<<"$out" || fail "--model dynamic not used: $out"
+expect_exit 0 "$POF" compensate val.csv --cal cal.toml --model paper
+grep -q "paper model" <<<"$out" || fail "--model paper not used: $out"
+expect_exit 2 "$POF" compensate val.csv --cal cal.toml --model lstm
+expect_exit 0 "$POF" calibrate cal.csv -o cal_paper.toml --model paper
+grep -q '^active_model = "paper"$' cal_paper.toml || fail "--model paper not stored"
+sed '/^\[dynamic\]/,/^$/d' cal_paper.toml >no_dynamic.toml
+expect_exit 78 "$POF" compensate val.csv --cal no_dynamic.toml --model dynamic
+grep -q "no_dynamic.toml: --model dynamic: the file has no \[dynamic\] section" <<<"$err" || fail "missing dynamic model not named: $err"
+sed 's/^poly = .*/poly = [1.0]/' cal.toml >damaged.toml
+expect_exit 78 "$POF" compensate val.csv --cal damaged.toml
+grep -q "key 'dynamic.poly': expected degree + 1" <<<"$err" || fail "damaged dynamic section not named: $err"
 
 # --- the same from LCM logs (pof.raw_block_t on POF_RAW, channels by name)
 "$GEN" cal.lcmlog calibration
@@ -105,9 +126,9 @@ grep -q "key 'model.c10': expected a finite number" <<<"$err" || fail "NaN not n
 sed 's/^velocity_max_rad_s = .*/velocity_max_rad_s = 0.001/' cal.toml >range.toml
 expect_exit 78 "$POF" compensate val.csv --cal range.toml
 grep -q "key 'range.velocity_max_rad_s'" <<<"$err" || fail "impossible range not named: $err"
-sed 's/^schema_version = 1/schema_version = 7/' cal.toml >schema.toml
+sed 's/^schema_version = 2/schema_version = 7/' cal.toml >schema.toml
 expect_exit 78 "$POF" compensate val.csv --cal schema.toml
-grep -q "key 'schema_version': expected 1, got 7" <<<"$err" || fail "schema version: $err"
+grep -q "key 'schema_version': expected 1 or 2, got 7" <<<"$err" || fail "schema version: $err"
 printf 'schema_version = 1\n[model\nc1 = 2\n' >syntax.toml
 expect_exit 78 "$POF" compensate val.csv --cal syntax.toml
 grep -q "syntax.toml:2:" <<<"$err" || fail "TOML syntax error without line: $err"

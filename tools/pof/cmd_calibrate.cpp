@@ -131,7 +131,9 @@ void run(const CalibrateOptions& o) {
   }
   // Validate what we are about to write with the loader's own rules: a fit that the loader would
   // refuse must fail here, not later in the daemon.
+  const std::string kept_note = f.dynamic_note;  // a comment in the file: not read back
   f = pof::io::parse_calibration(pof::io::to_toml(f), o.output + " (about to be written)");
+  f.dynamic_note = kept_note;
   pof::io::save_calibration(f, o.output);
 
   const auto& q = r.quasi_static;

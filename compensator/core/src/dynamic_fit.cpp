@@ -327,7 +327,10 @@ DynamicFitResult fit_dynamic(const VectorXd& t, const VectorXd& v, const VectorX
   // rate gain, then the Prony terms once more with that gain.
   const int mid_ops = s.operator_counts[s.operator_counts.size() / 2];
   const int mid_k = s.prony_counts[s.prony_counts.size() / 2];
-  for (int deg : s.degrees) try_structure(deg, mid_ops, mid_k, 0.0);
+  for (int deg : s.degrees) {
+    try_structure(deg, mid_ops, mid_k, 0.0);
+    try_structure(deg, 0, 0, 0.0);  // the polynomial alone: invertible whenever it is monotone
+  }
   const DynamicCandidate* b = best_of(res.candidates);
   if (b == nullptr) throw DynamicFitError("dynamic fit: no quasi-static polynomial gives an invertible model on this recording");
   const int deg = b->degree;

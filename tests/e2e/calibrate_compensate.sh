@@ -14,7 +14,7 @@ PY=/usr/bin/python3
 expect_exit 0 "$POF" calibrate cal.csv -o cal.toml --report rep --sensor-id LEFT_KNEE
 grep -q '^schema_version = 2$' cal.toml || fail "cal.toml has no schema_version = 2"
 grep -Eq '^active_model = "(paper|dynamic)"$' cal.toml || fail "cal.toml has no active_model"
-grep -q '^\[dynamic\]$' cal.toml || fail "cal.toml has no [dynamic] model"
+grep -q '^\[dynamic\]' cal.toml || fail "cal.toml has no [dynamic] model"
 grep -Eq 'held-out .*paper RMSE [0-9.]+ deg.*dynamic RMSE [0-9.]+ deg' <<<"$out" || fail "both held-out errors not printed: $out"
 grep -q '^sensor_id = "LEFT_KNEE"$' cal.toml || fail "sensor id not stored"
 grep -q 'alpha_f = (' <<<"$out" || fail "eq. (11) not printed: $out"

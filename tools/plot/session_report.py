@@ -42,7 +42,7 @@ def main():
     fig.suptitle(a.title)
     ax1.plot(t, ref, color="black", lw=1.2, label="reference (potentiometer)")
     ax1.plot(t, unc, color="tab:orange", lw=0.8, label="POF, quasi-static line f5 only")
-    ax1.plot(t, comp, color="tab:blue", lw=0.8, label="POF, compensated (eq. 11/12)")
+    ax1.plot(t, comp, color="tab:blue", lw=0.8, label="POF, compensated (the calibration's active model)")
     ax1.set_ylabel("knee angle [deg]")
     ax1.legend(loc="upper right", fontsize=8)
     ax1.grid(alpha=0.3)

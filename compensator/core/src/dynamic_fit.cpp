@@ -185,6 +185,36 @@ DynamicModel structure_of(const Prepared& pr, const DynamicFitSettings& s, int d
   return m;
 }
 
+// One structure fitted with each block held out in turn: the per-block normal equations are built
+// once, each fold solves (all blocks) - (its block). Empty blocks get no coefficients.
+struct FoldFits {
+  Design d;
+  Grams gr;
+  std::vector<VectorXd> beta;  // per block (empty for a block without rows)
+  Index rows = 0;
+};
+
+FoldFits fit_folds(const DynamicModel& st, double rate_hz, int decim, const std::vector<Index>& fb,
+                   const std::vector<Index>& fe, const VectorXd& v, const VectorXd& ang) {
+  FoldFits ff;
+  ff.d = build_design(st, v, ang, rate_hz, decim);
+  ff.gr = block_grams(ff.d, fb, fe);
+  const Index p = ff.d.X.cols();
+  MatrixXd Gt = MatrixXd::Zero(p, p);
+  VectorXd gt = VectorXd::Zero(p);
+  double yt = 0;
+  for (std::size_t b = 0; b < ff.gr.G.size(); ++b) {
+    Gt += ff.gr.G[b];
+    gt += ff.gr.g[b];
+    yt += ff.gr.yy[b];
+    ff.rows += ff.gr.rows[b];
+  }
+  for (std::size_t b = 0; b < ff.gr.G.size(); ++b)
+    ff.beta.push_back(ff.gr.rows[b] == 0 ? VectorXd()
+                                         : solve_signed(Gt - ff.gr.G[b], gt - ff.gr.g[b], yt - ff.gr.yy[b], ff.d, nullptr));
+  return ff;
+}
+
 // Blocked cross-validation of one structure.
 DynamicCandidate cross_validate(const DynamicModel& st, const Prepared& pr, const VectorXd& v, const VectorXd& ang,
                                 double sensitivity) {
@@ -193,27 +223,14 @@ DynamicCandidate cross_validate(const DynamicModel& st, const Prepared& pr, cons
   c.n_operators = st.n_operators;
   c.n_prony = st.n_prony;
   c.rate_gain_s_per_rad = st.rate_gain_s_per_rad;
-  const Design d = build_design(st, v, ang, pr.rate_hz, pr.decim);
-  const Grams gr = block_grams(d, pr.fb, pr.fe);
-  const Index p = d.X.cols();
-  MatrixXd Gt = MatrixXd::Zero(p, p);
-  VectorXd gt = VectorXd::Zero(p);
-  double yt = 0;
-  Index nt = 0;
-  for (std::size_t b = 0; b < gr.G.size(); ++b) {
-    Gt += gr.G[b];
-    gt += gr.g[b];
-    yt += gr.yy[b];
-    nt += gr.rows[b];
-  }
+  const FoldFits ff = fit_folds(st, pr.rate_hz, pr.decim, pr.fb, pr.fe, v, ang);
   double held = 0;
-  for (std::size_t b = 0; b < gr.G.size(); ++b) {
-    if (gr.rows[b] == 0) continue;
-    const VectorXd beta = solve_signed(Gt - gr.G[b], gt - gr.g[b], yt - gr.yy[b], d, nullptr);
-    if (!invertible(with_coefficients(st, beta, d), pr.rate_hz)) c.admissible = false;
-    held += rss_of(gr.yy[b], gr.g[b], gr.G[b], beta);
+  for (std::size_t b = 0; b < ff.beta.size(); ++b) {
+    if (ff.beta[b].size() == 0) continue;
+    if (!invertible(with_coefficients(st, ff.beta[b], ff.d), pr.rate_hz)) c.admissible = false;
+    held += rss_of(ff.gr.yy[b], ff.gr.g[b], ff.gr.G[b], ff.beta[b]);
   }
-  c.cv_rmse_v = nt > 0 ? std::sqrt(held / static_cast<double>(nt)) : kInf;
+  c.cv_rmse_v = ff.rows > 0 ? std::sqrt(held / static_cast<double>(ff.rows)) : kInf;
   c.cv_rmse_deg = c.cv_rmse_v / sensitivity;
   return c;
 }
@@ -363,26 +380,20 @@ DynamicFitResult fit_dynamic(const VectorXd& t, const VectorXd& v, const VectorX
   return res;
 }
 
-DynamicModel refit_dynamic(const DynamicModel& st, const VectorXd& t, const VectorXd& v, const VectorXd& ang,
-                           const std::vector<bool>& use, const DynamicFitSettings& s) {
+std::vector<std::optional<DynamicModel>> fold_models(const DynamicFitResult& fit, const VectorXd& t, const VectorXd& v,
+                                                     const VectorXd& ang, const DynamicFitSettings& s) {
   const double rate = median_rate_hz(t);
   if (!(rate > 0)) throw DynamicFitError("dynamic fit: the time column does not increase");
   const int decim = std::max(1, static_cast<int>(std::lround(rate / s.fit_rate_hz)));
-  const Design d = build_design(st, v, ang, rate, decim);
-  const Index p = d.X.cols();
-  MatrixXd G = MatrixXd::Zero(p, p);
-  VectorXd g = VectorXd::Zero(p);
-  double yy = 0;
-  for (Index r = 0; r < d.X.rows(); ++r) {
-    if (!use[static_cast<std::size_t>(d.scan[static_cast<std::size_t>(r)])]) continue;
-    G.selfadjointView<Eigen::Lower>().rankUpdate(d.X.row(r).transpose());
-    g += d.X.row(r).transpose() * d.y(r);
-    yy += d.y(r) * d.y(r);
+  const FoldFits ff = fit_folds(fit.model, rate, decim, fit.fold_begin, fit.fold_end, v, ang);
+  std::vector<std::optional<DynamicModel>> out;
+  for (const VectorXd& beta : ff.beta) {
+    std::optional<DynamicModel> m;
+    if (beta.size() > 0) m = with_coefficients(fit.model, beta, ff.d);
+    if (m && !invertible(*m, rate)) m.reset();
+    out.push_back(m);
   }
-  G = G.selfadjointView<Eigen::Lower>();
-  const DynamicModel m = with_coefficients(st, solve_signed(G, g, yy, d, nullptr), d);
-  if (!invertible(m, rate)) throw DynamicFitError("dynamic fit: the refitted model is not invertible");
-  return m;
+  return out;
 }
 
 VectorXd forward_dynamic(const DynamicModel& m, const VectorXd& angle, double rate_hz) {

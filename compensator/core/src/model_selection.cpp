@@ -44,14 +44,13 @@ ModelComparison compare_held_out(const VectorXd& t, const VectorXd& sensor, cons
   ReferenceGuard guard;
   guard.level_v = level;
   const VectorXd v = normalise(sensor, reference, guard);
+  const std::vector<std::optional<DynamicModel>> refits = fold_models(dyn, t, v, ang, ds);
   for (std::size_t f = 0; f < dyn.fold_begin.size(); ++f) {
     const Index b = dyn.fold_begin[f], e = dyn.fold_end[f];
     const std::string which = "held-out block " + std::to_string(f + 1) + " (scans " + std::to_string(b) + "-" +
                               std::to_string(e - 1) + ")";
     VectorXd masked = ang;
     masked.segment(b, e - b).setConstant(nan);
-    std::vector<bool> use(static_cast<std::size_t>(n), true);
-    for (Index i = b; i < e; ++i) use[static_cast<std::size_t>(i)] = false;
     Calibration paper, dynamic;
     try {
       CalibrationSettings pf = ps;
@@ -61,14 +60,13 @@ ModelComparison compare_held_out(const VectorXd& t, const VectorXd& sensor, cons
       cmp.notes.push_back(which + ": the paper's model cannot be fitted without it (" + ex.what() + ")");
       continue;
     }
-    try {
-      dynamic = paper;
-      dynamic.dynamic = refit_dynamic(dyn.model, t, v, ang, use, ds);
-      dynamic.active = ModelKind::kDynamic;
-    } catch (const DynamicFitError& ex) {
-      cmp.notes.push_back(which + ": " + ex.what());
+    if (!refits[f]) {
+      cmp.notes.push_back(which + ": the dynamic model has no invertible refit without it");
       continue;
     }
+    dynamic = paper;
+    dynamic.dynamic = *refits[f];
+    dynamic.active = ModelKind::kDynamic;
     const OfflineResult rp = compensate_recording(t, sensor, reference, VectorXd(), paper, cs);
     const OfflineResult rd = compensate_recording(t, sensor, reference, VectorXd(), dynamic, cs);
     cmp.paper_deg.segment(b, e - b) = rp.angle_deg.segment(b, e - b);

@@ -14,6 +14,7 @@
 // blocks cut at holds (as `pof gap` does, so no movement is split), each held out in turn, the
 // coefficients fitted on the others. Candidates whose inverse would not be monotone over the
 // search range are refused. docs/calibration.md, "The dynamic model".
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -78,12 +79,12 @@ void hold_blocks(const std::vector<Segment>& segments, Eigen::Index n, int folds
 DynamicFitResult fit_dynamic(const Eigen::VectorXd& t_s, const Eigen::VectorXd& v_norm, const Eigen::VectorXd& angle_ref_deg,
                              const DynamicFitSettings& s = {});
 
-/// Refits a fixed structure (that of `structure`) on the scans where `use` is true, for held-out
-/// tests. Throws DynamicFitError when the fit is not invertible.
-DynamicModel refit_dynamic(const DynamicModel& structure, const Eigen::VectorXd& t_s, const Eigen::VectorXd& v_norm,
-                           const Eigen::VectorXd& angle_ref_deg, const std::vector<bool>& use,
-                           const DynamicFitSettings& s = {});
-
+/// The chosen structure of `fit` refitted with each of its blocks held out in turn (the same
+/// per-block normal equations as its cross-validation): one model per block, none where the
+/// block is empty or the refit would not be invertible. For held-out tests (model_selection.hpp).
+std::vector<std::optional<DynamicModel>> fold_models(const DynamicFitResult& fit, const Eigen::VectorXd& t_s,
+                                                     const Eigen::VectorXd& v_norm, const Eigen::VectorXd& angle_ref_deg,
+                                                     const DynamicFitSettings& s = {});
 /// The forward model over a whole angle history at scan rate fs: V for each scan (NaN angles hold
 /// the previous one). For plots and tests.
 Eigen::VectorXd forward_dynamic(const DynamicModel& m, const Eigen::VectorXd& angle_deg, double scan_rate_hz);

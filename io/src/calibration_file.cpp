@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <vector>
 
@@ -63,6 +64,13 @@ const char* type_name(toml::node_type t) {
   }
 }
 
+// A TOML float or integer as a double (finiteness is the caller's check: the messages differ).
+std::optional<double> numeric(const toml::node& n) {
+  if (const auto* f = n.as_floating_point()) return f->get();
+  if (const auto* i = n.as_integer()) return static_cast<double>(i->get());
+  return std::nullopt;
+}
+
 class Keys {
  public:
   Keys(const toml::table& t, std::string name) : t_(t), name_(std::move(name)) {}
@@ -77,12 +85,10 @@ class Keys {
   }
   double number(const std::string& key) const {
     const auto n = node(key);
-    double v;
-    if (const auto* f = n.as_floating_point()) v = f->get();
-    else if (const auto* i = n.as_integer()) v = static_cast<double>(i->get());
-    else fail(key, std::string("expected a number, got ") + type_name(n.type()));
-    if (!std::isfinite(v)) fail(key, "expected a finite number, got " + num(v));
-    return v;
+    const std::optional<double> v = numeric(*n.node());
+    if (!v) fail(key, std::string("expected a number, got ") + type_name(n.type()));
+    if (!std::isfinite(*v)) fail(key, "expected a finite number, got " + num(*v));
+    return *v;
   }
   double positive(const std::string& key) const {
     const double v = number(key);
@@ -136,13 +142,10 @@ std::vector<double> numbers(const Keys& k, const toml::table& t, const std::stri
   if (arr->size() > max) k.fail(key, "expected at most " + std::to_string(max) + " numbers, got " + std::to_string(arr->size()));
   std::vector<double> out;
   for (std::size_t i = 0; i < arr->size(); ++i) {
-    const auto& e = (*arr)[i];
-    double v;
-    if (const auto* f = e.as_floating_point()) v = f->get();
-    else if (const auto* m = e.as_integer()) v = static_cast<double>(m->get());
-    else k.fail(key + "[" + std::to_string(i) + "]", "expected a number");
-    if (!std::isfinite(v)) k.fail(key + "[" + std::to_string(i) + "]", "expected a finite number");
-    out.push_back(v);
+    const std::optional<double> v = numeric((*arr)[i]);
+    if (!v) k.fail(key + "[" + std::to_string(i) + "]", "expected a number");
+    if (!std::isfinite(*v)) k.fail(key + "[" + std::to_string(i) + "]", "expected a finite number");
+    out.push_back(*v);
   }
   return out;
 }
@@ -211,11 +214,10 @@ pof::core::PotentiometerCalibration read_potentiometer(const Keys& k, const toml
       if (!pair || pair->size() != 2) k.fail(key, "expected [angle_deg, correction_deg]");
       double v[2];
       for (std::size_t j = 0; j < 2; ++j) {
-        const auto& e = (*pair)[j];
-        if (const auto* f = e.as_floating_point()) v[j] = f->get();
-        else if (const auto* n = e.as_integer()) v[j] = static_cast<double>(n->get());
-        else k.fail(key, "expected two numbers");
-        if (!std::isfinite(v[j])) k.fail(key, "expected finite numbers");
+        const std::optional<double> x = numeric((*pair)[j]);
+        if (!x) k.fail(key, "expected two numbers");
+        if (!std::isfinite(*x)) k.fail(key, "expected finite numbers");
+        v[j] = *x;
       }
       if (!p.offsets.empty() && !(v[0] > p.offsets.back().first)) k.fail(key, "angles must increase");
       p.offsets.emplace_back(v[0], v[1]);
@@ -228,10 +230,10 @@ pof::core::PotentiometerCalibration read_potentiometer(const Keys& k, const toml
 
 const char* to_string(pof::core::ModelKind k) { return k == pof::core::ModelKind::kDynamic ? "dynamic" : "paper"; }
 
-pof::core::ModelKind parse_model_kind(const std::string& text, const std::string& key) {
+std::optional<pof::core::ModelKind> model_kind_of(const std::string& text) {
   if (text == "paper") return pof::core::ModelKind::kPaper;
   if (text == "dynamic") return pof::core::ModelKind::kDynamic;
-  throw ConfigError("key '" + key + "': expected \"paper\" or \"dynamic\", got \"" + text.substr(0, 40) + "\"");
+  return std::nullopt;
 }
 
 CalibrationFile make_calibration_file(const pof::core::CalibrationResult& r, const std::string& sensor_id,
@@ -401,9 +403,9 @@ CalibrationFile parse_calibration(const std::string& text, const std::string& na
     // Version 1 files hold the paper model only and keep it active.
     if (t.contains("dynamic")) f.cal.dynamic = read_dynamic(k, t);
     const std::string active = k.string("active_model");
-    if (active != "paper" && active != "dynamic")
-      k.fail("active_model", "expected \"paper\" or \"dynamic\", got \"" + active.substr(0, 40) + "\"");
-    f.cal.active = parse_model_kind(active, "active_model");
+    const auto kind = model_kind_of(active);
+    if (!kind) k.fail("active_model", "expected \"paper\" or \"dynamic\", got \"" + active.substr(0, 40) + "\"");
+    f.cal.active = *kind;
     if (f.cal.active == pof::core::ModelKind::kDynamic && !f.cal.dynamic)
       k.fail("active_model", "is \"dynamic\" but the file has no [dynamic] section");
     if (t.contains("held_out")) {
@@ -423,7 +425,9 @@ CalibrationFile load_calibration(const std::string& path) { return parse_calibra
 
 void choose_model(CalibrationFile& f, const std::string& choice, const std::string& source) {
   if (choice.empty() || choice == "file") return;
-  f.cal.active = parse_model_kind(choice, "--model");
+  const auto kind = model_kind_of(choice);
+  if (!kind) throw ConfigError(source + ": --model: expected file, paper or dynamic, got \"" + choice.substr(0, 40) + "\"");
+  f.cal.active = *kind;
   if (f.cal.active == pof::core::ModelKind::kDynamic && !f.cal.dynamic)
     throw ConfigError(source + ": --model dynamic: the file has no [dynamic] section (recalibrate with pof calibrate)");
 }

@@ -126,7 +126,7 @@ void run(const CalibrateOptions& o) {
     }
   }
   if (o.model != "auto") {
-    f.cal.active = pof::io::parse_model_kind(o.model, "--model");
+    f.cal.active = *pof::io::model_kind_of(o.model);  // CLI11 admits auto, paper and dynamic only
     f.dynamic_note = "active model chosen with --model " + o.model;
   }
   // Validate what we are about to write with the loader's own rules: a fit that the loader would

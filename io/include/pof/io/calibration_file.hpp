@@ -61,9 +61,9 @@ struct CalibrationFile {
   std::string dynamic_note;  // why there is no dynamic model, or why it is not active (a comment)
 };
 
-/// "paper" / "dynamic"; parse_model_kind throws ConfigError naming `key` for anything else.
+/// "paper" / "dynamic", and back (nullopt for any other text).
 const char* to_string(pof::core::ModelKind k);
-pof::core::ModelKind parse_model_kind(const std::string& text, const std::string& key);
+std::optional<pof::core::ModelKind> model_kind_of(const std::string& text);
 
 /// The model the compensator runs: `choice` "" or "file" keeps the file's active_model, "paper" or
 /// "dynamic" overrides it (the --model option of pof compensate and pof-compensatord). Throws

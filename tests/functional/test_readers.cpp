@@ -208,6 +208,22 @@ const pof::core::CalibrationResult& fitted() {
   return r;
 }
 
+// The text with the first line that starts with line_start replaced (removed if replacement is "").
+std::string replace_line(const std::string& text, const std::string& line_start, const std::string& replacement) {
+  std::istringstream in(text);
+  std::string out;
+  bool done = false;
+  for (std::string l; std::getline(in, l);) {
+    if (!done && l.rfind(line_start, 0) == 0) {
+      done = true;
+      if (replacement.empty()) continue;
+      l = replacement;
+    }
+    out += l + "\n";
+  }
+  return out;
+}
+
 }  // namespace
 
 TEST(CalibrationFile, RoundTripsExactly) {
@@ -260,17 +276,7 @@ TEST(CalibrationFile, EveryMissingKeyIsNamed) {
 TEST(CalibrationFile, InvalidValuesAreNamed) {
   const auto text = pof::io::to_toml(pof::io::make_calibration_file(fitted(), "S", "cal.csv", "2026-11-21T00:00:00Z"));
   auto with = [&](const std::string& line_start, const std::string& replacement) {
-    std::istringstream in(text);
-    std::string out;
-    bool done = false;
-    for (std::string l; std::getline(in, l);) {
-      if (!done && l.rfind(line_start, 0) == 0) {
-        l = replacement;
-        done = true;
-      }
-      out += l + "\n";
-    }
-    return error_of([&] { pof::io::parse_calibration(out, "cal.toml"); });
+    return error_of([&] { pof::io::parse_calibration(replace_line(text, line_start, replacement), "cal.toml"); });
   };
   EXPECT_NE(with("c1 = ", "c1 = -1.0").find("key 'model.c1': expected a number > 0"), std::string::npos);
   EXPECT_NE(with("c2 = ", "c2 = inf").find("key 'model.c2': expected a finite number"), std::string::npos);
@@ -304,20 +310,6 @@ pof::io::CalibrationFile with_dynamic_model() {
   return f;
 }
 
-std::string replace_line(const std::string& text, const std::string& line_start, const std::string& replacement) {
-  std::istringstream in(text);
-  std::string out;
-  bool done = false;
-  for (std::string l; std::getline(in, l);) {
-    if (!done && l.rfind(line_start, 0) == 0) {
-      done = true;
-      if (replacement.empty()) continue;
-      l = replacement;
-    }
-    out += l + "\n";
-  }
-  return out;
-}
 
 }  // namespace
 

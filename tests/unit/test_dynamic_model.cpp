@@ -74,6 +74,20 @@ pof::testing::Generated acquire_dynamic(const DynamicModel& m, const std::vector
   return g;
 }
 
+// The paper's calibration protocol recorded on the known fibre (seeded), and the dynamic fit of it.
+struct Calibrated {
+  pof::testing::Generated g;
+  pof::core::DynamicFitResult fit;
+};
+
+Calibrated calibrate_known_fibre(std::uint64_t seed) {
+  Calibrated c;
+  c.g = acquire_dynamic(known_model(), pof::testing::paper_trajectory({}).angle, 200, 0.001, seed);
+  const Eigen::VectorXd v = c.g.sensor_v.array() * (4.0 / c.g.reference_v.array());
+  c.fit = pof::core::fit_dynamic(c.g.t_s, v, c.g.angle_ref_deg);
+  return c;
+}
+
 }  // namespace
 
 TEST(DynamicModel, HoldKeepsTheBranchAndReversalsGiveNestedMinorLoops) {
@@ -163,11 +177,7 @@ TEST(DynamicModel, InverseOfTheForwardModelReturnsTheAngle) {
 
 TEST(DynamicFit, RecoversAKnownModelFromThePaperProtocol) {
   const DynamicModel truth = known_model();
-  pof::testing::ProtocolSettings p;
-  const auto tr = pof::testing::paper_trajectory(p);
-  const auto g = acquire_dynamic(truth, tr.angle, 200, 0.001, 3);
-  const Eigen::VectorXd v = g.sensor_v.array() * (4.0 / g.reference_v.array());
-  const auto fit = pof::core::fit_dynamic(g.t_s, v, g.angle_ref_deg);
+  const auto fit = calibrate_known_fibre(3).fit;
   EXPECT_GE(fit.model.n_operators, 3);
   EXPECT_LT(fit.model.rate_gain_s_per_rad, 0);  // the loop narrows with speed, as generated
   // Forward models agree on a movement the fit never saw (variable speed, reversals, holds) to a
@@ -211,12 +221,7 @@ TEST(DynamicModel, InvalidParametersAreNamed) {
 }
 
 TEST(ModelSelection, DynamicFibreMakesTheDynamicModelWinHeldOut) {
-  const DynamicModel truth = known_model();
-  pof::testing::ProtocolSettings p;
-  const auto tr = pof::testing::paper_trajectory(p);
-  const auto g = acquire_dynamic(truth, tr.angle, 200, 0.001, 5);
-  const Eigen::VectorXd v = g.sensor_v.array() * (4.0 / g.reference_v.array());
-  const auto fit = pof::core::fit_dynamic(g.t_s, v, g.angle_ref_deg);
+  const auto [g, fit] = calibrate_known_fibre(5);
   const auto cmp = pof::core::compare_held_out(g.t_s, g.sensor_v, g.reference_v, g.angle_ref_deg, fit);
   EXPECT_GE(cmp.folds_used, 3);
   EXPECT_LT(cmp.dynamic.rmse_deg, 0.6 * cmp.paper.rmse_deg) << "paper " << cmp.paper.rmse_deg << " dynamic " << cmp.dynamic.rmse_deg;

@@ -196,6 +196,9 @@ pof::core::DynamicModel read_dynamic(const Keys& k, const toml::table& t) {
     m.prony_tau_s[j] = tau[j];
     m.prony_gain_v_per_deg[j] = g[j];
   }
+  // Files written before the bend lag existed have neither key: no lag.
+  if (t.at_path("dynamic.bend_lag_s")) m.bend_lag_s = k.number("dynamic.bend_lag_s");
+  if (t.at_path("dynamic.lag_window_s")) m.lag_window_s = k.positive("dynamic.lag_window_s");
   if (const char* why = m.invalid_reason(); *why != '\0') k.fail("dynamic", why);
   return m;
 }
@@ -317,7 +320,9 @@ std::string to_toml(const CalibrationFile& f) {
       << "speed_filter_s = " << num(d.speed_filter_s) << "\n"
       << "speed_limit_rad_s = " << num(d.speed_limit_rad_s) << "    # phi is held beyond this speed\n"
       << "prony_tau_s = " << number_list(d.prony_tau_s.data(), d.n_prony) << "\n"
-      << "prony_gain_v_per_deg = " << number_list(d.prony_gain_v_per_deg.data(), d.n_prony) << "\n";
+      << "prony_gain_v_per_deg = " << number_list(d.prony_gain_v_per_deg.data(), d.n_prony) << "\n"
+      << "bend_lag_s = " << num(d.bend_lag_s) << "    # tau_b: the fibre's bend lags the joint (0: none)\n"
+      << "lag_window_s = " << num(d.lag_window_s) << "    # the online lag inverse's fitting window\n";
   }
   if (f.held_out) {
     const auto& h = *f.held_out;

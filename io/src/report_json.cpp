@@ -65,13 +65,15 @@ json dynamic_report(const pof::core::DynamicFitResult& d, const pof::core::Model
   j["rate_gain_s_per_rad"] = m.rate_gain_s_per_rad;
   j["prony_tau_s"] = std::vector<double>(m.prony_tau_s.begin(), m.prony_tau_s.begin() + m.n_prony);
   j["prony_gain_v_per_deg"] = std::vector<double>(m.prony_gain_v_per_deg.begin(), m.prony_gain_v_per_deg.begin() + m.n_prony);
+  j["bend_lag_s"] = m.bend_lag_s;
+  j["lag_window_s"] = m.lag_window_s;
   j["train_rmse_deg"] = d.train_rmse_deg;
   j["cv_rmse_deg"] = d.chosen.cv_rmse_deg;
   j["sensitivity_v_per_deg"] = d.sensitivity_v_per_deg;
   json cs = json::array();
   for (const auto& k : d.candidates)
     cs.push_back({{"degree", k.degree}, {"n_operators", k.n_operators}, {"n_prony", k.n_prony},
-                  {"rate_gain_s_per_rad", k.rate_gain_s_per_rad}, {"cv_rmse_deg", k.cv_rmse_deg}, {"admissible", k.admissible}});
+                  {"rate_gain_s_per_rad", k.rate_gain_s_per_rad}, {"bend_lag_s", k.bend_lag_s}, {"cv_rmse_deg", k.cv_rmse_deg}, {"admissible", k.admissible}});
   j["candidates"] = cs;
   if (c != nullptr) {
     j["held_out"] = {{"paper", held(c->paper)}, {"dynamic", held(c->dynamic)}, {"folds", c->folds},

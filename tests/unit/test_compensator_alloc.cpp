@@ -64,6 +64,7 @@ TEST(CompensatorAlloc, DynamicModelStepNeverAllocates) {
   m.prony_tau_s = {1, 5, 30};
   m.prony_gain_v_per_deg = {-0.0005, -0.0003, -0.0001};
   m.rate_gain_s_per_rad = -1;
+  m.bend_lag_s = 0.08;  // the lag inverse's window runs too
   cal.dynamic = m;
   cal.active = pof::core::ModelKind::kDynamic;
   pof::core::OnlineCompensator comp(cal);

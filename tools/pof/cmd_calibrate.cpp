@@ -147,11 +147,11 @@ void run(const CalibrateOptions& o) {
   std::printf("eq. (12)  %s\n", f.equation_extension.c_str());
   if (dyn) {
     const auto& m = dyn->model;
-    std::printf("dynamic   degree %d, %d stop operators (%.3g-%.3g deg, loop +-%.4f V), rate gain %+.3g s/rad, %d Prony term(s); "
-                "train RMSE %.3f deg, CV %.3f deg over %zu structures\n",
+    std::printf("dynamic   degree %d, %d stop operators (%.3g-%.3g deg, loop +-%.4f V), rate gain %+.3g s/rad, %d Prony term(s), "
+                "bend lag %.3g s; train RMSE %.3f deg, CV %.3f deg over %zu structures\n",
                 m.degree, m.n_operators, m.n_operators ? m.threshold_deg[0] : 0.0,
                 m.n_operators ? m.threshold_deg[static_cast<std::size_t>(m.n_operators - 1)] : 0.0, m.loop_half_height_v(),
-                m.rate_gain_s_per_rad, m.n_prony, dyn->train_rmse_deg, dyn->chosen.cv_rmse_deg, dyn->candidates.size());
+                m.rate_gain_s_per_rad, m.n_prony, m.bend_lag_s, dyn->train_rmse_deg, dyn->chosen.cv_rmse_deg, dyn->candidates.size());
   }
   if (f.held_out)
     std::printf("held-out  (%lld blocks) paper RMSE %.3f deg (p99 %.3f), dynamic RMSE %.3f deg (p99 %.3f)\n",

@@ -88,6 +88,12 @@ std::vector<Fibre> fibres() {
   c.static_nonlinearity.s_v = 0.005;
   f.push_back({"C", "Bouc-Wen n=2 width 20 deg, widens with speed (exp), Prony 0.8/6/40 s, S-shaped line", c});
 
+  // A lag off the fit's grid (0.02-0.32 s, doubling) on a Bouc-Wen fibre.
+  SensorSettings e = base;
+  e.viscoelastic_lag.enabled = true;
+  e.viscoelastic_lag.tau_s = 0.11;
+  f.push_back({"D", "fibre A behind a 0.11 s viscoelastic lag", e});
+
   SensorSettings d = pof::sim::builtin_scenario("paper").sensor;
   f.push_back({"P", "the paper's step model (eqs. (11)/(12) at the true velocity, f5 in holds)", d});
   return f;
@@ -152,6 +158,8 @@ int main(int argc, char** argv) {
     std::printf("%-3s %-15s %8ld | %6.3f / %6.3f  %6.3f / %6.3f  %6.3f / %6.3f  | %s (%.3f / %.3f deg)\n", f.name, "all three",
                 static_cast<long>(all_t.size()), eu.rmse, eu.p99, ep.rmse, ep.p99, ed.rmse, ed.p99, dyn_active ? "dynamic" : "paper",
                 cmp.paper.rmse_deg, cmp.dynamic.rmse_deg);
+    std::printf("%-3s dynamic structure: degree %d, %d operators, %d Prony terms, kappa %g s/rad, bend lag %g s\n", f.name,
+                dyn.chosen.degree, dyn.chosen.n_operators, dyn.chosen.n_prony, dyn.chosen.rate_gain_s_per_rad, dyn.chosen.bend_lag_s);
   }
   std::printf("fibres:\n");
   for (const Fibre& f : fibres()) std::printf("  %s  %s\n", f.name, f.family);

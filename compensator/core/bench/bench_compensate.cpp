@@ -76,7 +76,8 @@ BENCHMARK(BM_OnlineCompensatorStepWithStatistics);
 
 // The dynamic model's online inverse in place of eq. (11)/(12) (the rest of step() unchanged).
 // Arg 0: the model pof calibrate fits to this recording; arg 1: the largest structure the fit
-// tries (12 stop operators, 4 Prony terms, a rate factor), the worst case per scan.
+// tries (12 stop operators, 4 Prony terms, a rate factor, a 0.32 s bend lag whose inverse runs a
+// 0.12 s window), the worst case per scan.
 pof::core::Calibration dynamic_calibration(bool largest) {
   auto c = calibration();
   const auto& g = data();
@@ -95,6 +96,7 @@ pof::core::Calibration dynamic_calibration(bool largest) {
       m.prony_gain_v_per_deg[j] = -0.0001;
     }
     m.rate_gain_s_per_rad = -1;
+    m.bend_lag_s = 0.32;
   }
   c.dynamic = m;
   c.active = pof::core::ModelKind::kDynamic;

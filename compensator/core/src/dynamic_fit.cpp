@@ -20,8 +20,8 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-// The regression rows of one structure: the operators, Prony states and speed filter run over
-// the reference angle at the recording's rate; every `decim`-th usable scan becomes a row.
+// The regression rows of one structure: the bend lag, operators, Prony states and speed filter run
+// over the reference angle at the recording's rate; every `decim`-th usable scan becomes a row.
 struct Design {
   MatrixXd X;
   VectorXd y;
@@ -43,10 +43,11 @@ Design build_design(const DynamicModel& st, const VectorXd& v, const VectorXd& a
   d.scan.reserve(static_cast<std::size_t>(rows));
   const DynamicKernel k(st, rate_hz);
   DynamicState s;
+  BendLag lag(st.bend_lag_s, rate_hz);
   Index r = 0;
   for (Index i = 0; i < n; ++i) {
     if (!std::isfinite(ang(i))) continue;  // an unusable reference: the operators hold their state
-    const double theta = ang(i);
+    const double theta = lag.step(ang(i));
     if (i % decim == 0 && std::isfinite(v(i))) {
       const double delta = s.started ? theta - s.angle_deg : 0.0;
       const double x = (theta - st.angle_centre_deg) / st.angle_scale_deg;
@@ -166,8 +167,11 @@ struct Prepared {
   std::vector<Index> fb, fe;
 };
 
-DynamicModel structure_of(const Prepared& pr, const DynamicFitSettings& s, int degree, int n_ops, int n_prony, double kappa) {
+DynamicModel structure_of(const Prepared& pr, const DynamicFitSettings& s, int degree, int n_ops, int n_prony, double kappa,
+                          double bend_lag) {
   DynamicModel m;
+  m.bend_lag_s = bend_lag;
+  m.lag_window_s = s.lag_window_s;
   m.degree = degree;
   m.angle_centre_deg = 0.5 * (pr.angle_min + pr.angle_max);
   m.angle_scale_deg = std::max(1.0, 0.5 * (pr.angle_max - pr.angle_min));
@@ -223,6 +227,7 @@ DynamicCandidate cross_validate(const DynamicModel& st, const Prepared& pr, cons
   c.n_operators = st.n_operators;
   c.n_prony = st.n_prony;
   c.rate_gain_s_per_rad = st.rate_gain_s_per_rad;
+  c.bend_lag_s = st.bend_lag_s;
   const FoldFits ff = fit_folds(st, pr.rate_hz, pr.decim, pr.fb, pr.fe, v, ang);
   double held = 0;
   for (std::size_t b = 0; b < ff.beta.size(); ++b) {
@@ -335,13 +340,14 @@ DynamicFitResult fit_dynamic(const VectorXd& t, const VectorXd& v, const VectorX
       if (c.admissible && std::isfinite(c.cv_rmse_v) && (b == nullptr || c.cv_rmse_v < b->cv_rmse_v)) b = &c;
     return b;
   };
-  auto try_structure = [&](int deg, int ops, int k, double kappa) {
+  auto try_structure = [&](int deg, int ops, int k, double kappa, double lag = 0.0) {
     for (const DynamicCandidate& c : res.candidates)  // each structure is scored once
-      if (c.degree == deg && c.n_operators == ops && c.n_prony == k && c.rate_gain_s_per_rad == kappa) return;
-    res.candidates.push_back(cross_validate(structure_of(pr, s, deg, ops, k, kappa), pr, v, ang, sensitivity));
+      if (c.degree == deg && c.n_operators == ops && c.n_prony == k && c.rate_gain_s_per_rad == kappa && c.bend_lag_s == lag) return;
+    res.candidates.push_back(cross_validate(structure_of(pr, s, deg, ops, k, kappa, lag), pr, v, ang, sensitivity));
   };
   // Staged search: the polynomial with a middle structure, then operators x Prony terms, then the
-  // rate gain, then the Prony terms once more with that gain.
+  // rate gain, then the Prony terms and operators once more with that gain; then the bend lag
+  // jointly with the rate gain, and if a lag is found, the Prony terms and operators behind it.
   const int mid_ops = s.operator_counts[s.operator_counts.size() / 2];
   const int mid_k = s.prony_counts[s.prony_counts.size() / 2];
   for (int deg : s.degrees) {
@@ -362,10 +368,30 @@ DynamicFitResult fit_dynamic(const VectorXd& t, const VectorXd& v, const VectorX
   for (int kk : s.prony_counts) try_structure(deg, ops, kk, kappa);
   for (int oo : s.operator_counts) try_structure(deg, oo, k, kappa);
   b = best_of(res.candidates);
+  // The bend lag and the rate gain both widen the loop with speed, so they are searched together.
+  const DynamicCandidate before_lag = *b;
+  for (double lag : s.bend_lags_s)
+    for (double kp : s.rate_gains_s_per_rad) try_structure(deg, before_lag.n_operators, before_lag.n_prony, kp, lag);
+  b = best_of(res.candidates);
+  if (b->bend_lag_s > 0) {
+    // Refine between the grid's neighbours (it doubles), then the rest of the structure behind it.
+    const DynamicCandidate g = *b;
+    for (double f : {0.71, 0.84, 1.19, 1.41})
+      for (double kp : s.rate_gains_s_per_rad) try_structure(deg, g.n_operators, g.n_prony, kp, g.bend_lag_s * f);
+    b = best_of(res.candidates);
+    const DynamicCandidate h = *b;  // and once more at half that step: the lag to ~5 %
+    for (double f : {0.92, 1.09}) try_structure(deg, h.n_operators, h.n_prony, h.rate_gain_s_per_rad, h.bend_lag_s * f);
+    b = best_of(res.candidates);
+    const double lag = b->bend_lag_s, kappa2 = b->rate_gain_s_per_rad;
+    const int ops2 = b->n_operators, k2 = b->n_prony;
+    for (int kk : s.prony_counts) try_structure(deg, ops2, kk, kappa2, lag);
+    for (int oo : s.operator_counts) try_structure(deg, oo, k2, kappa2, lag);
+    b = best_of(res.candidates);
+  }
   res.chosen = *b;
 
   // The chosen structure on every scan.
-  const DynamicModel st = structure_of(pr, s, b->degree, b->n_operators, b->n_prony, b->rate_gain_s_per_rad);
+  const DynamicModel st = structure_of(pr, s, b->degree, b->n_operators, b->n_prony, b->rate_gain_s_per_rad, b->bend_lag_s);
   const Design d = build_design(st, v, ang, pr.rate_hz, pr.decim);
   const MatrixXd G = d.X.transpose() * d.X;
   const VectorXd g = d.X.transpose() * d.y;
@@ -399,11 +425,12 @@ std::vector<std::optional<DynamicModel>> fold_models(const DynamicFitResult& fit
 VectorXd forward_dynamic(const DynamicModel& m, const VectorXd& angle, double rate_hz) {
   const DynamicKernel k(m, rate_hz);
   DynamicState s;
+  BendLag lag(m.bend_lag_s, rate_hz);
   VectorXd out(angle.size());
   double last = std::nan("");
   for (Index i = 0; i < angle.size(); ++i) {
     if (std::isfinite(angle(i))) last = angle(i);
-    out(i) = std::isfinite(last) ? k.forward(s, last) : std::nan("");
+    out(i) = std::isfinite(last) ? k.forward(s, lag.step(last)) : std::nan("");
   }
   return out;
 }

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <numbers>
 
+#include <Eigen/Dense>
+
 namespace pof::core {
 
 namespace {
@@ -58,12 +60,68 @@ const char* DynamicModel::invalid_reason() const {
   if (!std::isfinite(rate_gain_s_per_rad)) return "rate_gain_s_per_rad must be finite";
   if (!(speed_filter_s > 0) || !std::isfinite(speed_filter_s)) return "speed_filter_s must be > 0";
   if (!(speed_limit_rad_s >= 0) || !std::isfinite(speed_limit_rad_s)) return "speed_limit_rad_s must be >= 0";
+  if (!(bend_lag_s >= 0 && bend_lag_s <= 2)) return "bend_lag_s must be within 0..2 s";
+  if (!(lag_window_s > 0 && lag_window_s <= 1)) return "lag_window_s must be within (0, 1] s";
   for (int j = 0; j < n_prony; ++j) {
     const auto u = static_cast<std::size_t>(j);
     if (!(prony_tau_s[u] > 0) || !std::isfinite(prony_tau_s[u])) return "Prony time constants must be finite and > 0";
     if (!std::isfinite(prony_gain_v_per_deg[u])) return "Prony gains must be finite";
   }
   return "";
+}
+
+BendLag::BendLag(double tau_s, double scan_rate_hz) : on_(tau_s > 0) {
+  if (!on_) return;
+  const double dt = 1.0 / scan_rate_hz;
+  decay_ = std::exp(-dt / tau_s);
+  gain_ = tau_s / dt * (1.0 - decay_);
+}
+
+double BendLag::step(double theta) noexcept {
+  if (!on_) return theta;
+  // lag = theta - theta_f obeys lag' = theta' - lag / tau_b: decays, and grows with the increment.
+  lag_ = started_ ? decay_ * lag_ + gain_ * (theta - theta_) : 0.0;
+  theta_ = theta;
+  started_ = true;
+  return theta - lag_;
+}
+
+LagInverse::LagInverse(double tau_s, double window_s, double scan_rate_hz) : on_(tau_s > 0) {
+  if (!on_) return;
+  const double dt = 1.0 / scan_rate_hz;
+  n_ = std::clamp(static_cast<int>(std::lround(window_s / dt)) + 1, 5, kMaxLagWindow);
+  // Least squares theta_f(u) ~ a + b u + c u^2 over u = -i dt, i = 0..n-1: a + tau_b b at u = 0 is
+  // one row of the pseudo-inverse, computed once.
+  Eigen::MatrixXd A(n_, 3);
+  for (int i = 0; i < n_; ++i) {
+    const double u = -i * dt;
+    A(i, 0) = 1;
+    A(i, 1) = u;
+    A(i, 2) = u * u;
+  }
+  const Eigen::Matrix3d AtA = A.transpose() * A;
+  const Eigen::Vector3d e(1.0, tau_s, 0.0);
+  const Eigen::VectorXd h = A * AtA.ldlt().solve(e);
+  for (int i = 0; i < n_; ++i) h_[static_cast<std::size_t>(i)] = h(i);
+}
+
+double LagInverse::step(double theta_f) noexcept {
+  if (!on_) return theta_f;
+  head_ = head_ == 0 ? n_ - 1 : head_ - 1;  // buf_[head_] is the newest scan
+  buf_[static_cast<std::size_t>(head_)] = theta_f;
+  if (filled_ < n_) ++filled_;
+  if (filled_ < n_) return theta_f;
+  double y = 0;
+  for (int i = 0, j = head_; i < n_; ++i, j = j + 1 == n_ ? 0 : j + 1)
+    y += h_[static_cast<std::size_t>(i)] * buf_[static_cast<std::size_t>(j)];
+  return y;
+}
+
+double LagInverse::noise_gain() const noexcept {
+  if (!on_) return 1.0;
+  double s = 0;
+  for (int i = 0; i < n_; ++i) s += h_[static_cast<std::size_t>(i)] * h_[static_cast<std::size_t>(i)];
+  return std::sqrt(s);
 }
 
 DynamicKernel::DynamicKernel(const DynamicModel& m, double scan_rate_hz) : model(m), dt_s(1.0 / scan_rate_hz) {
@@ -135,7 +193,8 @@ double DynamicKernel::forward(DynamicState& s, double theta) const {
   return v;
 }
 
-DynamicInverter::DynamicInverter(const DynamicModel& m, double scan_rate_hz) : k_(m, scan_rate_hz) {
+DynamicInverter::DynamicInverter(const DynamicModel& m, double scan_rate_hz)
+    : k_(m, scan_rate_hz), lag_(m.bend_lag_s, m.lag_window_s, scan_rate_hz) {
   const double span = m.angle_max_deg - m.angle_min_deg;
   lo_ = m.angle_min_deg - 0.25 * span;
   hi_ = m.angle_max_deg + 0.25 * span;
@@ -145,7 +204,8 @@ DynamicInverter::DynamicInverter(const DynamicModel& m, double scan_rate_hz) : k
 DynamicInverter::Result DynamicInverter::step(double v) noexcept {
   Result r;
   if (!std::isfinite(v)) {
-    r.angle_deg = std::nan("");
+    r.angle_deg = r.fibre_angle_deg = std::nan("");
+    lag_.reset();  // its window would span the gap
     return r;
   }
   // f(theta) = sign * (V(theta) - v) is increasing in theta; keep a bracket [a, b] with f(a) < 0 < f(b)
@@ -183,7 +243,8 @@ DynamicInverter::Result DynamicInverter::step(double v) noexcept {
     theta = next;
   }
   r.clamped = theta <= lo_ || theta >= hi_;
-  r.angle_deg = theta;
+  r.fibre_angle_deg = theta;
+  r.angle_deg = lag_.step(theta);
   k_.advance(state_, theta);
   return r;
 }

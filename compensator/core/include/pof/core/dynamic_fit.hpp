@@ -4,13 +4,14 @@
 // each hold) and the table-1 constant-velocity cycles (the loop and its rate dependence). No extra
 // protocol is needed.
 //
-// With the thresholds r_i, the Prony time constants tau_j and the rate gain kappa fixed, the model
-// is linear in its coefficients: the operators, Prony states and speed filter are run over the
-// reference angle (potentiometer), exactly as the online inverse runs them over its own angle,
+// With the thresholds r_i, the Prony time constants tau_j, the rate gain kappa and the bend lag
+// tau_b fixed, the model is linear in its coefficients: the bend lag, operators, Prony states and
+// speed filter are run over the reference angle (potentiometer), exactly as the online inverse
+// runs them over its own angle,
 // and the normalised voltage is regressed on
 //     [ x^0 .. x^d | phi(w) S_1 .. phi(w) S_n | m_1 .. m_k ]
 // by least squares with the operator weights constrained to one sign (nnls_normal, both signs
-// tried). The structure (d, n, k, kappa) is chosen by blocked cross-validation: K contiguous
+// tried). The structure (d, n, k, kappa, tau_b) is chosen by blocked cross-validation: K contiguous
 // blocks cut at holds (as `pof gap` does, so no movement is split), each held out in turn, the
 // coefficients fitted on the others. Candidates whose inverse would not be monotone over the
 // search range are refused. docs/calibration.md, "The dynamic model".
@@ -35,6 +36,9 @@ struct DynamicFitSettings {
   double max_threshold_fraction = 0.4;  // largest threshold as a fraction of the angle span
   double min_tau_s = 0.5, max_tau_s = 60;  // Prony time constants spread log-uniformly in here
   double speed_filter_s = 0.1;
+  // Bend lags tau_b tried [s] once the rest of the structure is chosen (0 is the structure as it is).
+  std::vector<double> bend_lags_s{0.02, 0.04, 0.08, 0.16, 0.32};
+  double lag_window_s = 0.12;  // the lag inverse's window (dynamic_model.hpp, LagInverse)
   int folds = 5;
   double fit_rate_hz = 50;              // rows of the normal equations are decimated to about this
   SegmentationSettings segmentation;
@@ -45,6 +49,7 @@ struct DynamicFitSettings {
 struct DynamicCandidate {
   int degree = 0, n_operators = 0, n_prony = 0;
   double rate_gain_s_per_rad = 0;
+  double bend_lag_s = 0;
   double cv_rmse_v = 0;      // held-out voltage RMSE [V]
   double cv_rmse_deg = 0;    // the same over the quasi-static sensitivity [deg]
   bool admissible = true;    // false: some fold's fit would not be invertible

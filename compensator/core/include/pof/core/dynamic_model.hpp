@@ -2,9 +2,10 @@
 // The dynamic sensor model: beyond Leal-Junior et al. 2017, whose section 4 names variable
 // velocity, acceleration and the fibre's viscoelastic parameters as future work. Forward model
 // from the angle history theta(t) [deg] to the normalised sensor voltage V [V] (docs/calibration.md,
-// "The dynamic model"):
+// "The dynamic model"). Every term is a function of the fibre's own bend theta_f, which may lag
+// the joint (the bend lag below); without it theta_f = theta:
 //
-//   V_k = q(x_k)                                   quasi-static polynomial, x = (theta - c) / s
+//   V_k = q(x_k)                                   quasi-static polynomial, x = (theta_f - c) / s
 //       + phi(w_k) * sum_i c_i S_i[theta]_k        rate-independent hysteresis with memory
 //       + sum_j g_j m_j,k                          viscoelastic relaxation (Prony series)
 //
@@ -29,6 +30,12 @@
 //    a step of the angle gives g_j immediately, relaxing with tau_j (PMMA creep and relaxation:
 //    Leal-Junior, Frizera, Pontes, Opt. Laser Technol. 93 (2017) 92-98); during a ramp at w it
 //    offsets the branch by g_j tau_j w (1 - e^-t/tau_j): a second, linear rate dependence.
+//  * the bend lag tau_b: the fibre, a viscoelastic polymer held in a sleeve on the leg, follows the
+//    joint through a first-order (Kelvin-Voigt) lag, theta_f' = (theta - theta_f) / tau_b. Unlike a
+//    Prony term, which adds a linear voltage, the lag moves the point at which the polynomial
+//    and the operators are evaluated, so the loop widens with speed in proportion to the slope
+//    and the reversal is rounded. Online the model is inverted to theta_f and then the lag is
+//    undone, theta = theta_f + tau_b theta_f' (LagInverse).
 //
 // The model is linear in (q, c, g) once the thresholds r, time constants tau and kappa are fixed:
 // that is how it is identified (dynamic_fit.hpp). Everything here is fixed-size: copying a model
@@ -41,6 +48,7 @@ namespace pof::core {
 inline constexpr int kMaxDegree = 5;
 inline constexpr int kMaxOperators = 16;
 inline constexpr int kMaxPronyTerms = 8;
+inline constexpr int kMaxLagWindow = 256;  // scans in the lag inverse's window (LagInverse)
 
 struct DynamicModel {
   int degree = 1;
@@ -57,6 +65,8 @@ struct DynamicModel {
   std::array<double, kMaxPronyTerms> prony_gain_v_per_deg{};
   // The angle range the model was identified on; the inverse searches a margin around it.
   double angle_min_deg = 0, angle_max_deg = 90;
+  double bend_lag_s = 0;       // tau_b [s], 0: the fibre bends with the joint
+  double lag_window_s = 0.12;  // the lag inverse's fitting window (LagInverse) [s]
 
   /// q(theta) [V] and dq/dtheta [V/deg].
   [[nodiscard]] double quasi_static_v(double theta_deg) const;
@@ -100,6 +110,46 @@ struct DynamicKernel {
   [[nodiscard]] double speed_rad_s(const DynamicState& s) const;
 };
 
+/// The fibre's bend behind the joint, theta_f' = (theta - theta_f) / tau_b, updated exactly for an
+/// angle ramping linearly within a scan (as the Prony states). tau_b = 0 passes theta through.
+class BendLag {
+ public:
+  BendLag() = default;
+  BendLag(double tau_s, double scan_rate_hz);
+  /// theta_f after this scan's joint angle theta [deg].
+  double step(double theta_deg) noexcept;
+
+ private:
+  bool on_ = false, started_ = false;
+  double decay_ = 0, gain_ = 0;  // e^{-dt/tau_b}, tau_b/dt (1 - e^{-dt/tau_b})
+  double theta_ = 0, lag_ = 0;   // last joint angle, theta - theta_f
+};
+
+/// Undoes the bend lag online from the fibre angle alone: theta = theta_f + tau_b theta_f'. The
+/// value and slope of theta_f at the newest scan come from a least-squares quadratic over the last
+/// lag_window_s (a Savitzky-Golay filter evaluated at the window's end, Savitzky & Golay 1964,
+/// Anal. Chem. 36: 1627-1639): exact while the bend's acceleration is constant, so gait-like
+/// movements pass without the delay a low-pass filter would add; the price is noise, amplified by
+/// noise_gain() (2.2 for a 0.08 s lag over 0.12 s at 200 Hz, against tau_b/dt = 16 for a plain
+/// difference). One FIR of fixed length: O(window), no allocation. Until the window has filled
+/// (start, after reset) theta_f is returned as it is.
+class LagInverse {
+ public:
+  LagInverse() = default;
+  LagInverse(double tau_s, double window_s, double scan_rate_hz);
+  double step(double theta_f_deg) noexcept;
+  void reset() noexcept { filled_ = 0; }
+  [[nodiscard]] int length() const noexcept { return n_; }
+  /// Standard deviation of the output for unit white noise on theta_f.
+  [[nodiscard]] double noise_gain() const noexcept;
+
+ private:
+  bool on_ = false;
+  int n_ = 0, filled_ = 0, head_ = 0;
+  std::array<double, kMaxLagWindow> h_{};    // h_[i] weighs the scan i steps back
+  std::array<double, kMaxLagWindow> buf_{};  // ring buffer of theta_f
+};
+
 /// Online inversion, one scan at a time, from the sensor alone: finds the angle whose forward
 /// voltage, given the memory of the previous scans, equals the measured one. The branch is
 /// monotone in theta between kinks (DynamicModel's sign rule), so a Newton step from the previous
@@ -113,7 +163,8 @@ class DynamicInverter {
   DynamicInverter(const DynamicModel& m, double scan_rate_hz);
 
   struct Result {
-    double angle_deg = 0;
+    double angle_deg = 0;        // the joint angle (theta_f with the bend lag undone)
+    double fibre_angle_deg = 0;  // theta_f, what the voltage gives directly
     bool clamped = false;  // the measured voltage lies beyond the model's range: angle at the bound
     int iterations = 0;
   };
@@ -121,7 +172,10 @@ class DynamicInverter {
   /// returns NaN and leaves the memory untouched.
   Result step(double v) noexcept;
   /// Forget the history (after lost scans): the next scan starts from a relaxed, centred state.
-  void reset() noexcept { state_ = {}; }
+  void reset() noexcept {
+    state_ = {};
+    lag_.reset();
+  }
   [[nodiscard]] const DynamicState& state() const noexcept { return state_; }
   [[nodiscard]] const DynamicKernel& kernel() const noexcept { return k_; }
   /// The search bracket [deg]: the identified range plus a margin of a quarter of its span.
@@ -131,6 +185,7 @@ class DynamicInverter {
  private:
   DynamicKernel k_;
   DynamicState state_;
+  LagInverse lag_;
   double lo_ = -22.5, hi_ = 112.5;
   double sign_ = -1;  // sign of dV/dtheta (a POF loses light as it bends: negative)
 };

@@ -42,6 +42,10 @@ expect_exit 0 "$POF" sim realistic -o p.csv --seconds 30 --plot p.png --trace p_
 [ -s p.png ] && head -c 8 p.png | grep -q PNG || fail "no PNG"
 head -1 p_trace.csv | grep -q "creep_v" || fail "trace columns"
 [ ! -e p.trace.csv.tmp ] || fail "temporary plot data left behind"
+# The fibre's own fields are columns too: on the memory-hysteresis fibre its contribution moves.
+expect_exit 0 "$POF" sim fibre_calibration -o f.csv --seconds 20 --trace f_trace.csv
+head -1 f_trace.csv | grep -q "memory_hysteresis_v,viscoelastic_lag_v,lag_deg,memory_state$" || fail "fibre trace columns"
+awk -F, 'NR > 1 && ($20 > 0.001 || $20 < -0.001) { moved = 1 } END { exit !moved }' f_trace.csv || fail "memory_hysteresis_v is flat"
 
 # Bad scenario: exit 78 naming the key; the existing output is kept.
 printf 'schema_version = 1\n[sensor.creep]\nenabled = true\n[[sensor.creep.terms]]\ntau_s = -3\ngain_v_per_deg = 0.001\n[[trajectory]]\nkind = "hold"\n' > bad.toml

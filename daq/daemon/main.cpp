@@ -25,6 +25,7 @@
 #include "core/config.hpp"
 #include "daemon/daemon.hpp"
 #include "pof/io/errors.hpp"
+#include "protocol/mcc_usb1208ls.hpp"
 
 namespace {
 
@@ -116,6 +117,12 @@ int main(int argc, char** argv) {
     sigaddset(&sigs, SIGINT);
     pthread_sigmask(SIG_BLOCK, &sigs, nullptr);
 
+    if (cfg.device_kind == "usb1208ls" && !cfg.mcc_single_reads &&
+        daq::mcc::queue_length(cfg.channels().size()) != cfg.channels().size()) {
+      spdlog::warn("usb1208ls: its channel queue holds 1, 2, 4 or 8 inputs: scanning {} for the {} "
+                   "channels, the extra input's samples are dropped (docs/daq.md)",
+                   daq::mcc::queue_length(cfg.channels().size()), cfg.channels().size());
+    }
     daq::Daemon daemon(cfg, daq::make_backend(cfg));
     spdlog::info("{} at {} scans/s x {} channels, publishing {} and {} on {}", cfg.device_kind,
                  cfg.scan_rate_hz, cfg.channels().size(), cfg.raw_channel(), cfg.status_channel(),

@@ -421,7 +421,8 @@ class Usb600xBackend final : public Backend {
       if (v.code == 0 || v.code == max_code) flags |= int32_t{pof::raw_block_t::FLAG_OVER_RANGE};
       volts_[s] = static_cast<float>(ni::code_to_volts(v.code, coding_.bits, cfg_.range_v));
     }
-    if (padded > 0) {
+    // Read in a byte order not yet told, padding bits say nothing about the device: not counted.
+    if (padded > 0 && (!detect_order_ || detector_.decided())) {
       sink_->on_padding_set(padded);
       changed = changed || !padding_seen_;
       padding_seen_ = true;

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <vector>
 
 #include <lcm/lcm-cpp.hpp>
@@ -160,6 +161,23 @@ void Daemon::watch_streaming() {
     state_events_.emplace_back(state_, state_text_);
   }
   spdlog::info("state {}: {}", state_name(State::kStreaming), "streaming from " + cfg_.device_kind);
+}
+
+std::string Daemon::probe_line() {
+  std::lock_guard lock(state_mu_);
+  char ids[32];
+  std::snprintf(ids, sizeof ids, "%04x:%04x", identity_.vendor_id, identity_.product_id);
+  const std::string variant = describe_variant(counters_.variant.load());
+  return cfg_.device_kind + " " + ids + (identity_.serial.empty() ? "" : " serial " + identity_.serial) +
+         ": " + state_name(state_) + " (" + state_text_ + "); scans " +
+         std::to_string(counters_.scans.load()) + "; usb_errors " + std::to_string(counters_.usb_errors.load()) +
+         "; padding_set " + std::to_string(counters_.padding_set.load()) + "; protocol variant: " +
+         (variant.empty() ? "unknown" : variant);
+}
+
+bool Daemon::variant_known() const {
+  const std::uint32_t v = counters_.variant.load();
+  return counters_.scans.load() > 0 && v != 0 && (v & kVariantOrderUndecided) == 0U;
 }
 
 void Daemon::publisher_main() {

@@ -42,6 +42,11 @@ class Daemon {
   /// True once the acquisition thread has ended by itself: only a finite source does that (a
   /// sim:<scenario> whose trajectory is over); hardware backends stream until stop().
   [[nodiscard]] bool finished() const { return acquisition_done_.load(); }
+  /// One line for `pof-daqd --probe`: device, state and its text, scans, protocol variant.
+  [[nodiscard]] std::string probe_line();
+  /// True once the device has streamed and the protocol variant is fully told (no undecided part).
+  [[nodiscard]] bool variant_known() const;
+  [[nodiscard]] std::int64_t scans() const { return counters_.scans.load(); }
 
  private:
   void acquisition_main();

@@ -29,6 +29,13 @@ summary
 vdaq --model 6008 --duration 2.5 --rate 1000 --decimate 1 --block-scans 10 --padding-noise \
      --expect-variant "big-endian"
 summary
+# `pof-daqd --probe` (docs/hardware-bringup.md): stops by itself once the variant is told and
+# prints it on one line.
+vdaq --model 6008 --duration 4 --rate 1000 --decimate 1 --block-scans 10 --reply-header 1 \
+     --byte-order little -- --probe
+grep -q "pof-daqd probe: usb6008 3923:717a: streaming .*protocol variant: reply header 00 01; samples little-endian" \
+  "$WORK_DIR/vdaq.out" || fail "probe line: $(grep probe "$WORK_DIR/vdaq.out")"
+grep -q "padding_set 0;" "$WORK_DIR/vdaq.out" || fail "padding counted while the byte order was untold"
 # A 3-channel list on the USB-1208LS is padded to its 4-entry queue and the layout of the data-first
 # sources is detected: covered by daq_usb1208ls.sh.
 echo ok

@@ -33,7 +33,26 @@ class ScanSink {
                         std::int32_t flags) noexcept = 0;
   /// A failed, short or malformed transfer (counted; the backend decides whether to recover).
   virtual void on_usb_error() noexcept = 0;
+  /// The protocol variants the device was seen to use (Variant bits, the full set each time).
+  virtual void on_variant(std::uint32_t bits) noexcept = 0;
+  /// `n` samples had padding bits set that no public source checks (counted, never dropped).
+  virtual void on_padding_set(std::size_t n) noexcept = 0;
 };
+
+/// Protocol variants where the public sources disagree (docs/daq.md, "Protocol facts"): which
+/// one the device used is published in daq_status_t.protocol_variant and logged.
+enum Variant : std::uint32_t {
+  kVariantHeader0000 = 1U << 0,         // NI replies begin 00 00 (comedi ni_usb6009.c)
+  kVariantHeader0001 = 1U << 1,         // NI replies begin 00 01 (6008 sources, ni_usb6501.c)
+  kVariantBigEndian = 1U << 2,          // NI samples big-endian
+  kVariantLittleEndian = 1U << 3,       // NI samples little-endian (datalogger-rpi usb6008.py)
+  kVariantOrderUndecided = 1U << 4,     // byte order not yet told from the data
+  kVariantLayoutRecordFirst = 1U << 5,  // MCC report index at 102 (wjasper C)
+  kVariantLayoutDataFirst = 1U << 6,    // MCC report index at 101 (wjasper Python, ryan-duve)
+  kVariantPaddingSet = 1U << 7,         // NI samples with padding bits set were seen
+};
+/// Text for daq_status_t.protocol_variant, e.g. "reply header 00 01; samples big-endian".
+std::string describe_variant(std::uint32_t bits);
 
 enum class OpenStatus { kOk, kAbsent, kFault };
 enum class StreamEnd { kStopped, kDisconnected, kError };

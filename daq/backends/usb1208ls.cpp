@@ -1,13 +1,18 @@
 // MCC USB-1208LS backend over hidapi (libusb flavour, so that the same usbdevfs emulation serves
 // the tests). Protocol: protocol/mcc_usb1208ls.hpp.
 //
-// Acquisition: back-to-back AInScan bursts (protocol [8]) read as 105-byte feature reports; the
-// report's scan index must be the next expected one, a repeat means "not ready yet" (the device
-// answers a feature request with its last report, per the public driver's polling loop [7]).
+// Acquisition: back-to-back single-execution AInScans (protocol [9]) read as 105-byte feature
+// reports; the report's scan index must be the next expected one, a repeat means "not ready yet"
+// (the device answers a feature request with its last report, per the public driver's polling
+// loop [7]). The report layout is detected from the first reports of a session (protocol [7]):
+// reports are held back until it is known, so nothing is published from a guessed layout.
+// A channel list the device cannot queue (3, 5-7) is padded (protocol [9]); the padding inputs
+// are scanned and their samples dropped here.
 // hidapi is synchronous: the acquisition thread polls with a 1 ms pause between empty answers.
 #include <hidapi/hidapi.h>
 #include <time.h>
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cstdio>
@@ -30,18 +35,26 @@ class Usb1208lsBackend final : public Backend {
   explicit Usb1208lsBackend(const DaqConfig& cfg) : cfg_(cfg) {
     for (const auto& c : cfg.channels()) ai_.push_back(static_cast<std::uint8_t>(c.ai));
     n_ch_ = ai_.size();
-    gain_ = mcc::gain_for(cfg.terminal == ni::Terminal::kDifferential, cfg.range_v).value_or(mcc::kSe10V);
-    // The device scans the queue at the timer rate: the aggregate sample rate is rate x channels.
-    timer_ = mcc::scan_timer(cfg.scan_rate_hz * static_cast<double>(n_ch_));
-    rate_hz_ = timer_ ? timer_->actual_rate_hz / static_cast<double>(n_ch_) : cfg.scan_rate_hz;
+    const bool differential = cfg.terminal == ni::Terminal::kDifferential;
+    // Pad the queue to 1, 2, 4 or 8 entries [3][9] with the lowest inputs not in use (also in
+    // single-read mode, which loads the queue at open but reads only the configured channels).
+    const std::size_t want = mcc::queue_length(n_ch_);
+    for (std::uint8_t ai = 0; ai < (differential ? 4 : 8) && ai_.size() < want; ++ai) {
+      if (std::find(ai_.begin(), ai_.end(), ai) == ai_.end()) ai_.push_back(ai);
+    }
+    n_queue_ = ai_.size();
+    gain_ = mcc::gain_for(differential, cfg.range_v).value_or(mcc::kSe10V);
+    // The device scans the queue at the timer rate: the aggregate sample rate is rate x queue.
+    timer_ = mcc::scan_timer(cfg.scan_rate_hz * static_cast<double>(n_queue_));
+    rate_hz_ = timer_ ? timer_->actual_rate_hz / static_cast<double>(n_queue_) : cfg.scan_rate_hz;
     if (cfg.mcc_single_reads) rate_hz_ = cfg.scan_rate_hz;  // host-paced
-    // A burst: whole reports and whole scans, ~1 s of data, within the 16-bit count.
-    const std::size_t unit = mcc::kSamplesPerScanReport * n_ch_;
-    std::size_t burst = static_cast<std::size_t>(rate_hz_ * static_cast<double>(n_ch_)) / unit * unit;
-    if (burst == 0) burst = unit;
+    // A scan: whole reports and whole queue cycles, ~1 s of data, within the 16-bit count.
+    const std::size_t unit = mcc::kSamplesPerScanReport * n_queue_;
+    std::size_t burst = static_cast<std::size_t>(rate_hz_ * static_cast<double>(n_queue_)) / unit * unit;
+    if (burst < 2 * unit) burst = 2 * unit;  // the layout is known within the first scan [7]
     while (burst > 32768) burst -= unit;
     burst_samples_ = burst;
-    volts_.assign(mcc::kSamplesPerScanReport + n_ch_, 0.0F);
+    volts_.assign(mcc::kSamplesPerScanReport + n_queue_, 0.0F);
   }
   ~Usb1208lsBackend() override { close(); }
 
@@ -67,6 +80,7 @@ class Usb1208lsBackend final : public Backend {
       return present ? OpenStatus::kFault : OpenStatus::kAbsent;
     }
     if (!write(mcc::ain_stop_report(), why)) return OpenStatus::kFault;
+    detector_ = mcc::LayoutDetector{};  // another device may have been plugged in
     std::array<mcc::OutReport, 2> q{};
     const std::size_t nq = mcc::load_queue_reports(ai_, gain_, q);
     for (std::size_t i = 0; i < nq; ++i) {
@@ -79,6 +93,8 @@ class Usb1208lsBackend final : public Backend {
     if (cfg_.mcc_single_reads) return stream_single(sink, stop, why);
     bool continuous = false;
     carry_n_ = 0;
+    held_n_ = 0;
+    if (detector_.decided()) sink.on_variant(variant_bits());
     while (!stop.load(std::memory_order_relaxed)) {
       const auto count = static_cast<std::uint16_t>(burst_samples_);
       const std::int64_t sent_us = now_utime();
@@ -93,7 +109,7 @@ class Usb1208lsBackend final : public Backend {
       auto last_progress = std::chrono::steady_clock::now();
       while (got < burst_samples_) {
         if (stop.load(std::memory_order_relaxed)) return StreamEnd::kStopped;
-        std::array<std::uint8_t, mcc::kScanReportBytes + 1> buf{};
+        Report& buf = held_[held_n_ < held_.size() ? held_n_ : 0];
         buf[0] = 0;  // report id
         const int n = hid_get_feature_report(dev_, buf.data(), buf.size());
         if (n < 0) {
@@ -108,10 +124,10 @@ class Usb1208lsBackend final : public Backend {
           why = "MCC USB-1208LS: short scan report (" + std::to_string(n) + " bytes)";
           return StreamEnd::kError;
         }
-        std::array<std::int16_t, mcc::kSamplesPerScanReport> s{};
-        const std::uint16_t idx = mcc::decode_scan_report(
-            std::span<const std::uint8_t, mcc::kScanReportBytes>(buf.data() + 1, mcc::kScanReportBytes), s);
-        if (idx != expect) {
+        const mcc::ScanReport wire(buf.data() + 1, mcc::kScanReportBytes);
+        const bool next = detector_.decided() ? mcc::scan_index(wire, detector_.layout()) == expect
+                                              : detector_.is_next(wire, expect);
+        if (!next) {
           if (std::chrono::steady_clock::now() - last_progress >
               std::chrono::milliseconds(cfg_.data_timeout_ms)) {
             sink.on_usb_error();
@@ -121,11 +137,24 @@ class Usb1208lsBackend final : public Backend {
           std::this_thread::sleep_for(std::chrono::milliseconds(1));
           continue;
         }
-        if (buf[1 + 97] != 0) sink.on_usb_error();  // device error byte [7]
         last_progress = std::chrono::steady_clock::now();
         ++expect;
         got += mcc::kSamplesPerScanReport;
-        deliver(sink, s, buf[1 + 97] != 0);
+        if (!detector_.decided()) {
+          detector_.accept(wire, static_cast<std::uint16_t>(expect - 1));
+          ++held_n_;  // held back until the layout is known [7]
+          if (!detector_.decided() && held_n_ < held_.size()) continue;
+          if (!detector_.decided()) {  // both index fields count alike: no source shows that
+            sink.on_usb_error();
+            why = "MCC USB-1208LS: cannot tell the feature-report layout (both scan-index fields count)";
+            return StreamEnd::kError;
+          }
+          sink.on_variant(variant_bits());
+          for (std::size_t i = 0; i < held_n_; ++i) deliver_report(sink, held_[i]);
+          held_n_ = 0;
+          continue;
+        }
+        deliver_report(sink, buf);
       }
     }
     return StreamEnd::kStopped;
@@ -202,31 +231,59 @@ class Usb1208lsBackend final : public Backend {
     return true;
   }
 
-  // Splits 64 samples into whole scans, carrying a partial scan to the next report.
+  using Report = std::array<std::uint8_t, mcc::kScanReportBytes + 1>;  // report id + report
+
+  [[nodiscard]] std::uint32_t variant_bits() const {
+    return detector_.layout() == mcc::ReportLayout::kRecordFirst ? kVariantLayoutRecordFirst
+                                                                 : kVariantLayoutDataFirst;
+  }
+
+  void deliver_report(ScanSink& sink, const Report& buf) {
+    const mcc::ScanReport wire(buf.data() + 1, mcc::kScanReportBytes);
+    std::array<std::int16_t, mcc::kSamplesPerScanReport> s{};
+    (void)mcc::decode_scan_report(wire, s, detector_.layout());
+    // The error byte follows the 96 data bytes [7] in either layout.
+    const bool error = wire[(detector_.layout() == mcc::ReportLayout::kRecordFirst ? 1 : 0) + 96] != 0;
+    if (error) sink.on_usb_error();
+    deliver(sink, s, error);
+  }
+
+  // Splits 64 samples into whole queue cycles, carrying a partial one to the next report, and
+  // keeps the configured channels (the first n_ch_ queue entries; the rest is padding [9]).
   void deliver(ScanSink& sink, const std::array<std::int16_t, mcc::kSamplesPerScanReport>& s, bool error) {
     std::size_t out = 0;
     std::int32_t flags = error ? int32_t{pof::raw_block_t::FLAG_DEVICE_ERROR} : 0;
+    const int fs = mcc::full_scale_counts(gain_);
     for (std::size_t i = 0; i < carry_n_; ++i) volts_[out++] = carry_[i];
     for (auto c : s) {
-      if (c == -2048 || c == 2047) flags |= int32_t{pof::raw_block_t::FLAG_OVER_RANGE};
+      if (c >= fs || c <= -fs - 1) flags |= int32_t{pof::raw_block_t::FLAG_OVER_RANGE};
       volts_[out++] = static_cast<float>(mcc::scan_counts_to_volts(c, gain_));
     }
-    const std::size_t scans = out / n_ch_;
-    carry_n_ = out - scans * n_ch_;
-    for (std::size_t i = 0; i < carry_n_; ++i) carry_[i] = volts_[scans * n_ch_ + i];
+    const std::size_t scans = out / n_queue_;
+    carry_n_ = out - scans * n_queue_;
+    for (std::size_t i = 0; i < carry_n_; ++i) carry_[i] = volts_[scans * n_queue_ + i];
+    if (n_queue_ != n_ch_) {  // drop the padding entries, in place (k * n_ch_ <= k * n_queue_)
+      for (std::size_t k = 0; k < scans; ++k) {
+        for (std::size_t c = 0; c < n_ch_; ++c) volts_[k * n_ch_ + c] = volts_[k * n_queue_ + c];
+      }
+    }
     sink.on_scans(volts_.data(), scans, now_utime(), flags);
   }
 
   DaqConfig cfg_;
   std::vector<std::uint8_t> ai_;
-  std::size_t n_ch_ = 0;
+  std::size_t n_ch_ = 0;     // configured channels (published)
+  std::size_t n_queue_ = 0;  // channels scanned (n_ch_ padded to 1, 2, 4 or 8 [9])
+  mcc::LayoutDetector detector_;
+  std::array<Report, mcc::LayoutDetector::kLayoutReports + 2> held_{};
+  std::size_t held_n_ = 0;
   mcc::Gain gain_ = mcc::kSe10V;
   std::optional<mcc::ScanTimer> timer_;
   double rate_hz_ = 0;
   std::size_t burst_samples_ = 0;
   hid_device* dev_ = nullptr;
   std::vector<float> volts_;
-  std::array<float, kMaxChannels> carry_{};
+  std::array<float, 8> carry_{};
   std::size_t carry_n_ = 0;
 };
 

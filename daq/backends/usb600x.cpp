@@ -48,6 +48,8 @@ class Usb600xBackend final : public Backend {
     n_ch_ = ai_.size();
     coding_ = id_.model == DeviceModel::kUsb6009 ? ni::usb6009_coding()
                                                  : ni::usb6008_coding(cfg.sample_byte_order);
+    // Only the USB-6008's byte order is disputed (protocol [9]); the 6009's is [C]'s.
+    detect_order_ = id_.model != DeviceModel::kUsb6009 && cfg.sample_byte_order_auto;
     divisor_ = ni::clock_divisor(cfg.scan_rate_hz);
     rate_hz_ = ni::rate_for_divisor(divisor_);
     std::uint32_t seg = cfg.segment_scans != 0 ? cfg.segment_scans : ni::max_segment_scans(n_ch_);
@@ -127,12 +129,21 @@ class Usb600xBackend final : public Backend {
     prog.terminal = cfg_.terminal;
     prog.range_v = cfg_.range_v;
     prog.clock_divisor = divisor_;
-    std::vector<ni::Frame> frames = ni::session_frames();
-    for (auto& f : ni::configure_frames(prog)) frames.push_back(f);
+    // Hello with header 00 00; the reply's header byte is then used for every request (protocol
+    // [3][4]: the sources disagree on it).
+    hh_ = 0;
+    if (const OpenStatus st = command(ni::make_frame(ni::Cmd::kHello), cfg_.command_timeout_ms, why, &hh_);
+        st != OpenStatus::kOk) {
+      return st;
+    }
+    std::vector<ni::Frame> frames = ni::session_frames(hh_);
+    for (auto& f : ni::configure_frames(prog, hh_)) frames.push_back(f);
     for (const auto& f : frames) {
       const OpenStatus st = command(f, cfg_.command_timeout_ms, why);
       if (st != OpenStatus::kOk) return st;
     }
+    detector_ = ni::ByteOrderDetector(coding_.bits, n_ch_);  // re-told for every device session
+    if (detect_order_) coding_.order = detector_.order();
     // Transfers and buffers: allocated here, reused for the whole session.
     const std::size_t nx = static_cast<std::size_t>(cfg_.transfers_in_flight);
     bufs_.assign(nx, std::vector<std::uint8_t>(xfer_bytes_));
@@ -192,7 +203,7 @@ class Usb600xBackend final : public Backend {
     if (h_ != nullptr) {
       if (claimed_ && !gone_) {
         std::string ignored;
-        for (const auto& f : ni::stop_frames()) {  // best effort: the device may be gone
+        for (const auto& f : ni::stop_frames(hh_)) {  // best effort: the device may be gone
           if (command(f, 200, ignored) != OpenStatus::kOk) break;
         }
         (void)libusb_release_interface(h_, 0);
@@ -237,7 +248,8 @@ class Usb600xBackend final : public Backend {
   }
 
   // One command round trip: frame out on 0x01, reply in on 0x81, checked against the table [4].
-  OpenStatus command(const ni::Frame& f, int timeout_ms, std::string& why) {
+  // `header`: where to store the reply's header byte 1 (00 or 01, protocol [3]).
+  OpenStatus command(const ni::Frame& f, int timeout_ms, std::string& why, std::uint8_t* header = nullptr) {
     const auto parsed = ni::parse_frame(f.view());
     const ni::Opcode* oc = parsed ? ni::find_opcode(parsed->op, parsed->group) : nullptr;
     char label[48];
@@ -254,7 +266,10 @@ class Usb600xBackend final : public Backend {
       rc = libusb_bulk_transfer(h_, ni::kEpReplyIn, in.data(), static_cast<int>(in.size()), &done,
                                 static_cast<unsigned>(timeout_ms));
       if (rc == 0) {
-        if (oc != nullptr && ni::reply_ok(oc->cmd, std::span(in.data(), static_cast<std::size_t>(done)))) {
+        const auto hh = oc != nullptr ? ni::reply_header(oc->cmd, std::span(in.data(), static_cast<std::size_t>(done)))
+                                      : std::nullopt;
+        if (hh) {
+          if (header != nullptr) *header = *hh;
           return OpenStatus::kOk;
         }
         why = where() + ": unexpected reply to " + label + ": " +
@@ -272,7 +287,7 @@ class Usb600xBackend final : public Backend {
 
   bool start_segment(bool continuous, std::string& why) {
     std::int64_t sent_us = 0;
-    for (const auto& f : ni::start_frames(seg_scans_, n_ch_)) {
+    for (const auto& f : ni::start_frames(seg_scans_, n_ch_, hh_)) {
       sent_us = now_utime();
       if (command(f, cfg_.command_timeout_ms, why) != OpenStatus::kOk) {
         sink_->on_usb_error();
@@ -282,6 +297,7 @@ class Usb600xBackend final : public Backend {
     // Sampling starts when the device gets the last start command (10/03, protocol [8]): between
     // sending it and its acknowledgement; ScanClock narrows that interval from the data.
     sink_->on_segment_start(sent_us, now_utime(), continuous);
+    sink_->on_variant(variant_bits());
     received_ = 0;
     requested_ = 0;
     carry_n_ = 0;
@@ -364,8 +380,21 @@ class Usb600xBackend final : public Backend {
     if (!end_) submit(i);
   }
 
-  // Decodes one transfer. Validates everything before the sink sees any of it: a malformed
-  // transfer is dropped whole and the session restarts (never pass bad samples on).
+  [[nodiscard]] std::uint32_t variant_bits() const {
+    std::uint32_t v = hh_ == 0 ? kVariantHeader0000 : kVariantHeader0001;
+    if (detect_order_ && !detector_.decided()) {
+      v |= kVariantOrderUndecided;
+    } else {
+      v |= coding_.order == ni::ByteOrder::kBig ? kVariantBigEndian : kVariantLittleEndian;
+    }
+    if (padding_seen_) v |= kVariantPaddingSet;
+    return v;
+  }
+
+  // Decodes one transfer. Framing is validated before the sink sees any of it: a malformed
+  // transfer is dropped whole and the session restarts (never pass bad samples on). Padding bits
+  // are counted, not an error (protocol [9]). While the USB-6008's byte order is not yet told
+  // from the data, the scans carry FLAG_DOUBTFUL (never published as good).
   bool consume(const std::uint8_t* data, std::size_t len, std::int64_t arrival) {
     if ((len & 1U) != 0U || received_ + len > seg_bytes_) {
       sink_->on_usb_error();
@@ -379,17 +408,26 @@ class Usb600xBackend final : public Backend {
     const std::size_t scan_bytes = 2 * n_ch_;
     const std::size_t n_scans = total / scan_bytes;
     const auto max_code = static_cast<std::uint16_t>((1U << coding_.bits) - 1U);
-    std::int32_t flags = 0;
-    for (std::size_t s = 0; s < n_scans * n_ch_; ++s) {
-      const auto code = ni::decode_sample(&scratch_[2 * s], coding_);
-      if (!code) {
-        sink_->on_usb_error();
-        fail(StreamEnd::kError, "malformed sample (padding bits set)", 0, static_cast<long>(len));
-        return false;
-      }
-      if (*code == 0 || *code == max_code) flags |= int32_t{pof::raw_block_t::FLAG_OVER_RANGE};
-      volts_[s] = static_cast<float>(ni::code_to_volts(*code, coding_.bits, cfg_.range_v));
+    bool changed = false;
+    if (detect_order_ && detector_.feed(scratch_.data(), n_scans)) {
+      coding_.order = detector_.order();
+      changed = true;
     }
+    std::int32_t flags = detect_order_ && !detector_.decided() ? int32_t{pof::raw_block_t::FLAG_DOUBTFUL} : 0;
+    std::size_t padded = 0;
+    for (std::size_t s = 0; s < n_scans * n_ch_; ++s) {
+      const ni::Sample v = ni::decode_sample(&scratch_[2 * s], coding_);
+      padded += v.padding_set ? 1U : 0U;
+      if (v.code == 0 || v.code == max_code) flags |= int32_t{pof::raw_block_t::FLAG_OVER_RANGE};
+      volts_[s] = static_cast<float>(ni::code_to_volts(v.code, coding_.bits, cfg_.range_v));
+    }
+    // Read in a byte order not yet told, padding bits say nothing about the device: not counted.
+    if (padded > 0 && (!detect_order_ || detector_.decided())) {
+      sink_->on_padding_set(padded);
+      changed = changed || !padding_seen_;
+      padding_seen_ = true;
+    }
+    if (changed) sink_->on_variant(variant_bits());
     carry_n_ = total - n_scans * scan_bytes;
     std::memmove(scratch_.data(), scratch_.data() + n_scans * scan_bytes, carry_n_);
     sink_->on_scans(volts_.data(), n_scans, arrival, flags);
@@ -401,6 +439,10 @@ class Usb600xBackend final : public Backend {
   std::vector<std::uint8_t> ai_;
   std::size_t n_ch_ = 0;
   ni::SampleCoding coding_{12, ni::ByteOrder::kBig};
+  bool detect_order_ = false;
+  ni::ByteOrderDetector detector_{12, 1};
+  bool padding_seen_ = false;  // kept across sessions: the report is about the device
+  std::uint8_t hh_ = 0;  // header byte 1 of the device's replies (protocol [3])
   std::uint32_t divisor_ = 0;
   double rate_hz_ = 0;
   std::uint32_t seg_scans_ = 0;

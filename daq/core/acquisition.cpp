@@ -59,6 +59,14 @@ void Acquisition::on_usb_error() noexcept {
   counters_.usb_errors.fetch_add(1, std::memory_order_relaxed);
 }
 
+void Acquisition::on_variant(std::uint32_t bits) noexcept {
+  counters_.variant.store(bits, std::memory_order_relaxed);
+}
+
+void Acquisition::on_padding_set(std::size_t n) noexcept {
+  counters_.padding_set.fetch_add(static_cast<std::int64_t>(n), std::memory_order_relaxed);
+}
+
 void Acquisition::emit_output_scan(std::int32_t flags) noexcept {
   const std::int64_t first_device = device_index_ - decimate_;
   if (block_ == nullptr) {
@@ -77,6 +85,11 @@ void Acquisition::emit_output_scan(std::int32_t flags) noexcept {
     block_->first_scan = first_device / decimate_;
     // The averaged scan stands for the middle of its window.
     block_->utime = clock_.time_of(static_cast<double>(first_device) + (decimate_ - 1) / 2.0);
+    // The clock's causality correction moves the anchor back when a transfer arrives earlier
+    // than predicted (scan_clock.hpp): a block already published keeps its time, so a later one
+    // must not be stamped before it. Held 1 us after it until the estimate passes it again.
+    if (block_->utime <= last_utime_) block_->utime = last_utime_ + 1;
+    last_utime_ = block_->utime;
     block_->flags = pending_flags_;
     pending_flags_ = 0;
   }

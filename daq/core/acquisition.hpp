@@ -22,6 +22,8 @@ struct Counters {
   std::atomic<std::int64_t> usb_errors{0};
   std::atomic<std::int64_t> overruns{0};       // blocks dropped because the queue was full
   std::atomic<std::int64_t> reconnects{0};
+  std::atomic<std::int64_t> padding_set{0};    // samples with padding bits set (kept)
+  std::atomic<std::uint32_t> variant{0};       // Variant bits of the current session
 };
 
 /// One raw block in the queue (fixed size: no allocation when handed over).
@@ -44,6 +46,8 @@ class Acquisition final : public ScanSink {
   void on_scans(const float* volts, std::size_t n_scans, std::int64_t arrival_us,
                 std::int32_t flags) noexcept override;
   void on_usb_error() noexcept override;
+  void on_variant(std::uint32_t bits) noexcept override;
+  void on_padding_set(std::size_t n) noexcept override;
 
   [[nodiscard]] double published_rate_hz() const { return device_rate_hz_ / decimate_; }
   [[nodiscard]] const ScanClock& clock() const { return clock_; }
@@ -70,6 +74,7 @@ class Acquisition final : public ScanSink {
   // block under construction
   Block* block_ = nullptr;
   std::int32_t pending_flags_ = 0;  // FLAG_GAP etc. for the next block
+  std::int64_t last_utime_ = 0;     // of the last block begun: utime never steps back
 };
 
 }  // namespace pof::daq

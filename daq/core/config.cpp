@@ -8,6 +8,7 @@
 
 #include "device_ids.hpp"
 #include "pof/io/errors.hpp"
+#include "protocol/mcc_usb1208ls.hpp"
 
 namespace pof::daq {
 namespace {
@@ -117,7 +118,7 @@ class Reader {
 double max_aggregate_rate(const std::string& kind) {
   if (kind == "usb6008") return 10000.0;   // daq-protocols.md: 10 kS/s aggregate
   if (kind == "usb6009") return 48000.0;   // 48 kS/s aggregate
-  if (kind == "usb1208ls") return 8191.0;  // AInScan 100-8191 Hz (usb-1208LS.c)
+  if (kind == "usb1208ls") return mcc::kMaxContinuousRateHz;  // mcc_usb1208ls.hpp [8]
   return 1e6;                              // simulator
 }
 
@@ -198,6 +199,10 @@ DaqConfig config_from_table(const toml::table& root, const std::string& source) 
     d.finish();
   }
   const double max_rate = max_aggregate_rate(c.device_kind);
+  const bool mcc = c.device_kind == "usb1208ls";
+  // The USB-1208LS holds at most 1.2 kS/s aggregate continuously (mcc_usb1208ls.hpp [8]) and
+  // scans 4 inputs for the 3 channels: 250 scans/s is 1000 S/s.
+  if (mcc) c.scan_rate_hz = 250.0;
   if (const toml::table* t = r.table("channels")) {
     Reader ch(*t, source, "channels");
     const int max_ai = c.device_kind == "usb1208ls" ? 7 : 7;
@@ -219,9 +224,9 @@ DaqConfig config_from_table(const toml::table& root, const std::string& source) 
     c.transfer_bytes = a.integer("transfer_bytes", c.transfer_bytes, 0, 16384);
     c.segment_scans = static_cast<std::uint32_t>(
         a.number("segment_scans", 0, 0, 4294967295.0));
-    c.sample_byte_order = a.choice("sample_byte_order", "big", {"big", "little"}) == "big"
-                              ? ni::ByteOrder::kBig
-                              : ni::ByteOrder::kLittle;
+    const std::string order = a.choice("sample_byte_order", "auto", {"auto", "big", "little"});
+    c.sample_byte_order_auto = order == "auto";
+    c.sample_byte_order = order == "little" ? ni::ByteOrder::kLittle : ni::ByteOrder::kBig;
     c.mcc_single_reads = a.choice("mcc_mode", "scan", {"scan", "single"}) == "single";
     c.command_timeout_ms = a.integer("command_timeout_ms", c.command_timeout_ms, 10, 60000);
     c.data_timeout_ms = a.integer("data_timeout_ms", c.data_timeout_ms, 10, 60000);
@@ -266,20 +271,37 @@ DaqConfig config_from_table(const toml::table& root, const std::string& source) 
       if (ch.ai > 3) bad(source, "channels." + ch.name, "0-3 in differential mode", std::to_string(ch.ai));
     }
   }
-  const double aggregate = c.scan_rate_hz * static_cast<double>(chans.size());
-  if (aggregate > max_rate) {
-    std::ostringstream want;
-    want << "at most " << max_rate / static_cast<double>(chans.size()) << " scans/s with "
-         << chans.size() << " channels on " << c.device_kind << " (" << max_rate
-         << " S/s aggregate)";
-    bad(source, "acquisition.scan_rate_hz", want.str(), std::to_string(c.scan_rate_hz));
-  }
-  // Single AIn reads cost an output and an input report each (~2 ms on the 1208LS's HID
-  // endpoint): a conservative 200 reads/s.
-  if (c.mcc_single_reads && aggregate > 200.0) {
+  // Inputs the device really scans: the USB-1208LS queue holds 1, 2, 4 or 8 (mcc_usb1208ls.hpp
+  // [3][9]); 3, 5-7 channels are padded with unused inputs whose samples are dropped.
+  const std::size_t scanned = mcc && !c.mcc_single_reads ? mcc::queue_length(chans.size()) : chans.size();
+  const double aggregate = c.scan_rate_hz * static_cast<double>(scanned);
+  auto per_scan = [&](double limit) {
+    std::ostringstream os;
+    os << limit / static_cast<double>(scanned);
+    return os.str();
+  };
+  const std::string inputs =
+      std::to_string(scanned) + " inputs scanned" +
+      (scanned != chans.size() ? " (" + std::to_string(chans.size()) +
+                                     " channels padded: the USB-1208LS queue holds 1, 2, 4 or 8)"
+                               : "");
+  if (mcc && c.mcc_single_reads) {
+    // Software-paced AIn reads: about 50 S/s (MCC USB-1208LS user manual, p. 9).
+    if (aggregate > mcc::kMaxSoftwarePacedHz) {
+      bad(source, "acquisition.scan_rate_hz",
+          "at most " + per_scan(mcc::kMaxSoftwarePacedHz) + " scans/s with acquisition.mcc_mode = "
+          "'single' on usb1208ls (software-paced: 50 AIn reads/s, " + inputs + ")",
+          std::to_string(c.scan_rate_hz));
+    }
+  } else if (aggregate > max_rate) {
     bad(source, "acquisition.scan_rate_hz",
-        "at most " + std::to_string(200.0 / static_cast<double>(chans.size())) +
-            " scans/s with acquisition.mcc_mode = 'single' (200 AIn reads/s)",
+        "at most " + per_scan(max_rate) + " scans/s on " + c.device_kind + " (" +
+            std::to_string(static_cast<int>(max_rate)) + " S/s aggregate, " + inputs + ")",
+        std::to_string(c.scan_rate_hz));
+  } else if (mcc && aggregate < mcc::kMinTimerRateHz) {
+    bad(source, "acquisition.scan_rate_hz",
+        "at least " + per_scan(mcc::kMinTimerRateHz) + " scans/s on usb1208ls in scan mode (its "
+        "scan timer runs 100-8191 S/s aggregate, " + inputs + "; slower: acquisition.mcc_mode = 'single')",
         std::to_string(c.scan_rate_hz));
   }
   if (c.segment_scans != 0 && c.segment_scans % static_cast<std::uint32_t>(c.decimate) != 0) {
@@ -304,7 +326,9 @@ std::string to_toml(const DaqConfig& c) {
                    {"transfers_in_flight", c.transfers_in_flight},
                    {"transfer_bytes", c.transfer_bytes},
                    {"segment_scans", static_cast<std::int64_t>(c.segment_scans)},
-                   {"sample_byte_order", c.sample_byte_order == ni::ByteOrder::kBig ? "big" : "little"},
+                   {"sample_byte_order", c.sample_byte_order_auto                           ? "auto"
+                                         : c.sample_byte_order == ni::ByteOrder::kBig ? "big"
+                                                                                       : "little"},
                    {"mcc_mode", c.mcc_single_reads ? "single" : "scan"},
                    {"command_timeout_ms", c.command_timeout_ms},
                    {"data_timeout_ms", c.data_timeout_ms}}},

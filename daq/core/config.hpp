@@ -36,6 +36,7 @@ struct DaqConfig {
   int transfer_bytes = 0;               // bytes per transfer, 0 = auto (~4 ms of data)
   std::uint32_t segment_scans = 0;      // scans per finite segment, 0 = as many as allowed
   ni::ByteOrder sample_byte_order = ni::ByteOrder::kBig;  // USB-6008 only (see protocol [9])
+  bool sample_byte_order_auto = true;   // USB-6008: tell the byte order from the data ("auto")
   bool mcc_single_reads = false;        // USB-1208LS: one AIn per channel per scan (else AInScan)
   int command_timeout_ms = 1000;        // per command round trip
   int data_timeout_ms = 2000;           // a data transfer with nothing for this long is an error

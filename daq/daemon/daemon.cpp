@@ -1,7 +1,9 @@
 // pof-daqd lifecycle: see daemon.hpp.
 #include "daemon/daemon.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <vector>
 
 #include <lcm/lcm-cpp.hpp>
@@ -87,13 +89,16 @@ void Daemon::acquisition_main() {
   std::unique_ptr<Acquisition> acq;
   bool had_session = false;
   bool lost_session = false;
+  int failures = 0;  // consecutive attempts that ended without a scan: the retry back-off
   while (!stop_.load()) {
     set_state(State::kStarting, "opening " + cfg_.device_kind);
     std::string why;
     const OpenStatus st = backend_->open(why);
     if (st != OpenStatus::kOk) {
       set_state(st == OpenStatus::kAbsent ? State::kDisconnected : State::kFault, why);
-      if (!sleep_unless_stopped(cfg_.retry_ms)) break;
+      // An absent device is polled at the plain interval (it is plugged in by a person); a
+      // faulty one backs off so that a device we cannot talk to is not re-initialised in a loop.
+      if (!sleep_unless_stopped(st == OpenStatus::kAbsent ? cfg_.retry_ms : retry_delay_ms(failures++))) break;
       continue;
     }
     if (!acq) {  // first open: the device's real rate is known now
@@ -107,24 +112,72 @@ void Daemon::acquisition_main() {
     }
     if (lost_session) counters_.reconnects.fetch_add(1);
     had_session = true;
-    set_state(State::kStreaming, "streaming from " + cfg_.device_kind);
+    // `streaming` is published by the publisher once scans arrive (watch_streaming).
+    const std::int64_t scans_before = counters_.scans.load();
+    armed_scans_.store(scans_before);
+    set_state(State::kStarting, "configured " + cfg_.device_kind + ", waiting for scans");
     const StreamEnd end = backend_->stream(*acq, stop_, why);
+    {
+      std::lock_guard lock(state_mu_);
+      armed_scans_.store(-1);
+    }
     backend_->close();
     if (end == StreamEnd::kStopped) {
       if (!stop_.load()) set_state(State::kStopping, why);  // e.g. a finite simulator scenario
       break;
     }
     lost_session = had_session;
+    if (counters_.scans.load() > scans_before) failures = 0;  // it streamed: start over
     if (end == StreamEnd::kDisconnected) {
       set_state(State::kDisconnected, why);
       if (!sleep_unless_stopped(cfg_.retry_ms)) break;
     } else {
-      set_state(State::kFault, why);  // recover by re-opening at once
+      set_state(State::kFault, why);
+      if (!sleep_unless_stopped(retry_delay_ms(failures++))) break;
     }
   }
   backend_->close();
   if (stop_.load()) set_state(State::kStopping, "stopped on request");
   acquisition_done_.store(true);
+}
+
+int Daemon::retry_delay_ms(int failures) const {
+  // retry_ms, doubling per consecutive failure, at most 30 s (or retry_ms when that is longer).
+  const std::int64_t cap = std::max<std::int64_t>(cfg_.retry_ms, 30000);
+  std::int64_t d = cfg_.retry_ms;
+  for (int i = 0; i < failures && d < cap; ++i) d *= 2;
+  return static_cast<int>(std::min(d, cap));
+}
+
+void Daemon::watch_streaming() {
+  {
+    // Checked and changed under the lock the acquisition thread holds when it ends a session
+    // (armed_scans_ = -1), so a session that just failed is never reported as streaming.
+    std::lock_guard lock(state_mu_);
+    const std::int64_t armed = armed_scans_.load();
+    if (state_ != State::kStarting || armed < 0 || counters_.scans.load() <= armed) return;
+    state_ = State::kStreaming;
+    state_text_ = "streaming from " + cfg_.device_kind;
+    state_events_.emplace_back(state_, state_text_);
+  }
+  spdlog::info("state {}: {}", state_name(State::kStreaming), "streaming from " + cfg_.device_kind);
+}
+
+std::string Daemon::probe_line() {
+  std::lock_guard lock(state_mu_);
+  char ids[32];
+  std::snprintf(ids, sizeof ids, "%04x:%04x", identity_.vendor_id, identity_.product_id);
+  const std::string variant = describe_variant(counters_.variant.load());
+  return cfg_.device_kind + " " + ids + (identity_.serial.empty() ? "" : " serial " + identity_.serial) +
+         ": " + state_name(state_) + " (" + state_text_ + "); scans " +
+         std::to_string(counters_.scans.load()) + "; usb_errors " + std::to_string(counters_.usb_errors.load()) +
+         "; padding_set " + std::to_string(counters_.padding_set.load()) + "; protocol variant: " +
+         (variant.empty() ? "unknown" : variant);
+}
+
+bool Daemon::variant_known() const {
+  const std::uint32_t v = counters_.variant.load();
+  return counters_.scans.load() > 0 && v != 0 && (v & kVariantOrderUndecided) == 0U;
 }
 
 void Daemon::publisher_main() {
@@ -176,6 +229,8 @@ void Daemon::publisher_main() {
     s.usb_errors = counters_.usb_errors.load();
     s.overruns = counters_.overruns.load();
     s.reconnects = counters_.reconnects.load();
+    s.protocol_variant = describe_variant(counters_.variant.load());
+    s.padding_set = counters_.padding_set.load();
     lcm_->lcm.publish(status_channel, &s);
   };
 
@@ -186,9 +241,16 @@ void Daemon::publisher_main() {
   // per status period, so a hung publisher gets the daemon restarted.
   pof::service::ServiceNotifier notifier;
   notifier.ready("publishing " + raw_channel + " and " + status_channel);
+  std::uint32_t logged_variant = 0;
   for (;;) {
     notifier.watchdog_if_due();
-    (void)wake_.wait_until(next_status);
+    (void)wake_.wait_until(
+        std::min(next_status, std::chrono::steady_clock::now() + std::chrono::milliseconds(50)));
+    watch_streaming();
+    if (const std::uint32_t v = counters_.variant.load(); v != logged_variant) {
+      logged_variant = v;  // the first user with hardware reads this (docs/hardware-bringup.md)
+      spdlog::info("{}: protocol variant: {}", cfg_.device_kind, describe_variant(v));
+    }
     while (Block* b = queue_.front()) {
       msg.utime = b->utime;
       msg.seq = seq++;

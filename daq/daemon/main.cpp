@@ -25,6 +25,7 @@
 #include "core/config.hpp"
 #include "daemon/daemon.hpp"
 #include "pof/io/errors.hpp"
+#include "protocol/mcc_usb1208ls.hpp"
 
 namespace {
 
@@ -49,6 +50,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> sets;
   double duration_s = 0;
   bool print_config = false;
+  bool probe = false;
   std::string log_level = "info";
   app.add_option("-c,--config", config_path,
                  std::string("TOML configuration (default ") + kDefaultConfig + " when present)");
@@ -63,6 +65,10 @@ int main(int argc, char** argv) {
   app.add_option("--duration", duration_s, "stop after this many seconds (tests, benchmarks)")
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--print-config", print_config, "print the effective configuration and exit");
+  app.add_flag("--probe", probe,
+               "hardware bring-up: stream until the device's protocol variant is told (or --duration, "
+               "default 5 s), print one line (state, scans, variant) on stdout; exit 0 if it "
+               "streamed, 74 if not (docs/hardware-bringup.md)");
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}));
   try {
@@ -116,11 +122,18 @@ int main(int argc, char** argv) {
     sigaddset(&sigs, SIGINT);
     pthread_sigmask(SIG_BLOCK, &sigs, nullptr);
 
+    if (cfg.device_kind == "usb1208ls" && !cfg.mcc_single_reads &&
+        daq::mcc::queue_length(cfg.channels().size()) != cfg.channels().size()) {
+      spdlog::warn("usb1208ls: its channel queue holds 1, 2, 4 or 8 inputs: scanning {} for the {} "
+                   "channels, the extra input's samples are dropped (docs/daq.md)",
+                   daq::mcc::queue_length(cfg.channels().size()), cfg.channels().size());
+    }
     daq::Daemon daemon(cfg, daq::make_backend(cfg));
     spdlog::info("{} at {} scans/s x {} channels, publishing {} and {} on {}", cfg.device_kind,
                  cfg.scan_rate_hz, cfg.channels().size(), cfg.raw_channel(), cfg.status_channel(),
                  cfg.lcm_url);
     daemon.start();
+    if (probe && duration_s <= 0) duration_s = 5.0;
     const auto t0 = std::chrono::steady_clock::now();
     for (;;) {
       timespec ts{0, 200'000'000};
@@ -133,10 +146,19 @@ int main(int argc, char** argv) {
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >= duration_s) {
         break;
       }
+      if (probe && daemon.variant_known()) break;
       if (daemon.finished()) {  // a finite simulated session is over: publish the final status, exit 0
         spdlog::info("source finished: stopping");
         break;
       }
+    }
+    if (probe) {
+      const std::string line = daemon.probe_line();  // before stop(): the state the device reached
+      const bool streamed = daemon.scans() > 0;
+      daemon.stop();
+      std::printf("pof-daqd probe: %s\n", line.c_str());
+      std::fflush(stdout);
+      return streamed ? io::kExitOk : io::kExitIoErr;
     }
     daemon.stop();
     return io::kExitOk;

@@ -95,13 +95,23 @@ std::int16_t decode_ain_single_ended(std::uint8_t lo, std::uint8_t hi) {
   return static_cast<std::int16_t>(((hi << 4) | (lo & 0x0F)) - 0x400);
 }
 
-double counts_to_volts(std::int16_t counts, Gain gain) {
-  if (gain == kSe10V) return counts * 10.0 / 0x3FF;
-  return counts * gain_range_v(gain) / 0x7FF;
+std::size_t queue_length(std::size_t n) {
+  for (std::size_t q : {1U, 2U, 4U, 8U}) {
+    if (n <= q) return q;
+  }
+  return 0;
 }
 
-double scan_counts_to_volts(std::int16_t counts, Gain gain) {
-  return counts * gain_range_v(gain) / 0x7FF;
+int full_scale_counts(Gain gain) { return gain == kSe10V ? 0x3FF : 0x7FF; }
+
+double counts_to_volts(std::int16_t counts, Gain gain) {
+  return counts * gain_range_v(gain) / full_scale_counts(gain);
+}
+
+double scan_counts_to_volts(std::int16_t counts, Gain gain) { return counts_to_volts(counts, gain); }
+
+const char* layout_name(ReportLayout l) {
+  return l == ReportLayout::kRecordFirst ? "record-first (index at 102)" : "data-first (index at 101)";
 }
 
 namespace {
@@ -110,22 +120,54 @@ std::int16_t sign12(unsigned v) {
 }
 }  // namespace
 
-std::uint16_t decode_scan_report(std::span<const std::uint8_t, kScanReportBytes> r,
-                                 std::span<std::int16_t, kSamplesPerScanReport> s) {
-  const std::uint8_t* d = &r[1];
+namespace {
+std::size_t data_at(ReportLayout l) { return l == ReportLayout::kRecordFirst ? 1 : 0; }
+std::size_t index_at(ReportLayout l) { return l == ReportLayout::kRecordFirst ? 102 : 101; }
+}  // namespace
+
+std::uint16_t scan_index(ScanReport r, ReportLayout l) {
+  const std::size_t i = index_at(l);
+  return static_cast<std::uint16_t>(r[i] | (r[i + 1] << 8));
+}
+
+std::uint16_t decode_scan_report(ScanReport r, std::span<std::int16_t, kSamplesPerScanReport> s,
+                                 ReportLayout l) {
+  const std::uint8_t* d = &r[data_at(l)];
   for (std::size_t i = 0, k = 0; i < 96; i += 3, k += 2) {
     s[k] = sign12(d[i] | ((d[i + 1] & 0xF0U) << 4));
     s[k + 1] = sign12(d[i + 2] | ((d[i + 1] & 0x0FU) << 8));
   }
-  return static_cast<std::uint16_t>(r[102] | (r[103] << 8));
+  return scan_index(r, l);
+}
+
+bool LayoutDetector::is_next(ScanReport r, std::uint16_t expect) const {
+  for (int k = 0; k < 2; ++k) {
+    if (possible_[k] && scan_index(r, static_cast<ReportLayout>(k)) == expect) return true;
+  }
+  return false;
+}
+
+void LayoutDetector::accept(ScanReport r, std::uint16_t expect) {
+  for (int k = 0; k < 2; ++k) {
+    if (scan_index(r, static_cast<ReportLayout>(k)) != expect) possible_[k] = false;
+  }
+  ++seen_;
+}
+
+bool LayoutDetector::decided() const {
+  return seen_ >= kLayoutReports && (possible_[0] != possible_[1]);
+}
+
+ReportLayout LayoutDetector::layout() const {
+  return possible_[1] && !possible_[0] ? ReportLayout::kDataFirst : ReportLayout::kRecordFirst;
 }
 
 void encode_scan_report(std::span<const std::int16_t, kSamplesPerScanReport> s,
                         std::uint16_t scan_index, std::uint8_t record,
-                        std::span<std::uint8_t, kScanReportBytes> r) {
+                        std::span<std::uint8_t, kScanReportBytes> r, ReportLayout l) {
   for (auto& b : r) b = 0;
-  r[0] = record;
-  std::uint8_t* d = &r[1];
+  if (l == ReportLayout::kRecordFirst) r[0] = record;
+  std::uint8_t* d = &r[data_at(l)];
   for (std::size_t i = 0, k = 0; i < 96; i += 3, k += 2) {
     const auto a = static_cast<unsigned>(s[k]) & 0xFFFU;
     const auto b = static_cast<unsigned>(s[k + 1]) & 0xFFFU;
@@ -133,8 +175,8 @@ void encode_scan_report(std::span<const std::int16_t, kSamplesPerScanReport> s,
     d[i + 1] = static_cast<std::uint8_t>(((a >> 4) & 0xF0U) | ((b >> 8) & 0x0FU));
     d[i + 2] = static_cast<std::uint8_t>(b & 0xFF);
   }
-  r[102] = static_cast<std::uint8_t>(scan_index & 0xFF);
-  r[103] = static_cast<std::uint8_t>(scan_index >> 8);
+  r[index_at(l)] = static_cast<std::uint8_t>(scan_index & 0xFF);
+  r[index_at(l) + 1] = static_cast<std::uint8_t>(scan_index >> 8);
 }
 
 }  // namespace pof::daq::mcc

@@ -9,14 +9,20 @@
 //     [C] seregioo/comedi comedi/drivers/ni_usb6009.c (captures of NI-DAQmx Base, 6009 0x3923:0x717b)
 //     [P] argusro/datalogger-rpi datalogger/usb6008.py (pyusb, 6008 0x3923:0x717a)
 //     [L] Linux drivers/comedi/drivers/ni_usb6501.c (USB-6501, same framing family)
-//     Summary in ../shared/notes/daq-protocols.md.
+//     [M] chrismerck/usb-6000 (raw frames of a USB-6008, 0x3923:0x717a)
+//     Every fact with its sources, and where they disagree: docs/daq.md, "Protocol facts".
 //  2. Transport: USB full speed, one interface, bulk endpoints with 64-byte packets: 0x01 OUT
 //     commands, 0x81 IN replies, 0x82 IN sample data [C][P].
-//  3. Frame: `00 00 | LEN BE16 | LEN-4 BE16 | 01 OP | 02 GRP | 00 00 | params`, LEN counts the
+//  3. Frame: `00 HH | LEN BE16 | LEN-4 BE16 | 01 OP | 02 GRP | 00 00 | params`, LEN counts the
 //     whole frame, padded to a multiple of 4 [C]. Hello is the one frame with 00 in the 02 byte [C].
-//  4. Replies: generic ACK `00 00 00 0C 00 08 01 00 00 00 00 02` [C]; hello answers 0x1C bytes and
+//     The header byte HH is where the sources disagree: 00 in [C] (6009); 01 in [M] and [P]'s
+//     docstring (6008) and "byte 1 is always 01" in [L] (6501).
+//  4. Replies: generic ACK `00 HH 00 0C 00 08 01 00 00 00 00 02` [C]; hello answers 0x1C bytes and
 //     channel setup (14/04) 0x18 bytes with the same first-12-byte shape (contents unknown; possibly
-//     a memory read of calibration constants) [C].
+//     a memory read of calibration constants) [C]. A reply with either HH is accepted.
+//     OUR DESIGN: hello goes out with HH = 00 (the one full scan programme published, [C]); every
+//     later request repeats the HH of the hello's reply, so a device that speaks 00 01 is spoken
+//     to as the 6008 sources do.
 //  5. Parameter blocks start with a BE16 length that counts itself: the channel list (0F/02) is
 //     `00 (2+2n)` + n BE16 channel numbers; the bank list (0E/02) is `00 (2+n)` + one bank byte per
 //     channel, bank 02 for ai4-7 [C] (inference from the 8- and 4-channel captures).
@@ -33,9 +39,10 @@
 //  9. Samples: 6009: big-endian 16-bit word, 14-bit value left-justified (>> 2) [C]. 6008: 12-bit
 //     left-justified offset binary, 2048 = 0 V [P]; [P] reads the word little-endian, which
 //     contradicts [C]'s family: the byte order is a configuration key (`sample_byte_order`,
-//     default big) and decoding is one tested function per device.
+//     default "auto": told from the data, ByteOrderDetector) and decoding is one tested function.
 //     OUR DESIGN: 6009 codes are offset binary too (8192 = 0 V), volts = (code - mid) * range / mid.
-//     Padding bits below the value must be zero: a sample with them set is a protocol error.
+//     Padding bits below the value: no source checks them ([C] ignores the low 2 bits, [P] the
+//     low 4); a sample with them set is counted, never dropped.
 // 10. OUR DESIGN, continuous acquisition (no public note shows it): back-to-back finite scans.
 //     Each segment asks for as many scans as the BE32 byte count of 12/03 allows (>= 12 h at the
 //     6009's 48 kS/s), the host re-arms with 0F/00..10/03 (no re-configuration) when the segment's
@@ -124,12 +131,14 @@ struct Frame {
   [[nodiscard]] std::span<const std::uint8_t> view() const { return {bytes.data(), size}; }
 };
 
-/// Builds the frame of `cmd` with `params` after the 12-byte header [3]. Throws std::length_error
-/// if the frame would not fit one packet (a programming error: the scan programme is bounded).
-Frame make_frame(Cmd cmd, std::span<const std::uint8_t> params = {});
+/// Builds the frame of `cmd` with `params` after the 12-byte header [3], header byte 1 = `hh`
+/// (00 or 01 [3]). Throws std::length_error if the frame would not fit one packet (a programming
+/// error: the scan programme is bounded).
+Frame make_frame(Cmd cmd, std::span<const std::uint8_t> params = {}, std::uint8_t hh = 0);
 
 /// A frame split into its parts (used by the virtual device and the tests).
 struct ParsedFrame {
+  std::uint8_t hh = 0;  // header byte 1 [3]
   std::uint8_t op = 0;
   std::uint8_t group = 0;
   std::span<const std::uint8_t> params;
@@ -140,9 +149,13 @@ std::optional<ParsedFrame> parse_frame(std::span<const std::uint8_t> bytes);
 const Opcode* find_opcode(std::uint8_t op, std::uint8_t group);
 
 /// The reply the device gives to `cmd` [4] (contents beyond the header are zero here).
-Frame make_reply(Cmd cmd);
-/// True when `reply` has the length and header the device gives to `cmd` [4].
-bool reply_ok(Cmd cmd, std::span<const std::uint8_t> reply);
+Frame make_reply(Cmd cmd, std::uint8_t hh = 0);
+/// The header byte 1 (00 or 01 [3]) when `reply` has the length and header the device gives to
+/// `cmd` [4]; nullopt otherwise.
+std::optional<std::uint8_t> reply_header(Cmd cmd, std::span<const std::uint8_t> reply);
+inline bool reply_ok(Cmd cmd, std::span<const std::uint8_t> reply) {
+  return reply_header(cmd, reply).has_value();
+}
 
 enum class Terminal { kRse, kDifferential };
 enum class ByteOrder { kBig, kLittle };
@@ -161,14 +174,14 @@ struct ScanProgram {
   std::uint32_t clock_divisor = 0x5DC0;
 };
 
-/// Session init [8]: hello, 0B/00, 0C/00, 0D/00.
-std::vector<Frame> session_frames();
+/// Session init after the hello [8]: 0B/00, 0C/00, 0D/00 (`hh`: header byte 1 [3][4]).
+std::vector<Frame> session_frames(std::uint8_t hh = 0);
 /// Configuration of a scan [5][6][7][8], from 0C/03 to 15/00.
-std::vector<Frame> configure_frames(const ScanProgram& program);
+std::vector<Frame> configure_frames(const ScanProgram& program, std::uint8_t hh = 0);
 /// Arming and start of one finite segment of `scans` scans [8][10], 0F/00 to 10/03.
-std::vector<Frame> start_frames(std::uint32_t scans, std::size_t n_channels);
+std::vector<Frame> start_frames(std::uint32_t scans, std::size_t n_channels, std::uint8_t hh = 0);
 /// Stop sequence seen in [P] [8].
-std::vector<Frame> stop_frames();
+std::vector<Frame> stop_frames(std::uint8_t hh = 0);
 
 /// Largest segment the 32-bit byte count of 12/03 allows [10].
 std::uint32_t max_segment_scans(std::size_t n_channels);
@@ -181,19 +194,53 @@ struct SampleCoding {
 constexpr SampleCoding usb6008_coding(ByteOrder order) { return {12, order}; }
 constexpr SampleCoding usb6009_coding() { return {14, ByteOrder::kBig}; }
 
-/// USB-6008: 12-bit left-justified offset binary in a 16-bit word of the configured byte order.
-/// nullopt when a padding bit (the low 4) is set.
-std::optional<std::uint16_t> decode_usb6008_sample(const std::uint8_t* word, ByteOrder order);
-/// USB-6009: 14-bit left-justified in a big-endian word. nullopt when a padding bit is set.
-std::optional<std::uint16_t> decode_usb6009_sample(const std::uint8_t* word);
+struct Sample {
+  std::uint16_t code;  // offset binary, `bits` wide
+  bool padding_set;    // a bit below the value was set (counted, not an error [9])
+};
+/// USB-6008: 12-bit left-justified offset binary in a 16-bit word of the given byte order.
+Sample decode_usb6008_sample(const std::uint8_t* word, ByteOrder order);
+/// USB-6009: 14-bit left-justified in a big-endian word.
+Sample decode_usb6009_sample(const std::uint8_t* word);
 /// Either of the above by coding.
-std::optional<std::uint16_t> decode_sample(const std::uint8_t* word, SampleCoding coding);
+Sample decode_sample(const std::uint8_t* word, SampleCoding coding);
 /// Inverse of decode_sample (virtual device, tests).
 void encode_sample(std::uint16_t code, SampleCoding coding, std::uint8_t* word);
 
 /// Offset-binary code to volts for a +-range_v input, and back (clamped to the code range).
 double code_to_volts(std::uint16_t code, unsigned bits, double range_v);
 std::uint16_t volts_to_code(double volts, unsigned bits, double range_v);
+/// [9] Tells the USB-6008's sample byte order from the data, window by window: read both ways,
+/// the right order is the one whose signal is far smoother (a byte swap moves the low bits of the
+/// value, where the noise is, to the top: one LSB of noise becomes 256 codes). A window without
+/// noise or motion tells nothing and leaves the verdict as it was; the first verdict needs one
+/// telling window, and later windows re-check it while streaming.
+class ByteOrderDetector {
+ public:
+  static constexpr std::size_t kWindowScans = 256;
+  static constexpr std::size_t kMaxChannels = 8;
+  ByteOrderDetector(unsigned bits, std::size_t n_channels);
+  /// Feeds `n_scans` scans of raw 16-bit words, channel-interleaved. Returns true when the verdict
+  /// changed (first decision or a reversal).
+  bool feed(const std::uint8_t* words, std::size_t n_scans);
+  [[nodiscard]] bool decided() const { return decided_; }
+  /// The decided order; big-endian (the 6009's, [C]) while undecided.
+  [[nodiscard]] ByteOrder order() const { return order_; }
+  /// Reversals after the first decision (the data contradicted the verdict).
+  [[nodiscard]] int reversals() const { return reversals_; }
+
+ private:
+  unsigned bits_;
+  std::size_t n_ch_;
+  std::array<std::array<std::uint16_t, kMaxChannels>, 2> prev_{};
+  bool have_prev_ = false;
+  std::array<std::uint64_t, 2> variation_{};
+  std::size_t scans_ = 0;
+  bool decided_ = false;
+  ByteOrder order_ = ByteOrder::kBig;
+  int reversals_ = 0;
+};
+
 /// One LSB in volts.
 constexpr double lsb_volts(unsigned bits, double range_v) {
   return 2.0 * range_v / static_cast<double>(1U << bits);

@@ -35,8 +35,19 @@ expect_exit 78 "$d" --config "$WORK_DIR/daq.toml" -s acquisition.transfer_bytes=
 grep -q "acquisition.transfer_bytes" <<<"$err" || fail "$err"
 expect_exit 78 "$d" --config "$WORK_DIR/daq.toml" -s schema_version=7 --print-config
 grep -q "schema_version" <<<"$err" || fail "$err"
-expect_exit 78 "$d" --config "$WORK_DIR/daq.toml" --device usb1208ls --rate 100 -s 'acquisition.mcc_mode="single"' --print-config
-grep -q "acquisition.scan_rate_hz" <<<"$err" || fail "$err"
+# USB-1208LS (mcc_usb1208ls.hpp [8]): software-paced reads about 50 S/s, continuous scans at most
+# 1.2 kS/s aggregate; 3 channels are scanned as a queue of 4 (1, 2, 4 or 8 allowed).
+expect_exit 78 "$d" --config "$WORK_DIR/daq.toml" --device usb1208ls --rate 20 -s 'acquisition.mcc_mode="single"' --print-config
+grep -q "acquisition.scan_rate_hz" <<<"$err" && grep -q "50 AIn reads/s" <<<"$err" || fail "$err"
+expect_exit 78 "$d" --config "$WORK_DIR/daq.toml" --device usb1208ls --rate 400 --print-config
+grep -q "acquisition.scan_rate_hz" <<<"$err" && grep -q "1, 2, 4 or 8" <<<"$err" && grep -q "at most 300" <<<"$err" || fail "$err"
+expect_exit 78 "$d" --config "$WORK_DIR/daq.toml" --device usb1208ls --rate 20 --print-config
+grep -q "at least 25" <<<"$err" || fail "$err"
+# Its default asks for no more than the device holds: 250 scans/s x 4 inputs = 1000 S/s.
+expect_exit 0 "$d" --config /dev/null -s schema_version=1 --device usb1208ls --print-config
+grep -q "scan_rate_hz = 250" <<<"$out" || fail "usb1208ls default rate: $out"
+expect_exit 0 "$d" --config /dev/null -s schema_version=1 --print-config
+grep -Eq "sample_byte_order = .auto." <<<"$out" || fail "default byte order: $out"
 printf 'schema_version = 1\n[acquisition\n' >"$WORK_DIR/syntax.toml"
 expect_exit 78 "$d" --config "$WORK_DIR/syntax.toml"
 grep -q "syntax.toml:2" <<<"$err" || fail "TOML syntax error without file:line: $err"

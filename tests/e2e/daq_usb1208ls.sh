@@ -1,16 +1,24 @@
-# MCC USB-1208LS (virtual, through hidapi's libusb flavour): AInScan bursts back to back and single
-# AIn reads; decoded
-# volts equal what the device sent within 1 LSB, continuous indices; unplug/replug mid-stream.
+# MCC USB-1208LS (virtual, through hidapi's libusb flavour): AInScans back to back and single AIn
+# reads; decoded volts equal what the device sent within 1 LSB, continuous indices; unplug/replug
+# mid-stream. The 3 channels are scanned as a queue of 4 (the device refuses 3: the model counts a
+# refused queue as a protocol error), 250 scans/s = 1000 S/s aggregate (continuous limit 1.2 kS/s),
+# single reads at 15 scans/s = 45 reads/s (software-paced limit 50 S/s). Both report layouts.
 source "$(dirname "$0")/daq_lib.sh"
-vdaq --model 1208ls --scenario normal --duration 4 --rate 1000 --decimate 1 --block-scans 10
+vdaq --model 1208ls --scenario normal --duration 4 --rate 250 --decimate 1 --block-scans 10 \
+     --expect-variant "record-first"
 summary
 [ "$(report 'r["max_value_error_lsb"] <= 1.0')" = True ] || fail "value error above 1 LSB"
-vdaq --model 1208ls --scenario unplug --event-at 1.5 --unplug-for 1 --duration 5 --rate 1000 \
+# The layout of wjasper's Python driver and ryan-duve's backend (data from byte 0, index at 101).
+vdaq --model 1208ls --scenario normal --duration 3 --rate 250 --decimate 1 --block-scans 10 \
+     --report-layout data-first --expect-variant "data-first"
+summary
+[ "$(report 'r["max_value_error_lsb"] <= 1.0')" = True ] || fail "data-first layout: value error above 1 LSB"
+vdaq --model 1208ls --scenario unplug --event-at 1.5 --unplug-for 1 --duration 5 --rate 250 \
      --decimate 1 --block-scans 10 --expect-gap --expect-state 2 --min-reconnects 1 \
      --max-dropped 100000 --min-rate-ratio 0
 summary
 # Single AIn reads (one output + one input report per channel per scan), host-paced.
-vdaq --model 1208ls --scenario normal --duration 3 --rate 50 --decimate 1 --block-scans 1 --min-rate-ratio 0.97 \
+vdaq --model 1208ls --scenario normal --duration 3 --rate 15 --decimate 1 --block-scans 1 --min-rate-ratio 0.95 \
      -- -s 'acquisition.mcc_mode="single"'
 summary
 [ "$(report 'r["max_value_error_lsb"] <= 1.0')" = True ] || fail "single reads: value error above 1 LSB"

@@ -2,8 +2,12 @@
 # (naming the command and the timeout) or `disconnected`, retries, never exits on its own, and
 # stops cleanly with exit 0 on SIGTERM.
 source "$(dirname "$0")/daq_lib.sh"
-vdaq --model 6008 --scenario silent --duration 2 --expect-no-data --expect-state 3
+vdaq --model 6008 --scenario silent --duration 4 --expect-no-data --expect-state 3
 report 'r["states_seen"]' | grep -q "did not answer" || fail "fault text: $(report 'r["states_seen"]')"
+# Back-off: hello times out after 300 ms, then the wait is 200, 400, 800, 1600 ms ... (retry_ms
+# doubling): 4 attempts in 4 s where a fixed 200 ms wait would make 8.
+hellos=$(report 'r["device_hellos"]')
+[ "$hellos" -ge 3 ] && [ "$hellos" -le 5 ] || fail "expected 3-5 attempts in 4 s with back-off, got $hellos"
 vdaq --model 6008 --scenario absent --duration 1.5 --expect-no-data --expect-state 2
 report 'r["states_seen"]' | grep -q "no NI USB-6008" || fail "disconnected text: $(report 'r["states_seen"]')"
 # Selection by serial number (read from the device's string descriptor): the right one streams;

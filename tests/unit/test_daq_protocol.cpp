@@ -17,10 +17,13 @@ using B = std::vector<std::uint8_t>;
 
 TEST(NiUsb600x, FramesMatchTheCapturedSession) {
   // [C] ni_usb6009.c request templates, byte for byte.
+  EXPECT_EQ(bytes(ni::make_frame(ni::Cmd::kHello)), (B{0, 0, 0, 0x0C, 0, 0x08, 0x01, 0x00, 0x00, 0, 0, 0}));
   const auto s = ni::session_frames();
-  ASSERT_EQ(s.size(), 4U);
-  EXPECT_EQ(bytes(s[0]), (B{0, 0, 0, 0x0C, 0, 0x08, 0x01, 0x00, 0x00, 0, 0, 0}));
-  EXPECT_EQ(bytes(s[1]), (B{0, 0, 0, 0x0C, 0, 0x08, 0x01, 0x0B, 0x02, 0, 0, 0}));
+  ASSERT_EQ(s.size(), 3U);
+  EXPECT_EQ(bytes(s[0]), (B{0, 0, 0, 0x0C, 0, 0x08, 0x01, 0x0B, 0x02, 0, 0, 0}));
+  // [3] a device whose replies begin 00 01 is spoken to with 00 01 (the 6008 sources).
+  EXPECT_EQ(bytes(ni::session_frames(1)[0]), (B{0, 1, 0, 0x0C, 0, 0x08, 0x01, 0x0B, 0x02, 0, 0, 0}));
+  EXPECT_EQ(ni::parse_frame(bytes(ni::session_frames(1)[0]))->hh, 1);
 }
 
 TEST(NiUsb600x, EightChannelScanProgrammeMatchesTheCapture) {
@@ -59,6 +62,13 @@ TEST(NiUsb600x, StartFramesCarryCountAndBytes) {
 TEST(NiUsb600x, RepliesAndParsing) {
   const B ack{0, 0, 0, 0x0C, 0, 0x08, 0x01, 0, 0, 0, 0, 0x02};  // [4]
   EXPECT_TRUE(ni::reply_ok(ni::Cmd::kArm, ack));
+  EXPECT_EQ(ni::reply_header(ni::Cmd::kArm, ack), 0);
+  // [3][4]: the 6008 sources' replies begin 00 01; accepted, and the byte reported.
+  auto ack01 = ack;
+  ack01[1] = 0x01;
+  EXPECT_EQ(ni::reply_header(ni::Cmd::kArm, ack01), 1);
+  ack01[1] = 0x02;
+  EXPECT_FALSE(ni::reply_ok(ni::Cmd::kArm, ack01));
   EXPECT_FALSE(ni::reply_ok(ni::Cmd::kHello, ack));  // hello answers 0x1C bytes
   EXPECT_EQ(bytes(ni::make_reply(ni::Cmd::kArm)), ack);
   EXPECT_EQ(ni::make_reply(ni::Cmd::kHello).size, 0x1CU);
@@ -83,23 +93,57 @@ TEST(NiUsb600x, RepliesAndParsing) {
 
 TEST(NiUsb600x, Usb6009SampleIsBigEndian14BitLeftJustified) {
   const std::uint8_t w[2] = {0x80, 0x00};  // mid-scale
-  EXPECT_EQ(*ni::decode_usb6009_sample(w), 0x2000);
+  EXPECT_EQ(ni::decode_usb6009_sample(w).code, 0x2000);
+  EXPECT_FALSE(ni::decode_usb6009_sample(w).padding_set);
   const std::uint8_t top[2] = {0xFF, 0xFC};
-  EXPECT_EQ(*ni::decode_usb6009_sample(top), 0x3FFF);
-  const std::uint8_t pad[2] = {0x80, 0x01};  // a padding bit set: protocol error
-  EXPECT_FALSE(ni::decode_usb6009_sample(pad));
+  EXPECT_EQ(ni::decode_usb6009_sample(top).code, 0x3FFF);
+  // A padding bit set: no source checks it ([9]); the value is kept and the bit reported.
+  const std::uint8_t pad[2] = {0x80, 0x01};
+  EXPECT_EQ(ni::decode_usb6009_sample(pad).code, 0x2000);
+  EXPECT_TRUE(ni::decode_usb6009_sample(pad).padding_set);
   EXPECT_DOUBLE_EQ(ni::code_to_volts(0x2000, 14, 10.0), 0.0);
   EXPECT_DOUBLE_EQ(ni::code_to_volts(0, 14, 10.0), -10.0);
 }
 
 TEST(NiUsb600x, Usb6008SampleByteOrderIsOneSwitch) {
   const std::uint8_t be[2] = {0x81, 0x10};  // 0x811 << 4
-  EXPECT_EQ(*ni::decode_usb6008_sample(be, ni::ByteOrder::kBig), 0x811);
+  EXPECT_EQ(ni::decode_usb6008_sample(be, ni::ByteOrder::kBig).code, 0x811);
   const std::uint8_t le[2] = {0x10, 0x80};
-  EXPECT_EQ(*ni::decode_usb6008_sample(le, ni::ByteOrder::kLittle), 0x801);
-  EXPECT_FALSE(ni::decode_usb6008_sample(be, ni::ByteOrder::kLittle));  // 0x1081: padding set
+  EXPECT_EQ(ni::decode_usb6008_sample(le, ni::ByteOrder::kLittle).code, 0x801);
+  EXPECT_TRUE(ni::decode_usb6008_sample(be, ni::ByteOrder::kLittle).padding_set);  // 0x1081
   EXPECT_NEAR(ni::code_to_volts(2048, 12, 10.0), 0.0, 1e-12);
   EXPECT_NEAR(ni::lsb_volts(12, 10.0), 20.0 / 4096, 1e-15);
+}
+
+// [9] the byte order told from the data, in each order, with zero and with nonzero padding.
+TEST(NiUsb600x, ByteOrderIsToldFromTheData) {
+  for (const auto order : {ni::ByteOrder::kBig, ni::ByteOrder::kLittle}) {
+    for (const bool pad : {false, true}) {
+      ni::ByteOrderDetector d(12, 3);
+      std::vector<std::uint8_t> w(2 * 3 * ni::ByteOrderDetector::kWindowScans);
+      for (std::size_t s = 0; s < ni::ByteOrderDetector::kWindowScans; ++s) {
+        for (std::size_t c = 0; c < 3; ++c) {
+          // +0.03 V (code 0x806) with +-1 LSB of noise: the case a padding check alone misses.
+          const auto code = static_cast<std::uint16_t>(0x806 + static_cast<int>((s * 7 + c) % 3) - 1);
+          std::uint8_t* p = &w[2 * (3 * s + c)];
+          ni::encode_sample(code, ni::usb6008_coding(order), p);
+          if (pad) p[order == ni::ByteOrder::kBig ? 1 : 0] |= static_cast<std::uint8_t>((s + c) % 16);
+        }
+      }
+      EXPECT_FALSE(d.decided());
+      EXPECT_TRUE(d.feed(w.data(), ni::ByteOrderDetector::kWindowScans));
+      ASSERT_TRUE(d.decided());
+      EXPECT_EQ(d.order(), order) << "pad " << pad;
+    }
+  }
+  // A signal without noise or motion cannot tell: undecided (the daemon flags such blocks).
+  ni::ByteOrderDetector d(12, 1);
+  std::vector<std::uint8_t> w(2 * ni::ByteOrderDetector::kWindowScans);
+  for (std::size_t s = 0; s < ni::ByteOrderDetector::kWindowScans; ++s) {
+    ni::encode_sample(0x806, ni::usb6008_coding(ni::ByteOrder::kLittle), &w[2 * s]);
+  }
+  EXPECT_FALSE(d.feed(w.data(), ni::ByteOrderDetector::kWindowScans));
+  EXPECT_FALSE(d.decided());
 }
 
 TEST(NiUsb600x, EncodeDecodeRoundTripWithinHalfAnLsb) {
@@ -109,8 +153,8 @@ TEST(NiUsb600x, EncodeDecodeRoundTripWithinHalfAnLsb) {
       std::uint8_t w[2];
       ni::encode_sample(ni::volts_to_code(v, coding.bits, 10.0), coding, w);
       const auto c = ni::decode_sample(w, coding);
-      ASSERT_TRUE(c);
-      EXPECT_LE(std::abs(ni::code_to_volts(*c, coding.bits, 10.0) - v), ni::lsb_volts(coding.bits, 10.0) / 2 + 1e-12);
+      ASSERT_FALSE(c.padding_set);
+      EXPECT_LE(std::abs(ni::code_to_volts(c.code, coding.bits, 10.0) - v), ni::lsb_volts(coding.bits, 10.0) / 2 + 1e-12);
     }
   }
   EXPECT_EQ(ni::volts_to_code(50.0, 12, 10.0), 4095);  // clamped
@@ -139,6 +183,44 @@ TEST(MccUsb1208ls, ScanReportRoundTripAndPacking) {
   std::array<std::int16_t, 64> back{};
   EXPECT_EQ(mcc::decode_scan_report(r, back), 0x1234);
   EXPECT_EQ(back, s);
+  // [7] the data-first layout (wjasper usb_1208LS.py, ryan-duve): data from 0, index at 101.
+  mcc::encode_scan_report(s, 0x1234, 7, r, mcc::ReportLayout::kDataFirst);
+  EXPECT_EQ(r[101], 0x34);
+  EXPECT_EQ(r[102], 0x12);
+  EXPECT_EQ(static_cast<int>(r[0] | ((r[1] & 0xF0) << 4)), static_cast<int>(static_cast<unsigned>(s[0]) & 0xFFF));
+  back = {};
+  EXPECT_EQ(mcc::decode_scan_report(r, back, mcc::ReportLayout::kDataFirst), 0x1234);
+  EXPECT_EQ(back, s);
+}
+
+TEST(MccUsb1208ls, ReportLayoutIsToldFromTheScanIndex) {
+  for (const auto layout : {mcc::ReportLayout::kRecordFirst, mcc::ReportLayout::kDataFirst}) {
+    mcc::LayoutDetector d;
+    std::array<std::int16_t, 64> s{};
+    std::array<std::uint8_t, 105> r{};
+    EXPECT_FALSE(d.is_next(r, 1));  // a report of zeros (nothing scanned yet) is not the next
+    for (std::uint16_t i = 1; i <= 2; ++i) {
+      for (auto& v : s) v = static_cast<std::int16_t>(i * 100);  // data that could look like an index
+      mcc::encode_scan_report(s, i, static_cast<std::uint8_t>(i), r, layout);
+      ASSERT_TRUE(d.is_next(r, i));
+      EXPECT_FALSE(d.is_next(r, static_cast<std::uint16_t>(i + 1)));  // a repeat is not the next
+      d.accept(r, i);
+    }
+    ASSERT_TRUE(d.decided());
+    EXPECT_EQ(d.layout(), layout);
+  }
+}
+
+TEST(MccUsb1208ls, QueueLengthAndVoltsFactors) {
+  // [3]: the queue holds 1, 2, 4 or 8 entries (wjasper usb-1208LS.c, usb_1208LS.py).
+  EXPECT_EQ(mcc::queue_length(1), 1U);
+  EXPECT_EQ(mcc::queue_length(3), 4U);
+  EXPECT_EQ(mcc::queue_length(5), 8U);
+  EXPECT_EQ(mcc::queue_length(9), 0U);
+  // [5] wjasper volts_LS: single-ended x 10 / 0x3FF, differential x range / 0x7FF, for scans too.
+  EXPECT_NEAR(mcc::scan_counts_to_volts(0x3FF, mcc::kSe10V), 10.0, 1e-12);
+  EXPECT_NEAR(mcc::scan_counts_to_volts(-0x400, mcc::kSe10V), -10.0 * 0x400 / 0x3FF, 1e-12);
+  EXPECT_NEAR(mcc::scan_counts_to_volts(0x7FF, mcc::kBp10V), 10.0, 1e-12);
 }
 
 TEST(MccUsb1208ls, ScanTimerBandsAndQueue) {

@@ -20,6 +20,10 @@ Ni600xModel::Ni600xModel(const NiOptions& o, AnalogBench& bench)
 std::uint16_t Ni600xModel::code(int session, std::int64_t index, std::size_t ch) {
   // The sensor, reference and pot levels differ, so a channel swap shows; the noise toggles the
   // low bits and the knee's motion the high ones, so a byte-order or justification error shows.
+  if (!std::isnan(o_.steady_volts)) {  // a steady level with +-1 LSB of noise, as an ADC shows
+    const auto c = ni::volts_to_code(o_.steady_volts, coding_.bits, o_.range_v);
+    return static_cast<std::uint16_t>(c + static_cast<int>((index * 7 + static_cast<std::int64_t>(ch) * 3 + session) % 3) - 1);
+  }
   return ni::volts_to_code(bench_.volts(session, index, ai_[ch % ai_.size()]), coding_.bits, o_.range_v);
 }
 
@@ -40,6 +44,7 @@ void Ni600xModel::on_out(std::uint8_t ep, std::span<const std::uint8_t> data, st
   }
   const auto& p = f->params;
   last_command = std::string(oc->name);
+  if (oc->cmd != ni::Cmd::kHello) ++(f->hh == 0 ? requests_00 : requests_01);
   switch (oc->cmd) {
     case ni::Cmd::kHello:
       ++hellos;
@@ -83,7 +88,7 @@ void Ni600xModel::on_out(std::uint8_t ep, std::span<const std::uint8_t> data, st
       break;
   }
   if (!o_.silent) {
-    const ni::Frame r = ni::make_reply(oc->cmd);
+    const ni::Frame r = ni::make_reply(oc->cmd, o_.reply_header);
     replies_.emplace_back(r.bytes.begin(), r.bytes.begin() + static_cast<long>(r.size));
   }
 }
@@ -98,11 +103,11 @@ InResult Ni600xModel::on_in(std::uint8_t ep, std::span<std::uint8_t> buf, std::i
     return {InResult::kData, static_cast<int>(n), 0};
   }
   if (ep != ni::kEpDataIn || !running_ || n_ch_ == 0) return {};
-  if (garbage_ != 0) {  // scenario: one malformed packet, then the device stops
-    const bool odd = garbage_ == 1;
+  const bool pad_this = garbage_ == 2;  // scenario: one packet with padding bits set, then stop
+  if (garbage_ == 1) {  // scenario: one malformed (odd-length) packet, then the device stops
     garbage_ = 0;
     running_ = false;
-    const std::size_t n = std::min<std::size_t>(odd ? 63 : 64, buf.size());
+    const std::size_t n = std::min<std::size_t>(63, buf.size());
     std::fill_n(buf.begin(), n, 0xFF);
     return {InResult::kData, static_cast<int>(n), 0};
   }
@@ -126,8 +131,16 @@ InResult Ni600xModel::on_in(std::uint8_t ep, std::span<std::uint8_t> buf, std::i
     const auto scan = static_cast<std::int64_t>(sample / n_ch_);
     const std::size_t ch = sample % n_ch_;
     ni::encode_sample(code(seg.session, seg.first_index + scan, ch), coding_, &buf[i]);
+    if (o_.padding_noise || pad_this) {  // the low bits of the word, whichever byte holds them
+      const auto noise = static_cast<std::uint8_t>((sent_ + i) / 2 * 5 % ((1U << (16U - coding_.bits)) - 1U) + 1U);
+      buf[i + (coding_.order == ni::ByteOrder::kBig ? 1 : 0)] |= noise;
+    }
   }
   sent_ += n;
+  if (pad_this) {
+    garbage_ = 0;
+    running_ = false;
+  }
   if (sent_ == total) {
     running_ = false;
     prev_end_us_ = seg_start_us_ + static_cast<std::int64_t>(std::llround(count_ / seg.rate_hz * 1e6));

@@ -6,6 +6,7 @@
 // checker reads back from the same bench exactly what the device sent. It records every segment
 // (start time, first index, rate) so that timestamps and the seam between segments can be measured.
 #include <cstdint>
+#include <limits>
 #include <array>
 #include <mutex>
 #include <string>
@@ -24,6 +25,11 @@ struct NiOptions {
   double clock_ppm = 0.0;  // device crystal error: positive = fast
   bool silent = false;     // never answers a command ("a device that never answers")
   int short_every = 0;     // every Nth data URB is answered 2 bytes short (a valid short packet)
+  // Variants where the public sources disagree (daq/protocol/ni_usb600x.hpp [3][9]):
+  std::uint8_t reply_header = 0;  // header byte 1 of every reply: 00 ([C]) or 01 (6008 sources)
+  bool padding_noise = false;     // padding bits below the value carry noise (no source checks them)
+  double steady_volts = std::numeric_limits<double>::quiet_NaN();  // every input at this level
+                                  // (+-1 LSB noise) instead of the simulated knee
   std::string serial;      // iSerialNumber string (descriptor index 3); empty = none
 };
 
@@ -52,6 +58,8 @@ class Ni600xModel final : public DeviceModel {
 
   // Scenario hooks (call with the device mutex held).
   void stop_scanning() { running_ = false; }   // stall/unplug: the scan stops
+  /// odd: one 63-byte packet of 0xFF; else: one valid packet whose padding bits are set. Then
+  /// the scan stops.
   void send_garbage(bool odd) { garbage_ = odd ? 1 : 2; }
   void power_cycle();
 
@@ -59,6 +67,8 @@ class Ni600xModel final : public DeviceModel {
   std::vector<Segment> segments;
   std::vector<std::int64_t> seams_us;  // idle time between back-to-back segments
   int protocol_errors = 0;
+  int requests_00 = 0;  // requests after the hello whose header byte 1 was 00
+  int requests_01 = 0;  // ... was 01
   int hellos = 0;
   std::string last_command;  // name of the last command received (the stop sequence ends in 0D/00)
   std::size_t n_channels() const { return n_ch_; }

@@ -21,8 +21,10 @@ std::int16_t Usb1208lsModel::counts(int session, std::int64_t sample) {
   const auto scan = sample / static_cast<std::int64_t>(n);
   const auto ch = static_cast<std::size_t>(sample % static_cast<std::int64_t>(n));
   const unsigned ai = channels_.empty() ? 0U : channels_[ch];
-  const double c = std::round(bench_.volts(session, scan, ai) / mcc::gain_range_v(gain_) * 2047.0);
-  return static_cast<std::int16_t>(std::clamp(c, -2048.0, 2047.0));
+  // Full scale 0x3FF single-ended, 0x7FF differential (wjasper volts_LS, protocol [5]).
+  const double fs = mcc::full_scale_counts(gain_);
+  const double c = std::round(bench_.volts(session, scan, ai) / mcc::gain_range_v(gain_) * fs);
+  return static_cast<std::int16_t>(std::clamp(c, -fs - 1.0, fs));
 }
 
 double Usb1208lsModel::volts_sent(int session, std::int64_t idx, std::size_t ch) {
@@ -47,7 +49,13 @@ void Usb1208lsModel::command(std::span<const std::uint8_t> r, std::int64_t now_u
       break;
     case mcc::kALoadQueue: {
       const std::size_t n = r.size() > 1 ? r[1] : 0;
-      if (n != 2) channels_.clear();  // the second report of an 8-channel queue carries 2 more
+      if (n == 0 || mcc::queue_length(n) != n) {  // [3] 1, 2, 4 or 8 only: not loaded
+        ++protocol_errors;
+        queue_loaded_ = false;
+        channels_.clear();
+        break;
+      }
+      if (n != 2 || channels_.size() != 6) channels_.clear();  // 2 more after the first 6 of 8  // the second report of an 8-channel queue carries 2 more
       for (std::size_t i = 0; i < std::min<std::size_t>(n, 6) && 2 + i < r.size(); ++i) {
         channels_.push_back(r[2 + i] & 0x7U);
         gain_ = static_cast<mcc::Gain>(r[2 + i] & 0x78U);
@@ -57,6 +65,10 @@ void Usb1208lsModel::command(std::span<const std::uint8_t> r, std::int64_t now_u
     }
     case mcc::kAInScan: {
       if (r.size() < 5) break;
+      if (channels_.empty()) {  // no valid queue: nothing to scan
+        ++protocol_errors;
+        break;
+      }
       count_ = static_cast<std::uint16_t>(r[1] | (r[2] << 8));
       const unsigned prescale = r[4];
       static constexpr std::uint8_t kSetup[8] = {0, 10, 6, 3, 1, 0, 0, 0};
@@ -113,7 +125,8 @@ int Usb1208lsModel::on_control(const std::uint8_t* setup, std::span<std::uint8_t
         for (std::size_t i = 0; i < s.size(); ++i) s[i] = counts(sessions, base + static_cast<std::int64_t>(i));
         ++last_index_;
         mcc::encode_scan_report(s, last_index_, static_cast<std::uint8_t>(last_index_),
-                                std::span<std::uint8_t, mcc::kScanReportBytes>(last_report_.data(), mcc::kScanReportBytes));
+                                std::span<std::uint8_t, mcc::kScanReportBytes>(last_report_.data(), mcc::kScanReportBytes),
+                                layout_);
         if (std::int64_t{last_index_} * 64 >= count_) {
           running_ = false;
           session_sample_ += count_;

@@ -22,7 +22,11 @@ class Usb1208lsModel final : public DeviceModel {
   static constexpr const char* kInterfaceHex = "090400000103000000" "092110010001221c00" "07058103080001";
   static constexpr int kInterfaceLen = 25;
 
-  Usb1208lsModel(double clock_ppm, AnalogBench& bench) : ppm_(clock_ppm), bench_(bench) {}
+  /// `layout`: where the device puts data and scan index in a feature report: the public sources
+  /// disagree (daq/protocol/mcc_usb1208ls.hpp [7]).
+  Usb1208lsModel(double clock_ppm, AnalogBench& bench,
+                 pof::daq::mcc::ReportLayout layout = pof::daq::mcc::ReportLayout::kRecordFirst)
+      : ppm_(clock_ppm), bench_(bench), layout_(layout) {}
 
   void on_out(std::uint8_t, std::span<const std::uint8_t>, std::int64_t) override {}
   InResult on_in(std::uint8_t ep, std::span<std::uint8_t> buf, std::int64_t now_us) override;
@@ -38,6 +42,7 @@ class Usb1208lsModel final : public DeviceModel {
   void power_cycle();
 
   int sessions = 0;
+  int protocol_errors = 0;  // commands the device refuses (a queue of 3, 5, 6 or 7 entries [3])
   int bursts = 0;
   double rate_hz = 0;  // aggregate sample rate of the last AInScan
 
@@ -47,6 +52,7 @@ class Usb1208lsModel final : public DeviceModel {
 
   double ppm_;
   AnalogBench& bench_;
+  pof::daq::mcc::ReportLayout layout_;
   std::vector<std::uint8_t> channels_;
   pof::daq::mcc::Gain gain_ = pof::daq::mcc::kSe10V;
   bool queue_loaded_ = false;

@@ -123,6 +123,11 @@ struct Checker {
   long gaps = 0;             // blocks with FLAG_GAP
   long seq_gaps = 0;
   long gap_scans = 0;        // index advance across FLAG_GAP blocks
+  long doubtful_blocks = 0;  // FLAG_DOUBTFUL: values not checked (the daemon does not vouch for them)
+  long utime_backsteps = 0;  // blocks stamped at or before the previous one
+  std::int64_t max_utime_backstep_us = 0;
+  std::int64_t prev_utime = 0;
+  long streaming_without_scans = 0;  // statuses saying `streaming` while the scan count is 0
   std::int64_t next_first = -1;
   std::int64_t prev_seq = -1;
   int session = 1;
@@ -161,6 +166,13 @@ struct Checker {
     published_rate = b.scan_rate_hz;
     if (prev_seq >= 0 && b.seq != prev_seq + 1) ++seq_gaps;
     prev_seq = b.seq;
+    if (prev_utime != 0 && b.utime <= prev_utime) {  // utime is monotonic per stream
+      ++utime_backsteps;
+      max_utime_backstep_us = std::max(max_utime_backstep_us, prev_utime - b.utime);
+    }
+    prev_utime = b.utime;
+    const bool doubtful = (b.flags & int32_t{pof::raw_block_t::FLAG_DOUBTFUL}) != 0;
+    if (doubtful) ++doubtful_blocks;
     const bool gap = (b.flags & int32_t{pof::raw_block_t::FLAG_GAP}) != 0;
     if (gap) {
       ++gaps;
@@ -207,6 +219,7 @@ struct Checker {
                                               : mcc->volts_sent(session, idx, ch);
         }
         want /= decimate;
+        if (doubtful) continue;  // flagged: not published as good
         const double err = std::abs(static_cast<double>(b.volts[static_cast<std::size_t>(k)][static_cast<std::size_t>(c)]) - want);
         max_value_error_lsb = std::max(max_value_error_lsb, err / lsb);
         if (err > lsb + 1e-6) {
@@ -247,6 +260,7 @@ struct Checker {
     std::lock_guard lock(mu);
     ++status_msgs;
     states.insert(s.state);
+    if (s.state == pof::daq_status_t::STATE_STREAMING && s.scans == 0) ++streaming_without_scans;
     const std::string t = std::to_string(s.state) + ": " + s.state_text;
     if (state_texts.empty() || state_texts.back() != t) state_texts.push_back(t);
     last_status = s;
@@ -279,6 +293,12 @@ int main(int argc, char** argv) {
   int block_scans = 1;
   long segment_scans = 0;
   std::string byte_order = "big";
+  std::string daemon_byte_order = "auto";
+  int reply_header = 0;
+  bool padding_noise = false;
+  double steady_volts = kNaN;
+  std::string report_layout = "record-first";
+  std::string expect_variant;
   double clock_ppm = 0;
   int lcm_port = 0;
   int short_every = 7;
@@ -311,7 +331,18 @@ int main(int argc, char** argv) {
   app.add_option("--decimate", decimate);
   app.add_option("--block-scans", block_scans);
   app.add_option("--segment-scans", segment_scans, "0 = the daemon's default");
-  app.add_option("--byte-order", byte_order)->check(CLI::IsMember({"big", "little"}));
+  app.add_option("--byte-order", byte_order, "the virtual NI device's sample byte order")
+      ->check(CLI::IsMember({"big", "little"}));
+  app.add_option("--daemon-byte-order", daemon_byte_order, "pof-daqd's acquisition.sample_byte_order")
+      ->check(CLI::IsMember({"auto", "big", "little"}));
+  app.add_option("--reply-header", reply_header, "NI replies begin 00 <this>: 0 (comedi) or 1 (6008 sources)")
+      ->check(CLI::Range(0, 1));
+  app.add_flag("--padding-noise", padding_noise, "NI samples carry noise in their padding bits");
+  app.add_option("--steady-volts", steady_volts, "NI inputs at this level (+-1 LSB) instead of the knee");
+  app.add_option("--report-layout", report_layout, "USB-1208LS feature-report layout")
+      ->check(CLI::IsMember({"record-first", "data-first"}));
+  app.add_option("--expect-variant", expect_variant,
+                 "text the last status's protocol_variant must contain");
   app.add_option("--clock-ppm", clock_ppm, "device clock error [ppm]");
   app.add_option("--lcm-port", lcm_port, "0 = pick one from the process id (parallel tests and other "
                                          "LCM users on the host must not cross-talk)");
@@ -383,6 +414,9 @@ int main(int argc, char** argv) {
   no.silent = scenario == "silent";
   no.short_every = scenario == "short" ? short_every : 0;
   no.serial = device_serial;
+  no.reply_header = static_cast<std::uint8_t>(reply_header);
+  no.padding_noise = padding_noise;
+  no.steady_volts = steady_volts;
   std::mutex replay_mu;
   if (!replay_pcap.empty()) {
     bench->begin_session();  // the recorded device's one session (the model sees no commands)
@@ -405,7 +439,9 @@ int main(int argc, char** argv) {
                                                  !device_serial.empty())},
           *ni);
     } else {
-      mcc = std::make_unique<pof::vusb::Usb1208lsModel>(clock_ppm, *bench);
+      mcc = std::make_unique<pof::vusb::Usb1208lsModel>(
+          clock_ppm, *bench,
+          report_layout == "data-first" ? pof::daq::mcc::ReportLayout::kDataFirst : pof::daq::mcc::ReportLayout::kRecordFirst);
       dev = std::make_unique<pof::vusb::UsbdevfsDevice>(
           testbed, pof::vusb::UsbIds{0x09db, 0x007a, descriptors(0x09db, 0x007a, pof::vusb::Usb1208lsModel::kInterfaceHex, pof::vusb::Usb1208lsModel::kInterfaceLen)},
           *mcc);
@@ -441,7 +477,7 @@ int main(int argc, char** argv) {
                                    "--rate", std::to_string(rate),
                                    "--decimate", std::to_string(decimate),
                                    "--block-scans", std::to_string(block_scans),
-                                   "-s", "acquisition.sample_byte_order=\"" + byte_order + "\"",
+                                   "-s", "acquisition.sample_byte_order=\"" + daemon_byte_order + "\"",
                                    "-s", "acquisition.transfers_in_flight=" + std::to_string(transfers),
                                    "-s", "daemon.retry_ms=200",
                                    "-s", "acquisition.command_timeout_ms=300",
@@ -559,6 +595,10 @@ int main(int argc, char** argv) {
   r["gap_blocks"] = checker.gaps;
   r["gap_scans"] = checker.gap_scans;
   r["seq_gaps"] = checker.seq_gaps;
+  r["doubtful_blocks"] = checker.doubtful_blocks;
+  r["utime_backsteps"] = checker.utime_backsteps;
+  r["max_utime_backstep_us"] = checker.max_utime_backstep_us;
+  r["streaming_without_scans"] = checker.streaming_without_scans;
   r["published_rate_hz"] = checker.published_rate;
   double measured_rate = kNaN;
   if (checker.last_recv_us > checker.first_recv_us) {
@@ -589,6 +629,12 @@ int main(int argc, char** argv) {
       r["segments"] = ni->segments.size();
       r["seam_us"] = stats(seams);
       r["device_protocol_errors"] = ni->protocol_errors;
+      r["device_requests_header_00"] = ni->requests_00;
+      r["device_requests_header_01"] = ni->requests_01;
+      // The daemon speaks to the device with the header its replies use (protocol [3]).
+      if ((reply_header == 0 ? ni->requests_01 : ni->requests_00) != 0) {
+        failures.push_back("requests with a header byte other than the device's replies");
+      }
       r["device_hellos"] = ni->hellos;
       r["device_last_command"] = ni->last_command;
       r["device_interfaces_claimed_at_exit"] = dev->claimed();
@@ -599,12 +645,17 @@ int main(int argc, char** argv) {
       if (dev->claimed() != 0) failures.push_back("interface still claimed after pof-daqd exited");
       if (ni->protocol_errors != 0) failures.push_back("the daemon sent frames the device did not understand");
     }
+    if (mcc) {
+      r["device_protocol_errors"] = mcc->protocol_errors;
+      if (mcc->protocol_errors != 0) failures.push_back("the daemon sent commands the USB-1208LS refuses");
+    }
   }
   const auto& s = checker.last_status;
   r["status"] = {{"messages", checker.status_msgs}, {"scans", s.scans}, {"blocks", s.blocks},
                  {"dropped_scans", s.dropped_scans}, {"usb_errors", s.usb_errors}, {"overruns", s.overruns},
                  {"reconnects", s.reconnects}, {"last_state", s.state}, {"last_text", s.state_text},
-                 {"serial", s.serial}, {"vendor_id", s.vendor_id}, {"product_id", s.product_id}};
+                 {"serial", s.serial}, {"vendor_id", s.vendor_id}, {"product_id", s.product_id},
+                 {"protocol_variant", s.protocol_variant}, {"padding_set", s.padding_set}};
   r["states_seen"] = checker.state_texts;
   if (bench_misses > 0) {
     failures.push_back(std::to_string(bench_misses) + " lookups of scans the simulated bench never gave "
@@ -618,6 +669,14 @@ int main(int argc, char** argv) {
   if (checker.value_errors > 0) failures.push_back(std::to_string(checker.value_errors) + " samples differ from what the device sent by more than 1 LSB: " + checker.first_error);
   if (checker.index_jumps > 0) failures.push_back("scan index jumps without FLAG_GAP: " + checker.first_error);
   if (checker.seq_gaps > 0) failures.push_back("LCM sequence gaps (lost blocks)");
+  if (checker.utime_backsteps > 0) {
+    failures.push_back("utime stepped back " + std::to_string(checker.utime_backsteps) + " times (max " +
+                       std::to_string(checker.max_utime_backstep_us) + " us)");
+  }
+  if (checker.streaming_without_scans > 0) failures.push_back("status 'streaming' published before any scan");
+  if (!expect_variant.empty() && s.protocol_variant.find(expect_variant) == std::string::npos) {
+    failures.push_back("protocol_variant '" + s.protocol_variant + "' does not contain '" + expect_variant + "'");
+  }
   if (s.dropped_scans > max_dropped) failures.push_back("dropped_scans " + std::to_string(s.dropped_scans) + " > " + std::to_string(max_dropped));
   if (s.overruns > 0 && max_dropped == 0) failures.push_back("publisher overruns " + std::to_string(s.overruns));
   if (expect_gap && checker.gaps == 0) failures.push_back("expected a FLAG_GAP block, saw none");

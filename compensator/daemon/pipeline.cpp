@@ -114,6 +114,13 @@ void Pipeline::on_block(const pof::raw_block_t& b, std::int64_t publish_utime, S
   // loss. Lost scans (index jump) or a device-flagged gap restart the velocity estimator, whose
   // window would otherwise straddle the hole.
   bool gap = (b.flags & pof::raw_block_t::FLAG_GAP) != 0;
+  // A block the daemon cannot stand behind (raw_block_t.FLAG_DOUBTFUL, e.g. the USB-6008's byte
+  // order not yet told from the data, docs/daq.md) is not compensated: its scans go through as
+  // invalid input (NaN angle, QUALITY_INVALID_INPUT, counted as fault scans), so no wrongly decoded
+  // value enters the angle or the model's memory, and the next good block starts as after a gap.
+  const bool doubtful = (b.flags & pof::raw_block_t::FLAG_DOUBTFUL) != 0;
+  if (after_doubtful_ && !doubtful) gap = true;
+  after_doubtful_ = doubtful;
   if (next_seq_ && b.seq > *next_seq_) counters_.lost_blocks += b.seq - *next_seq_;
   if (next_scan_ && b.first_scan != *next_scan_) {
     if (b.first_scan > *next_scan_) counters_.lost_scans += b.first_scan - *next_scan_;
@@ -131,9 +138,10 @@ void Pipeline::on_block(const pof::raw_block_t& b, std::int64_t publish_utime, S
   for (int k = 0; k < b.n_scans; ++k) {
     const std::vector<float>& scan = b.volts[size_t(k)];
     const std::int64_t utime = b.utime + std::llround(k * us_per_scan);
-    const double ref = reference_angle(scan);
-    const core::CompensatedScan cs =
-        comp_->step(double(scan[size_t(ch_.sensor)]), double(scan[size_t(ch_.reference)]), ref);
+    constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+    const double ref = doubtful ? kNaN : reference_angle(scan);
+    const core::CompensatedScan cs = doubtful ? comp_->step(kNaN, kNaN, kNaN)
+                                              : comp_->step(double(scan[size_t(ch_.sensor)]), double(scan[size_t(ch_.reference)]), ref);
     ++counters_.scans;
     if (cs.quality & kFaultBits) ++counters_.fault_scans;
 

@@ -204,6 +204,25 @@ TEST_F(PipelineTest, FaultsAreFlaggedNeverHidden) {
   EXPECT_EQ(p.status(0).fault_scans, 3);
 }
 
+TEST_F(PipelineTest, DoubtfulBlocksAreNeverPublishedAsGoodAndTheNextGoodOneStartsAfresh) {
+  Pipeline p(paper_calibration(), "x", PipelineSettings{});
+  Collect out;
+  for (size_t i = 0; i < 10; ++i) p.on_block((*blocks_)[i], 0, out);
+  pof::raw_block_t doubtful = (*blocks_)[10];
+  doubtful.flags |= pof::raw_block_t::FLAG_DOUBTFUL;  // e.g. the byte order not yet told
+  p.on_block(doubtful, 0, out);
+  p.on_block((*blocks_)[11], 0, out);
+  ASSERT_EQ(out.angles.size(), size_t(12 * kScansPerBlock));
+  for (int k = 0; k < kScansPerBlock; ++k) {
+    const auto& a = out.angles[size_t(10 * kScansPerBlock + k)];
+    EXPECT_TRUE(std::isnan(a.angle_deg)) << k;
+    EXPECT_TRUE(a.quality & pof::angle_t::QUALITY_INVALID_INPUT) << k;
+  }
+  EXPECT_EQ(p.status(0).fault_scans, kScansPerBlock);
+  EXPECT_TRUE(out.angles[size_t(11 * kScansPerBlock)].quality & pof::angle_t::QUALITY_GAP);
+  EXPECT_TRUE(std::isfinite(out.angles[size_t(11 * kScansPerBlock)].angle_deg));
+}
+
 TEST_F(PipelineTest, DecimationPublishesTheMeanOfEachWindow) {
   Collect every, dec;
   Pipeline p1(paper_calibration(), "x", PipelineSettings{});

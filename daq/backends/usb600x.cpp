@@ -107,7 +107,7 @@ class Usb600xBackend final : public Backend {
     if (rc != 0) {
       h_ = nullptr;
       why = where() + ": libusb_open: " + libusb_error_name(rc) +
-            (rc == LIBUSB_ERROR_ACCESS ? " (install deploy/udev/60-pof-daq.rules and join group plugdev)" : "");
+            (rc == LIBUSB_ERROR_ACCESS ? " (install deploy/udev/60-pof-daq.rules and join group pof)" : "");
       return rc == LIBUSB_ERROR_NO_DEVICE ? OpenStatus::kAbsent : OpenStatus::kFault;
     }
     if (matches > 1 && cfg_.serial.empty()) {

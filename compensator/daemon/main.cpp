@@ -146,6 +146,7 @@ int main(int argc, char** argv) {
   spdlog::set_default_logger(spdlog::stderr_color_mt("pof-compensatord"));
   spdlog::set_pattern("pof-compensatord: %^%l%$: %v");
   CLI::App app{"pof-compensatord: compensates POF_RAW blocks into POF_ANGLE and POF_STATS"};
+  app.set_version_flag("--version", POF_VERSION);
   Options o;
   app.add_option("--cal", o.cal, "Calibration file (TOML, from `pof calibrate`); SIGHUP reloads it")
       ->required();

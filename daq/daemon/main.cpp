@@ -39,6 +39,7 @@ int main(int argc, char** argv) {
       "pof-daqd: acquisition daemon for the POF knee sensor. Streams raw blocks on POF_RAW and "
       "its health on POF_DAQ_STATUS (LCM).",
       "pof-daqd"};
+  app.set_version_flag("--version", POF_VERSION);
   std::string config_path;
   std::string device;
   std::string serial;

@@ -65,11 +65,11 @@ angles = list(csv.DictReader(open("angles.csv")))
 stats = list(csv.DictReader(open("stats.csv")))
 print(f"{len(angles)} angles published on POF_ANGLE, sequence gaps: "
       f"{sum(1 for a, b in zip(angles, angles[1:]) if int(b['seq']) != int(a['seq']) + 1)}")
-print(f"{'cycle':>5} {'w [rad/s]':>10} {'RMSE comp':>10} {'RMSE uncomp':>12} {'H comp':>8} {'H uncomp':>9} {'max err':>8}")
+print(f"{'cycle':>5} {'w [rad/s]':>10} {'RMSE [deg]':>11} {'uncomp [deg]':>13} {'H [%]':>7} {'uncomp [%]':>11} {'max [deg]':>10}")
 for s in stats:
-    print(f"{s['cycle']:>5} {float(s['velocity_rad_s']):>10.3f} {float(s['rmse_comp_deg']):>8.3f} d "
-          f"{float(s['rmse_uncomp_deg']):>10.3f} d {float(s['hysteresis_comp_pct']):>6.2f} % "
-          f"{float(s['hysteresis_uncomp_pct']):>7.2f} % {float(s['max_error_deg']):>6.2f} d")
+    print(f"{s['cycle']:>5} {float(s['velocity_rad_s']):>10.3f} {float(s['rmse_comp_deg']):>11.3f} "
+          f"{float(s['rmse_uncomp_deg']):>13.3f} {float(s['hysteresis_comp_pct']):>7.2f} "
+          f"{float(s['hysteresis_uncomp_pct']):>11.2f} {float(s['max_error_deg']):>10.3f}")
 PY
 echo
 echo "session log:        $OUT/session.lcmlog (lcm-logplayer plays it; pof compensate --cal cal.toml replays it)"

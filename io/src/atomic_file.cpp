@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <string>
 #include <system_error>
@@ -67,6 +68,15 @@ void write_file_atomic(const std::filesystem::path& path, const std::string& con
   }
   if (::close(fd) != 0) throw IoError(path.string() + ": close failed: " + std::strerror(errno));
   file.commit();  // fsync + rename; the destructor removes the temporary file on any throw above
+}
+
+void write_output(const std::filesystem::path& path, const std::string& content) {
+  if (path != "-") {
+    write_file_atomic(path, content);
+    return;
+  }
+  if (std::fwrite(content.data(), 1, content.size(), stdout) != content.size() || std::fflush(stdout) != 0)
+    throw IoError(std::string("standard output: write error: ") + std::strerror(errno));
 }
 
 }  // namespace pof::io

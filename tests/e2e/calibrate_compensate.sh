@@ -38,7 +38,10 @@ PYEOF
 
 # --- compensate: the CSV and JSON formats other tools read
 expect_exit 0 "$POF" compensate val.csv --cal cal.toml --csv out.csv --json stats.json
-[ "$(head -1 out.csv)" = "t_s,angle_deg,angle_uncomp_deg,angle_ref_deg,velocity_rad_s,phase" ] || fail "out.csv header: $(head -1 out.csv)"
+[ "$(head -1 out.csv)" = "t_s,angle_deg,angle_uncomp_deg,angle_ref_deg,velocity_rad_s,phase,quality" ] || fail "out.csv header: $(head -1 out.csv)"
+# quality: the QUALITY_* bits; the settling start is flagged (64), most scans are clean (0).
+awk -F, 'NR > 1 && $7 == 0 { found = 1 } END { exit !found }' out.csv || fail "no clean scan in the quality column"
+awk -F, 'NR > 1 && int($7 / 64) % 2 == 1 { found = 1 } END { exit !found }' out.csv || fail "no settling flag in the quality column"
 [ "$(wc -l <out.csv)" -eq "$(wc -l <val.csv)" ] || fail "out.csv must have one row per input scan"
 cut -d, -f6 out.csv | tail -n +2 | sort -u | tr '\n' ' ' | grep -qx "extension flexion hold " || fail "phases: $(cut -d, -f6 out.csv | sort -u)"
 grep -q '^overall ' <<<"$out" || fail "no table-3 summary printed: $out"
@@ -56,6 +59,11 @@ o = s["overall"]
 assert o["rmse_comp_deg"] < o["rmse_uncomp_deg"], o
 assert o["hysteresis_comp_pct"] < 0.5 * o["hysteresis_uncomp_pct"], o
 PYEOF
+# '-' is standard output, not a file named '-', and stdout is the JSON alone (the summary on stderr).
+expect_exit 0 "$POF" compensate val.csv --cal cal.toml --json - --csv stdout_check.csv
+[ ! -e ./- ] || fail "--json - wrote a file named '-'"
+"$PY" -c 'import json,sys; json.loads(sys.argv[1])["overall"]' "$out" || fail "--json - did not print the JSON alone on stdout"
+grep -q '^overall ' <<<"$err" || fail "--json -: no table-3 summary on stderr"
 
 # --- the model: the file's active one, or either by --model
 expect_exit 0 "$POF" compensate val.csv --cal cal.toml --model dynamic

@@ -28,15 +28,16 @@ struct CompensateOptions {
   double reversal_window_s = pof::core::CompensatorSettings{}.reversal_window_s;
 };
 
-void print_table(const pof::core::OfflineResult& r) {
-  std::printf("%-7s %10s %10s %12s %9s %11s %10s\n", "cycle", "w [rad/s]", "RMSE comp", "RMSE uncomp", "H comp",
-              "H uncomp", "max err");
-  auto row = [](const char* label, const pof::core::CycleStats& c) {
-    std::printf("%-7s %10.4f %8.3f d %10.3f d %7.2f %% %9.2f %% %8.3f d\n", label, c.velocity_rad_s, c.rmse_comp_deg,
-                c.rmse_uncomp_deg, c.hysteresis_comp_pct, c.hysteresis_uncomp_pct, c.max_error_deg);
+// Table 3's columns, units in the header (degrees, percent of the span, rad/s).
+void print_table(std::FILE* out, const pof::core::OfflineResult& r) {
+  std::fprintf(out, "%-7s %9s %11s %13s %8s %10s %11s\n", "cycle", "w [rad/s]", "RMSE [deg]", "uncomp [deg]", "H [%]",
+               "uncomp [%]", "max [deg]");
+  auto row = [out](const char* label, const pof::core::CycleStats& c) {
+    std::fprintf(out, "%-7s %9.4f %11.3f %13.3f %8.2f %10.2f %11.3f\n", label, c.velocity_rad_s, c.rmse_comp_deg,
+                 c.rmse_uncomp_deg, c.hysteresis_comp_pct, c.hysteresis_uncomp_pct, c.max_error_deg);
   };
   for (const auto& c : r.cycles) row(std::to_string(c.cycle).c_str(), c);
-  if (r.cycles.empty()) std::printf("(no complete flexion/extension cycle in the recording)\n");
+  if (r.cycles.empty()) std::fprintf(out, "(no complete flexion/extension cycle in the recording)\n");
   else row("overall", r.overall);
 }
 
@@ -63,15 +64,17 @@ void run(const CompensateOptions& o) {
   const auto r = pof::core::compensate_recording(rec.t_s, rec.sensor_v, rec.reference_v, ref, cal.cal, s, {},
                                                  [&](Eigen::Index i, Eigen::Index n) { progress.fraction(i, n); });
   progress.done();
-  if (!o.csv.empty()) pof::io::write_file_atomic(o.csv, compensation_csv(rec.t_s, ref, r));
+  if (!o.csv.empty()) pof::io::write_output(o.csv, compensation_csv(rec.t_s, ref, r));
   if (!o.json.empty())
-    pof::io::write_file_atomic(o.json, pof::io::dump(pof::io::statistics_report(r.cycles, r.overall, r.profile)));
+    pof::io::write_output(o.json, pof::io::dump(pof::io::statistics_report(r.cycles, r.overall, r.profile)));
   long flagged = 0;
   for (const auto q : r.quality) flagged += q != 0 ? 1 : 0;
-  std::printf("%s: %ld scans at %.1f Hz, calibration %s (sensor '%s', %s model), velocity from the %s; %ld scans flagged, %d gap reset(s), %d partial cycle(s) dropped\n",
+  // With an output on standard output the summary goes to stderr, so the output stays parseable.
+  std::FILE* const summary = o.csv == "-" || o.json == "-" ? stderr : stdout;
+  std::fprintf(summary, "%s: %ld scans at %.1f Hz, calibration %s (sensor '%s', %s model), velocity from the %s; %ld scans flagged, %d gap reset(s), %d partial cycle(s) dropped\n",
               rec.source.c_str(), static_cast<long>(rec.size()), r.scan_rate_hz, o.cal.c_str(), cal.sensor_id.c_str(), pof::io::to_string(cal.cal.active),
               o.velocity_source == "reference" ? "reference angle" : "sensor angle", flagged, r.resets, r.cycles_dropped);
-  print_table(r);
+  print_table(summary, r);
 }
 
 }  // namespace
@@ -81,8 +84,8 @@ void add_compensate(CLI::App& app) {
   auto* cmd = app.add_subcommand("compensate", "Apply a calibration to a recording (offline, the daemon's code path) and print table-3 statistics");
   cmd->add_option("recording", o->recording, "Recording: CSV (t_s,sensor_v,reference_v,angle_ref_deg|pot_v) or LCM log of POF_RAW")->required();
   cmd->add_option("--cal", o->cal, "Calibration file written by `pof calibrate`")->required();
-  cmd->add_option("--csv", o->csv, "Write t_s,angle_deg,angle_uncomp_deg,angle_ref_deg,velocity_rad_s,phase per scan");
-  cmd->add_option("--json", o->json, "Write the per-cycle and overall statistics as JSON");
+  cmd->add_option("--csv", o->csv, "Write t_s,angle_deg,angle_uncomp_deg,angle_ref_deg,velocity_rad_s,phase,quality per scan ('-' for stdout)");
+  cmd->add_option("--json", o->json, "Write the per-cycle and overall statistics as JSON ('-' for stdout)");
   cmd->add_option("--pot-cal", o->pot_cal, "TOML with a [potentiometer] section, for recordings with pot_v only");
   cmd->add_option("--channel", o->channel, "LCM channel of the raw blocks (default: the first POF_RAW*)");
   cmd->add_option("--model", o->model, "Sensor model: file (the calibration's active_model), paper or dynamic")

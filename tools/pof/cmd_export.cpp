@@ -116,10 +116,8 @@ void run(const ExportOptions& o) {
     }
   }
   if (events == 0) throw io::DataError(o.log + ": no event on channel " + o.channel);
-  if (o.output == "-") {
-    std::fputs(out.str().c_str(), stdout);
-  } else {
-    io::write_file_atomic(o.output, out.str());
+  io::write_output(o.output, out.str());
+  if (o.output != "-") {
     std::fprintf(stderr, "pof export: %s: %" PRId64 " events -> %" PRId64 " rows in %s\n", o.channel.c_str(), events,
                  rows, o.output.c_str());
   }

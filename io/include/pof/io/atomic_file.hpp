@@ -31,4 +31,8 @@ class AtomicFile {
 /// Throws IoError (74) naming the path on any failure; the temporary file is removed.
 void write_file_atomic(const std::filesystem::path& path, const std::string& content);
 
+/// Where a command's output option points: "-" is standard output (an error writing it is an
+/// IoError naming "standard output"), anything else write_file_atomic().
+void write_output(const std::filesystem::path& path, const std::string& content);
+
 }  // namespace pof::io

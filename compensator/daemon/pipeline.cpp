@@ -117,10 +117,9 @@ void Pipeline::on_block(const pof::raw_block_t& b, std::int64_t publish_utime, S
   // A block the daemon cannot stand behind (raw_block_t.FLAG_DOUBTFUL, e.g. the USB-6008's byte
   // order not yet told from the data, docs/daq.md) is not compensated: its scans go through as
   // invalid input (NaN angle, QUALITY_INVALID_INPUT, counted as fault scans), so no wrongly decoded
-  // value enters the angle or the model's memory, and the next good block starts as after a gap.
+  // value enters the angle or the model's memory; as after any invalid sample, the velocity
+  // estimator settles again on the next good scans (QUALITY_SETTLING). No scan is lost: no gap.
   const bool doubtful = (b.flags & pof::raw_block_t::FLAG_DOUBTFUL) != 0;
-  if (after_doubtful_ && !doubtful) gap = true;
-  after_doubtful_ = doubtful;
   if (next_seq_ && b.seq > *next_seq_) counters_.lost_blocks += b.seq - *next_seq_;
   if (next_scan_ && b.first_scan != *next_scan_) {
     if (b.first_scan > *next_scan_) counters_.lost_scans += b.first_scan - *next_scan_;

@@ -81,7 +81,6 @@ class Pipeline {
 
   // Stream continuity.
   std::optional<std::int64_t> next_seq_, next_scan_;
-  bool after_doubtful_ = false;  // the last block was FLAG_DOUBTFUL: the next good one starts afresh
   std::optional<std::int64_t> t0_utime_;  // time origin for the statistics (double seconds)
 
   // Decimation window.

@@ -44,9 +44,9 @@ BENCHMARK(BM_BaselineF5);
 
 // The full online path of one scan: guard, f5, causal velocity, dead-band direction, eq. (11)/(12),
 // quality flags.
-void BM_OnlineCompensatorStep(benchmark::State& state) {
+// step() over the recording, round and round: the loop every step benchmark times.
+void run_steps(benchmark::State& state, pof::core::OnlineCompensator& comp) {
   const auto& g = data();
-  pof::core::OnlineCompensator comp(calibration());
   const Eigen::Index n = g.size();
   Eigen::Index i = 0;
   for (auto _ : state) {
@@ -55,6 +55,11 @@ void BM_OnlineCompensatorStep(benchmark::State& state) {
     if (++i == n) i = 0;
   }
   state.SetItemsProcessed(state.iterations());
+}
+
+void BM_OnlineCompensatorStep(benchmark::State& state) {
+  pof::core::OnlineCompensator comp(calibration());
+  run_steps(state, comp);
 }
 BENCHMARK(BM_OnlineCompensatorStep);
 
@@ -104,16 +109,8 @@ pof::core::Calibration dynamic_calibration(bool largest) {
 }
 
 void BM_OnlineCompensatorStepDynamic(benchmark::State& state) {
-  const auto& g = data();
   pof::core::OnlineCompensator comp(dynamic_calibration(state.range(0) == 1));
-  const Eigen::Index n = g.size();
-  Eigen::Index i = 0;
-  for (auto _ : state) {
-    auto s = comp.step(g.sensor_v(i), g.reference_v(i));
-    benchmark::DoNotOptimize(s);
-    if (++i == n) i = 0;
-  }
-  state.SetItemsProcessed(state.iterations());
+  run_steps(state, comp);
 }
 BENCHMARK(BM_OnlineCompensatorStepDynamic)->Arg(0)->Arg(1);
 

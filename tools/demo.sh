@@ -58,7 +58,7 @@ say "3/3 summary"
 "$BIN/pof" export session.lcmlog -c POF_ANGLE -o angles.csv
 "$BIN/pof" export session.lcmlog -c POF_STATS -o stats.csv
 /usr/bin/python3 "$OLDPWD/tools/plot/session_report.py" angles.csv stats.csv session.png \
-  --title "pofkit demo: live compensation of a simulated 5-cycle session"
+  --title "pofkit demo: live compensation of a simulated session"  # the script adds the cycle count
 /usr/bin/python3 - <<'PY'
 import csv, math
 angles = list(csv.DictReader(open("angles.csv")))

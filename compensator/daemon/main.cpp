@@ -3,17 +3,21 @@
 //
 //   POF_RAW[_ID] --> Pipeline --> POF_ANGLE[_ID], POF_STATS[_ID]; POF_COMPENSATOR_STATUS[_ID] at 1 Hz
 //
-// One thread: LCM's handle() delivers blocks into the pipeline and the same loop publishes. Signals
-// only set flags (SIGTERM/SIGINT stop, SIGHUP reloads the calibration between blocks: a bad file
-// keeps the old calibration, is counted and named in the status). Under systemd (Type=notify) the
-// loop sends READY once subscribed and feeds the watchdog only while it keeps turning.
-#include <poll.h>
+// One thread: pof::bus::Receiver delivers blocks into the pipeline and the same loop publishes.
+// Whatever arrives on the bus, the loop keeps turning: undecodable messages, malformed datagrams
+// and duplicated or replayed blocks are counted in the status and logged rate-limited
+// (docs/deployment.md, "Threat model"). Signals only set flags (SIGTERM/SIGINT stop, SIGHUP reloads
+// the calibration between blocks: a bad file keeps the old calibration, is counted and named in the
+// status). Under systemd (Type=notify) the loop sends READY once subscribed and feeds the watchdog
+// only while it keeps turning.
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <limits>
 #include <optional>
 #include <string>
 
@@ -23,9 +27,10 @@
 #include <spdlog/spdlog.h>
 
 #include "pipeline.hpp"
+#include "pof/bus/error_log.hpp"
+#include "pof/bus/receiver.hpp"
 #include "pof/io/calibration_file.hpp"
 #include "pof/io/errors.hpp"
-#include "pof/lcm/subscribe.hpp"
 #include "pof/lcm/url.hpp"
 #include "pof/service/sd_notify.hpp"
 #include "pof/lcm/utime.hpp"
@@ -35,6 +40,10 @@ namespace {
 using pof::lcmutil::now_utime;
 
 std::atomic<bool> g_stop{false};
+
+std::int64_t clamp_count(std::uint64_t n) {
+  return static_cast<std::int64_t>(std::min<std::uint64_t>(n, std::numeric_limits<std::int64_t>::max()));
+}
 std::atomic<bool> g_reload{false};
 
 extern "C" void on_signal(int sig) {
@@ -89,12 +98,23 @@ int run(const Options& o) {
   LcmSink sink(lc, pof::lcmutil::channel("POF_ANGLE", o.sensor_id), pof::lcmutil::channel("POF_STATS", o.sensor_id));
   const std::string status_ch = pof::lcmutil::channel("POF_COMPENSATOR_STATUS", o.sensor_id);
 
-  auto sub = pof::lcmutil::subscribe<pof::raw_block_t>(
-      lc, raw_ch, [&](const pof::raw_block_t& b, const lcm::ReceiveBuffer&, const std::string&) {
-        pipeline.on_block(b, now_utime(), sink);  // noexcept: nothing crosses LCM's C callback
-      });
-  // LCM keeps 30 messages per subscription and drops the rest silently (../shared/notes/lcm.md).
-  sub->get()->setQueueCapacity(o.queue_capacity);
+  // The stream counts as quiet after kQuiet without blocks: the cycle in progress is closed then
+  // (pof-daqd stopped or the cable is out), so a session's last cycle reaches POF_STATS.
+  constexpr auto kQuiet = std::chrono::seconds(1);
+  auto last_block = std::chrono::steady_clock::now();
+  bool quiet = true;
+  pof::bus::ReceiverOptions ro;
+  ro.lcm_queue_capacity = o.queue_capacity;
+  pof::bus::Receiver rx(lc, url, ro);
+  rx.subscribe<pof::raw_block_t>(raw_ch, [&](const pof::raw_block_t& b, const pof::bus::Delivery&) {
+    pipeline.on_block(b, now_utime(), sink);  // noexcept
+    last_block = std::chrono::steady_clock::now();
+    quiet = false;
+  });
+  // Bad input is logged: the first of each kind in full, then a count every 10 s.
+  pof::bus::ErrorLog errors([](const std::string& line) { spdlog::warn("{}", line); });
+  rx.on_error([&](const pof::bus::ReceiveError& e) { errors.note(e.channel, e.describe(), now_utime()); });
+  std::uint64_t malformed_seen = 0, incomplete_seen = 0;
 
   std::signal(SIGTERM, on_signal);
   std::signal(SIGINT, on_signal);
@@ -107,13 +127,10 @@ int run(const Options& o) {
 
   std::int64_t status_seq = 0;
   auto next_status = std::chrono::steady_clock::now();
-  const int fd = lc.getFileno();
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                                               std::chrono::duration<double>(o.duration_s));
   while (!g_stop && (o.duration_s <= 0 || std::chrono::steady_clock::now() < deadline)) {
-    pollfd p{fd, POLLIN, 0};
-    const int r = ::poll(&p, 1, 100);
-    if (r > 0 && (p.revents & POLLIN)) lc.handle();
+    if (rx.handle(100) < 0) ::usleep(100'000);  // a socket error: do not spin; counters and status go on
 
     if (g_reload.exchange(false)) {
       try {
@@ -125,18 +142,39 @@ int run(const Options& o) {
       }
     }
     const auto now = std::chrono::steady_clock::now();
+    if (!quiet && now - last_block >= kQuiet) {
+      pipeline.finish(sink);
+      quiet = true;
+    }
     if (now >= next_status) {
       pof::compensator_status_t st = pipeline.status(now_utime());
       st.seq = status_seq++;
+      const pof::bus::ReceiverStats rs = rx.stats();
+      st.decode_errors = clamp_count(rs.decode_errors);
+      st.malformed_datagrams = clamp_count(rs.malformed_datagrams + rs.incomplete_messages);
+      if (rs.malformed_datagrams > malformed_seen || rs.incomplete_messages > incomplete_seen)
+        errors.note("(udpm)",
+                    url + ": " + std::to_string(rs.malformed_datagrams - malformed_seen) +
+                        " datagrams that are not LCM packets or carry impossible fragment headers, " +
+                        std::to_string(rs.incomplete_messages - incomplete_seen) +
+                        " fragmented messages abandoned incomplete (in the last second)",
+                    now_utime());
+      malformed_seen = rs.malformed_datagrams;
+      incomplete_seen = rs.incomplete_messages;
+      errors.tick(now_utime());
       lc.publish(status_ch, &st);
       next_status = now + std::chrono::seconds(1);
     }
     notifier.watchdog_if_due();
   }
+  pipeline.finish(sink);
   notifier.stopping("stopping");
-  spdlog::info("stopped: {} blocks, {} scans, {} lost scans, {} angles, {} cycles", pipeline.status(0).blocks,
-               pipeline.status(0).scans, pipeline.status(0).lost_scans, pipeline.status(0).angles,
-               pipeline.status(0).cycles);
+  const pof::compensator_status_t fin = pipeline.status(0);
+  const pof::bus::ReceiverStats rs = rx.stats();
+  spdlog::info("stopped: {} blocks, {} scans, {} lost scans, {} angles, {} cycles; {} duplicate blocks, {} decode "
+               "errors, {} malformed datagrams, {} incomplete messages",
+               fin.blocks, fin.scans, fin.lost_scans, fin.angles, fin.cycles, fin.duplicate_blocks, rs.decode_errors,
+               rs.malformed_datagrams, rs.incomplete_messages);
   return 0;
 }
 
@@ -166,7 +204,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0, 10.0))->capture_default_str();
   app.add_option("--duration", o.duration_s, "Stop after this many seconds (tests, benchmarks); 0 = until SIGTERM")
       ->check(CLI::NonNegativeNumber);
-  app.add_option("--queue-capacity", o.queue_capacity, "LCM subscription queue [messages]")
+  app.add_option("--queue-capacity", o.queue_capacity, "LCM subscription queue [messages] (transports other than udpm://)")
       ->check(CLI::Range(1, 1000000))->capture_default_str();
   try {
     app.parse(argc, argv);

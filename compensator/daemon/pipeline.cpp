@@ -23,6 +23,18 @@ std::int8_t phase_of(core::Direction d) {
 constexpr std::int32_t kFaultBits =
     core::quality::kReferenceLost | core::quality::kOverRange | core::quality::kInvalidInput;
 
+// Counters saturate: a forged seq or first_scan far ahead must not wrap them negative.
+void sat_add(std::int64_t& counter, std::int64_t n) {
+  if (n <= 0) return;
+  counter = counter > std::numeric_limits<std::int64_t>::max() - n ? std::numeric_limits<std::int64_t>::max()
+                                                                  : counter + n;
+}
+
+// Times and rates a block may carry: utime within 2^62 us (146 000 years) of the epoch and a rate
+// of at least 1e-3 scans/s keep utime + k * 1e6 / rate within int64 for any k below 2^31.
+constexpr std::int64_t kMaxUtime = std::int64_t{1} << 62;
+constexpr double kMinScanRateHz = 1e-3;
+
 }  // namespace
 
 Pipeline::Pipeline(io::CalibrationFile cal, std::string cal_path, PipelineSettings s,
@@ -89,44 +101,69 @@ double Pipeline::reference_angle(const std::vector<float>& scan) const noexcept 
 }
 
 void Pipeline::on_block(const pof::raw_block_t& b, std::int64_t publish_utime, Sink& sink) noexcept {
-  ++counters_.blocks;
+  sat_add(counters_.blocks, 1);
   const bool shape_ok = b.n_scans >= 0 && b.n_channels > 0 && b.volts.size() == size_t(b.n_scans) &&
-                        b.scan_rate_hz > 0 && std::isfinite(b.scan_rate_hz) &&
-                        b.channel_names.size() == size_t(b.n_channels);
-  if (!shape_ok || !map_channels(b)) {
-    ++counters_.rejected_blocks;
+                        std::isfinite(b.scan_rate_hz) && b.scan_rate_hz >= kMinScanRateHz &&
+                        b.channel_names.size() == size_t(b.n_channels) && b.seq >= 0 && b.first_scan >= 0 &&
+                        b.first_scan <= std::numeric_limits<std::int64_t>::max() - b.n_scans && b.utime >= 0 &&
+                        b.utime <= kMaxUtime;
+  if (!shape_ok) {
+    sat_add(counters_.rejected_blocks, 1);
     return;
   }
   for (const auto& scan : b.volts)
     if (scan.size() != size_t(b.n_channels)) {
-      ++counters_.rejected_blocks;
+      sat_add(counters_.rejected_blocks, 1);
       return;
     }
 
+  // Duplicates and replays are dropped before anything is touched (channel map, estimator, rate):
+  // see on_block() in pipeline.hpp for what a new block, a restart and a resync are.
+  bool restart = false;
+  if (last_seq_) {
+    const bool advances = b.seq > *last_seq_ && b.first_scan >= *next_scan_;
+    if (!advances) {
+      restart = b.seq == 0 && b.utime > last_utime_;
+      if (!restart && ++stale_run_ < kResyncBlocks) {
+        sat_add(counters_.duplicate_blocks, 1);
+        return;
+      }
+      restart = true;  // a publisher restart, or kResyncBlocks stale blocks in a row: a new stream
+    }
+  }
+
+  if (!map_channels(b)) {
+    sat_add(counters_.rejected_blocks, 1);
+    return;
+  }
   try {
     ensure_compensator(b.scan_rate_hz);
   } catch (...) {  // only a nonsensical rate gets here; the block is dropped and counted
-    ++counters_.rejected_blocks;
+    sat_add(counters_.rejected_blocks, 1);
     return;
   }
 
-  // Continuity. A sequence number going backwards is a restarted publisher: a new stream, not a
-  // loss. Lost scans (index jump) or a device-flagged gap restart the velocity estimator, whose
-  // window would otherwise straddle the hole.
-  bool gap = (b.flags & pof::raw_block_t::FLAG_GAP) != 0;
+  // Continuity. Lost scans (index jump) or a device-flagged gap restart the velocity estimator,
+  // whose window would otherwise straddle the hole; so does a new stream.
+  bool gap = (b.flags & pof::raw_block_t::FLAG_GAP) != 0 || restart;
   // A block the daemon cannot stand behind (raw_block_t.FLAG_DOUBTFUL, e.g. the USB-6008's byte
   // order not yet told from the data, docs/daq.md) is not compensated: its scans go through as
   // invalid input (NaN angle, QUALITY_INVALID_INPUT, counted as fault scans), so no wrongly decoded
   // value enters the angle or the model's memory; as after any invalid sample, the velocity
   // estimator settles again on the next good scans (QUALITY_SETTLING). No scan is lost: no gap.
   const bool doubtful = (b.flags & pof::raw_block_t::FLAG_DOUBTFUL) != 0;
-  if (next_seq_ && b.seq > *next_seq_) counters_.lost_blocks += b.seq - *next_seq_;
-  if (next_scan_ && b.first_scan != *next_scan_) {
-    if (b.first_scan > *next_scan_) counters_.lost_scans += b.first_scan - *next_scan_;
-    gap = true;
+  if (last_seq_ && !restart) {
+    // b.seq > *last_seq_ >= 0 and b.first_scan >= *next_scan_ >= 0: the differences cannot overflow.
+    sat_add(counters_.lost_blocks, b.seq - *last_seq_ - 1);
+    if (b.first_scan > *next_scan_) {
+      sat_add(counters_.lost_scans, b.first_scan - *next_scan_);
+      gap = true;
+    }
   }
-  next_seq_ = b.seq + 1;
+  last_seq_ = b.seq;
   next_scan_ = b.first_scan + b.n_scans;
+  last_utime_ = b.utime;
+  stale_run_ = 0;
   if (gap) {
     comp_->reset();
     in_window_ = 0;  // never average across a hole
@@ -141,8 +178,8 @@ void Pipeline::on_block(const pof::raw_block_t& b, std::int64_t publish_utime, S
     const double ref = doubtful ? kNaN : reference_angle(scan);
     const core::CompensatedScan cs = doubtful ? comp_->step(kNaN, kNaN, kNaN)
                                               : comp_->step(double(scan[size_t(ch_.sensor)]), double(scan[size_t(ch_.reference)]), ref);
-    ++counters_.scans;
-    if (cs.quality & kFaultBits) ++counters_.fault_scans;
+    sat_add(counters_.scans, 1);
+    if (cs.quality & kFaultBits) sat_add(counters_.fault_scans, 1);
 
     // Decimation window (k_ == 1: every scan).
     if (in_window_ == 0) {
@@ -168,32 +205,39 @@ void Pipeline::on_block(const pof::raw_block_t& b, std::int64_t publish_utime, S
       in_window_ = 0;
     }
 
-    // Per-cycle statistics need the reference; a cycle closes when the next flexion starts.
-    if (!std::isnan(ref) && stats_.add(double(utime - *t0_utime_) * 1e-6, cs, ref)) {
-      const core::CycleStats& c = stats_.last();
-      pof::cycle_stats_t m{};
-      m.utime = utime;
-      m.seq = cycle_seq_++;
-      m.cycle = c.cycle;
-      m.start_utime = *t0_utime_ + std::llround(c.t_start_s * 1e6);
-      m.end_utime = *t0_utime_ + std::llround(c.t_end_s * 1e6);
-      m.velocity_rad_s = float(c.velocity_rad_s);
-      m.rmse_comp_deg = float(c.rmse_comp_deg);
-      m.rmse_uncomp_deg = float(c.rmse_uncomp_deg);
-      m.hysteresis_comp_pct = float(c.hysteresis_comp_pct);
-      m.hysteresis_uncomp_pct = float(c.hysteresis_uncomp_pct);
-      m.max_error_deg = float(c.max_error_deg);
-      m.n_samples = std::int32_t(c.n_samples);
-      ++counters_.cycles;
-      sink.cycle(m);
-    }
+    // Per-cycle statistics need the reference; a cycle closes when the next flexion starts or
+    // after a hold that follows its extension.
+    if (!std::isnan(ref) && stats_.add(double(utime - *t0_utime_) * 1e-6, cs, ref)) emit_cycle(sink);
   }
+}
+
+void Pipeline::finish(Sink& sink) noexcept {
+  if (t0_utime_ && stats_.finish()) emit_cycle(sink);
+}
+
+void Pipeline::emit_cycle(Sink& sink) {
+  const core::CycleStats& c = stats_.last();
+  pof::cycle_stats_t m{};
+  m.seq = cycle_seq_++;
+  m.cycle = c.cycle;
+  m.start_utime = *t0_utime_ + std::llround(c.t_start_s * 1e6);
+  m.end_utime = *t0_utime_ + std::llround(c.t_end_s * 1e6);
+  m.utime = m.end_utime;  // the last scan of the cycle (cycle_stats_t.lcm), not the scan that closed it
+  m.velocity_rad_s = float(c.velocity_rad_s);
+  m.rmse_comp_deg = float(c.rmse_comp_deg);
+  m.rmse_uncomp_deg = float(c.rmse_uncomp_deg);
+  m.hysteresis_comp_pct = float(c.hysteresis_comp_pct);
+  m.hysteresis_uncomp_pct = float(c.hysteresis_uncomp_pct);
+  m.max_error_deg = float(c.max_error_deg);
+  m.n_samples = std::int32_t(c.n_samples);
+  sat_add(counters_.cycles, 1);
+  sink.cycle(m);
 }
 
 void Pipeline::emit_angle(std::int64_t publish_utime, Sink& sink) {
   pending_.publish_utime = publish_utime;
   pending_.seq = angle_seq_++;
-  ++counters_.angles;
+  sat_add(counters_.angles, 1);
   sink.angle(pending_);
 }
 

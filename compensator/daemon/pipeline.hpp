@@ -51,7 +51,24 @@ class Pipeline {
            std::optional<core::PotentiometerCalibration> pot_override = std::nullopt);
 
   /// One raw block. publish_utime stamps the outputs. Never throws.
+  ///
+  /// Blocks of one publisher (pof-daqd) advance: seq by 1 per block, first_scan by the scans of
+  /// the previous block or more (scans lost at the device). A block that does not advance both is
+  /// a duplicate or a replay and is dropped (duplicate_blocks), unless it is a restart of the
+  /// publisher: seq 0 with a utime after the last block taken (a new pof-daqd numbers from 0 and
+  /// stamps with the host clock; a replayed first block carries its old time). After
+  /// kResyncBlocks consecutive dropped blocks the stream is taken as a new one, so neither a forged
+  /// block far ahead nor a clock stepped back at a restart can silence the daemon for good.
+  /// Counters saturate at INT64_MAX instead of wrapping on forged numbers.
   void on_block(const pof::raw_block_t& b, std::int64_t publish_utime, Sink& sink) noexcept;
+
+  /// Closes the cycle in progress and publishes its statistics if it is complete: the stream went
+  /// quiet (pof-daqd stopped, the cable is out) or the daemon is stopping. Without this the last
+  /// cycle of a session would never be published (a cycle otherwise closes at the next flexion or
+  /// after a hold, StatisticsSettings::close_after_hold_s). Never throws.
+  void finish(Sink& sink) noexcept;
+
+  static constexpr int kResyncBlocks = 16;
 
   /// Swaps in a new calibration between blocks (SIGHUP). The velocity history restarts.
   void replace_calibration(io::CalibrationFile cal, std::string cal_path);
@@ -67,6 +84,7 @@ class Pipeline {
   void ensure_compensator(double scan_rate_hz);
   double reference_angle(const std::vector<float>& scan) const noexcept;
   void emit_angle(std::int64_t publish_utime, Sink& sink);
+  void emit_cycle(Sink& sink);
 
   io::CalibrationFile cal_;
   std::string cal_path_;
@@ -79,8 +97,11 @@ class Pipeline {
   ChannelMap ch_;
   std::vector<std::string> mapped_names_;  // names the map was built for (rebuilt when they change)
 
-  // Stream continuity.
-  std::optional<std::int64_t> next_seq_, next_scan_;
+  // Stream continuity: the last block taken, the scan index expected next, and how many blocks in
+  // a row were dropped as duplicates or replays.
+  std::optional<std::int64_t> last_seq_, next_scan_;
+  std::int64_t last_utime_ = 0;
+  int stale_run_ = 0;
   std::optional<std::int64_t> t0_utime_;  // time origin for the statistics (double seconds)
 
   // Decimation window.

@@ -8,6 +8,7 @@
 
 #include "device_ids.hpp"
 #include "pof/io/errors.hpp"
+#include "pof/io/text_file.hpp"
 #include "protocol/mcc_usb1208ls.hpp"
 
 namespace pof::daq {
@@ -25,7 +26,7 @@ using pof::io::ConfigError;
 std::string describe(const toml::node& n) {
   std::ostringstream os;
   if (n.is_string()) {
-    os << '\'' << n.value_or(std::string{}) << '\'';
+    os << '\'' << pof::io::excerpt(n.value_or(std::string{})) << '\'';
   } else if (n.is_table()) {
     os << "a table";
   } else if (n.is_array()) {
@@ -83,7 +84,7 @@ class Reader {
     if (allowed.count(v) == 0U) {
       std::string want = "one of";
       for (const auto& a : allowed) want += " '" + a + "'";
-      bad(source_, key(k), want, "'" + v + "'");
+      bad(source_, key(k), want, "'" + pof::io::excerpt(v) + "'");
     }
     return v;
   }
@@ -98,7 +99,7 @@ class Reader {
   void finish() const {
     for (const auto& [k, v] : t_) {
       if (used_.count(std::string(k.str())) == 0U) {
-        throw ConfigError(source_ + ": unknown key '" + key(std::string(k.str())) + "'");
+        throw ConfigError(source_ + ": unknown key '" + key(pof::io::excerpt(k.str())) + "'");
       }
     }
   }
@@ -169,13 +170,12 @@ void apply_override(toml::table& table, const std::string& assignment) {
 }
 
 toml::table read_config_file(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw pof::io::NoInputError(path.string() + ": cannot open the configuration file");
+  const std::string text = pof::io::read_text_file(path.string(), "DAQ configuration file");
   try {
-    return toml::parse(in, path.string());
+    return toml::parse(text, path.string());
   } catch (const toml::parse_error& e) {
     std::ostringstream os;
-    os << path.string() << ":" << e.source().begin.line << ": " << e.description();
+    os << path.string() << ":" << e.source().begin.line << ": " << pof::io::bound_quotes(e.description());
     throw ConfigError(os.str());
   }
 }
@@ -193,7 +193,7 @@ DaqConfig config_from_table(const toml::table& root, const std::string& source) 
     c.device_kind = d.string("kind", c.device_kind);
     if (!find_device_id(c.device_kind) && c.device_kind.rfind("sim:", 0) != 0) {
       bad(source, "device.kind", "'usb6008', 'usb6009', 'usb1208ls' or 'sim:<scenario>'",
-          "'" + c.device_kind + "'");
+          "'" + pof::io::excerpt(c.device_kind) + "'");
     }
     c.serial = d.string("serial", c.serial);
     d.finish();
@@ -244,7 +244,7 @@ DaqConfig config_from_table(const toml::table& root, const std::string& source) 
     l.finish();
     for (char ch : c.sensor_id) {
       if (!((ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') || ch == '_')) {
-        bad(source, "lcm.sensor_id", "upper-case letters, digits and '_'", "'" + c.sensor_id + "'");
+        bad(source, "lcm.sensor_id", "upper-case letters, digits and '_'", "'" + pof::io::excerpt(c.sensor_id) + "'");
       }
     }
   }

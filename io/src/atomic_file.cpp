@@ -79,4 +79,56 @@ void write_output(const std::filesystem::path& path, const std::string& content)
     throw IoError(std::string("standard output: write error: ") + std::strerror(errno));
 }
 
+namespace {
+
+// Identity of a path: the inode when it exists, else its absolute normalised spelling.
+struct FileId {
+  bool exists = false;
+  dev_t dev = 0;
+  ino_t ino = 0;
+  std::filesystem::path spelled;
+  bool operator==(const FileId& o) const {
+    return exists == o.exists && (exists ? dev == o.dev && ino == o.ino : spelled == o.spelled);
+  }
+};
+
+FileId file_id(const std::filesystem::path& p) {
+  FileId id;
+  struct stat st {};
+  if (::stat(p.c_str(), &st) == 0) {
+    id.exists = true;
+    id.dev = st.st_dev;
+    id.ino = st.st_ino;
+  } else {
+    std::error_code ec;
+    id.spelled = std::filesystem::weakly_canonical(std::filesystem::absolute(p, ec), ec);
+    if (ec) id.spelled = std::filesystem::absolute(p).lexically_normal();
+  }
+  return id;
+}
+
+bool skipped(const NamedPath& p) { return p.path.empty() || p.path == "-"; }
+
+}  // namespace
+
+void refuse_output_over_input(const std::vector<NamedPath>& inputs, const std::vector<NamedPath>& outputs) {
+  std::vector<FileId> out_ids;
+  for (const auto& o : outputs) out_ids.push_back(skipped(o) ? FileId{} : file_id(o.path));
+  for (std::size_t i = 0; i < outputs.size(); ++i) {
+    const NamedPath& o = outputs[i];
+    if (skipped(o)) continue;
+    for (const auto& in : inputs) {
+      if (skipped(in)) continue;
+      const FileId id = file_id(in.path);
+      if (id.exists && id == out_ids[i])
+        throw UsageError(o.option + " " + o.path.string() + ": is the same file as the input " + in.option + " " +
+                         in.path.string() + "; refusing to overwrite an input (choose another output file)");
+    }
+    for (std::size_t j = 0; j < i; ++j)
+      if (!skipped(outputs[j]) && out_ids[j] == out_ids[i])
+        throw UsageError(o.option + " " + o.path.string() + ": is the same file as " + outputs[j].option + " " +
+                         outputs[j].path.string() + "; each output needs its own file");
+  }
+}
+
 }  // namespace pof::io

@@ -15,6 +15,7 @@
 
 #include "pof/io/atomic_file.hpp"
 #include "pof/io/errors.hpp"
+#include "pof/io/text_file.hpp"
 
 namespace pof::io {
 
@@ -121,17 +122,8 @@ toml::table parse_toml(const std::string& text, const std::string& name) {
   } catch (const toml::parse_error& e) {
     const auto& b = e.source().begin;
     throw ConfigError(name + ":" + std::to_string(b.line) + ":" + std::to_string(b.column) + ": TOML syntax: " +
-                      std::string(e.description()));
+                      bound_quotes(e.description()));
   }
-}
-
-std::string read_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw NoInputError(path + ": cannot open: " + std::strerror(errno));
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) throw IoError(path + ": read error");
-  return ss.str();
 }
 
 std::vector<double> numbers(const Keys& k, const toml::table& t, const std::string& key, std::size_t max) {
@@ -409,7 +401,7 @@ CalibrationFile parse_calibration(const std::string& text, const std::string& na
     if (t.contains("dynamic")) f.cal.dynamic = read_dynamic(k, t);
     const std::string active = k.string("active_model");
     const auto kind = model_kind_of(active);
-    if (!kind) k.fail("active_model", "expected \"paper\" or \"dynamic\", got \"" + active.substr(0, 40) + "\"");
+    if (!kind) k.fail("active_model", "expected \"paper\" or \"dynamic\", got \"" + excerpt(active) + "\"");
     f.cal.active = *kind;
     if (f.cal.active == pof::core::ModelKind::kDynamic && !f.cal.dynamic)
       k.fail("active_model", "is \"dynamic\" but the file has no [dynamic] section");
@@ -426,12 +418,12 @@ CalibrationFile parse_calibration(const std::string& text, const std::string& na
   return f;
 }
 
-CalibrationFile load_calibration(const std::string& path) { return parse_calibration(read_text(path), path); }
+CalibrationFile load_calibration(const std::string& path) { return parse_calibration(read_text_file(path, "calibration file"), path); }
 
 void choose_model(CalibrationFile& f, const std::string& choice, const std::string& source) {
   if (choice.empty() || choice == "file") return;
   const auto kind = model_kind_of(choice);
-  if (!kind) throw ConfigError(source + ": --model: expected file, paper or dynamic, got \"" + choice.substr(0, 40) + "\"");
+  if (!kind) throw ConfigError(source + ": --model: expected file, paper or dynamic, got \"" + excerpt(choice) + "\"");
   f.cal.active = *kind;
   if (f.cal.active == pof::core::ModelKind::kDynamic && !f.cal.dynamic)
     throw ConfigError(source + ": --model dynamic: the file has no [dynamic] section (recalibrate with pof calibrate)");
@@ -444,7 +436,7 @@ CalibrationFile load_calibration(const std::string& path, const std::string& mod
 }
 
 pof::core::PotentiometerCalibration load_potentiometer(const std::string& path) {
-  const toml::table t = parse_toml(read_text(path), path);
+  const toml::table t = parse_toml(read_text_file(path, "TOML file with a [potentiometer] section"), path);
   const Keys k(t, path);
   if (!t.contains("potentiometer")) k.fail("potentiometer", "missing (expected a [potentiometer] table with deg_per_volt, zero_v)");
   return read_potentiometer(k, t);

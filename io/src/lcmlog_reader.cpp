@@ -1,64 +1,56 @@
-// LCM log reader for pof.raw_block_t recordings (format in recording_reader.hpp, lcm.md "Log
-// format"). lcm_eventlog skips bytes until it finds a sync word and returns NULL both at the end
-// and on a truncated event, so the reader checks that each event starts where the previous one
-// ended and that the last one ends at the end of the file.
-#include <sys/stat.h>
-
-#include <cerrno>
+// LCM log reader for pof.raw_block_t recordings (format in recording_reader.hpp; the event framing
+// and its damage handling in lcmlog_scan.hpp).
 #include <cmath>
-#include <cstdio>
-#include <cstring>
 #include <string>
 #include <vector>
 
-#include <lcm/lcm-cpp.hpp>
 #include <pof/raw_block_t.hpp>
 
 #include "pof/io/errors.hpp"
+#include "pof/io/lcmlog_scan.hpp"
 #include "pof/io/recording_reader.hpp"
 
 namespace pof::io {
 
 namespace {
-constexpr long kEventHeaderBytes = 28;  // sync u32, eventnum i64, timestamp i64, chanlen u32, datalen u32
-bool is_raw_channel(const std::string& c) { return c == "POF_RAW" || c.rfind("POF_RAW_", 0) == 0; }
+bool is_raw_channel(std::string_view c) { return c == "POF_RAW" || c.substr(0, 8) == "POF_RAW_"; }
 }  // namespace
 
 Recording read_lcmlog(const std::string& path, const std::string& channel) {
-  struct stat st {};
-  if (::stat(path.c_str(), &st) != 0) throw NoInputError(path + ": cannot open: " + std::strerror(errno));
-  lcm::LogFile log(path, "r");
-  if (!log.good()) throw NoInputError(path + ": cannot open as an LCM log");
-  FILE* fp = log.getFilePtr();
-  const long size = static_cast<long>(st.st_size);
+  LcmLogReader log(path);
+  return read_lcmlog(log, channel);
+}
 
+Recording read_lcmlog(LcmLogReader& log, const std::string& channel) {
+  const std::string& path = log.path();
   std::string chan = channel;
   std::vector<double> t, sensor, ref, pot, angle_ref, angle_true;
   bool has_pot = false, has_angle_ref = false, has_angle_true = false;
   std::int64_t utime0 = 0;
   bool first = true;
-  long pos = std::ftell(fp);
-  long n_events = 0;
   int c_sensor = -1, c_ref = -1, c_pot = -1, c_aref = -1, c_atrue = -1;
   std::vector<std::string> names0;
-  while (const lcm::LogEvent* ev = log.readNextEvent()) {
-    ++n_events;
-    const long end = std::ftell(fp);
-    const long expect = pos + kEventHeaderBytes + static_cast<long>(ev->channel.size()) + static_cast<long>(ev->datalen);
-    if (end != expect)
-      throw DataError(path + ": byte " + std::to_string(pos) + ": " + std::to_string(end - expect) +
-                      " corrupt byte(s) before event " + std::to_string(n_events));
-    pos = end;
-    if (chan.empty() && is_raw_channel(ev->channel)) chan = ev->channel;
-    if (ev->channel != chan) continue;
+  // The first content error stops the reading but not the scan, so that framing damage, which is
+  // the likelier cause, is what gets reported when there is some.
+  std::string content_error;
+  auto fail = [&](const std::string& what) { content_error = what; };
+  log.scan([&](const LcmEventRef& ev) {
+    if (!content_error.empty()) return;
+    if (chan.empty() && is_raw_channel(ev.channel)) chan = ev.channel;
+    if (ev.channel != chan) return;
+    auto at = [&] {
+      return path + ": event " + std::to_string(ev.event_number) + " on " + excerpt(chan) + " (byte " +
+             std::to_string(ev.offset) + "): ";
+    };
     pof::raw_block_t b;
-    if (b.decode(ev->data, 0, ev->datalen) < 0)
-      throw DataError(path + ": event " + std::to_string(n_events) + " on channel " + chan +
-                      " (byte " + std::to_string(end - ev->datalen) + "): not a pof.raw_block_t (fingerprint or length mismatch)");
-    if (b.n_channels <= 0 || b.n_scans < 0 || !(b.scan_rate_hz > 0))
-      throw DataError(path + ": event " + std::to_string(n_events) + " on " + chan + ": n_channels " +
-                      std::to_string(b.n_channels) + ", n_scans " + std::to_string(b.n_scans) + ", scan_rate_hz " +
-                      std::to_string(b.scan_rate_hz) + ": expected > 0");
+    if (auto why = decode_lcm_event(ev, b)) {
+      // Not a raw block: damage (counted, reported with the rest once the scan is done).
+      log.undecodable(ev, "not a pof.raw_block_t (" + *why + ")");
+      return;
+    }
+    if (b.n_channels <= 0 || b.n_scans < 0 || !(b.scan_rate_hz > 0) || !std::isfinite(b.scan_rate_hz))
+      return fail(at() + "n_channels " + std::to_string(b.n_channels) + ", n_scans " + std::to_string(b.n_scans) +
+                      ", scan_rate_hz " + std::to_string(b.scan_rate_hz) + ": expected > 0");
     if (first) {
       first = false;
       utime0 = b.utime;
@@ -74,38 +66,43 @@ Recording read_lcmlog(const std::string& path, const std::string& channel) {
       std::string got;
       for (const auto& nm : b.channel_names) got += (got.empty() ? "" : ",") + nm;
       if (c_sensor < 0 || c_ref < 0)
-        throw DataError(path + ": channel " + chan + ": raw blocks have channels [" + got +
+        return fail(path + ": channel " + excerpt(chan) + ": raw blocks have channels [" + excerpt(got) +
                         "]; expected \"sensor\" and \"reference\"");
       if (c_pot < 0 && c_aref < 0)
-        throw DataError(path + ": channel " + chan + ": raw blocks have channels [" + got +
+        return fail(path + ": channel " + excerpt(chan) + ": raw blocks have channels [" + excerpt(got) +
                         "]; expected \"pot\" or \"angle_ref\" for the reference angle");
       has_pot = c_pot >= 0;
       has_angle_ref = c_aref >= 0;
       has_angle_true = c_atrue >= 0;
     } else if (b.channel_names != names0) {
-      throw DataError(path + ": event " + std::to_string(n_events) + " on " + chan + ": channel names changed mid-recording");
+      return fail(at() + "channel names changed mid-recording");
     }
-    const double tb = static_cast<double>(b.utime - utime0) * 1e-6;
+    // utime is any int64 in a damaged file: subtract without overflow.
+    std::int64_t dt_us = 0;
+    if (__builtin_sub_overflow(b.utime, utime0, &dt_us))
+      return fail(at() + "block utime " + std::to_string(b.utime) + " is out of range of the first block's");
+    const double tb = static_cast<double>(dt_us) * 1e-6;
     if (!t.empty() && b.n_scans > 0 && !(tb > t.back()))
-      throw DataError(path + ": event " + std::to_string(n_events) + " on " + chan + ": block utime " +
-                      std::to_string(b.utime) + " does not follow the previous block (scans out of order or repeated)");
+      return fail(at() + "block utime " + std::to_string(b.utime) +
+                      " does not follow the previous block (scans out of order or repeated)");
     for (int k = 0; k < b.n_scans; ++k) {
       const auto& row = b.volts[static_cast<std::size_t>(k)];
-      auto at = [&](int c) { return static_cast<double>(row[static_cast<std::size_t>(c)]); };
+      auto at_c = [&](int c) { return static_cast<double>(row[static_cast<std::size_t>(c)]); };
       t.push_back(tb + k / b.scan_rate_hz);
-      sensor.push_back(at(c_sensor));
-      ref.push_back(at(c_ref));
-      if (has_pot) pot.push_back(at(c_pot));
-      if (has_angle_ref) angle_ref.push_back(at(c_aref));
-      if (has_angle_true) angle_true.push_back(at(c_atrue));
+      sensor.push_back(at_c(c_sensor));
+      ref.push_back(at_c(c_ref));
+      if (has_pot) pot.push_back(at_c(c_pot));
+      if (has_angle_ref) angle_ref.push_back(at_c(c_aref));
+      if (has_angle_true) angle_true.push_back(at_c(c_atrue));
     }
-  }
-  if (pos != size)
-    throw DataError(path + ": byte " + std::to_string(pos) + ": truncated or corrupt LCM event after event " +
-                    std::to_string(n_events) + " (file has " + std::to_string(size) + " bytes)");
+  });
+  // A recording with a hole would calibrate and score as if nothing were missing: refuse it whole.
+  if (log.damaged()) throw DataError(log.damage_report());
+  if (!content_error.empty()) throw DataError(content_error);
   if (first)
-    throw DataError(path + ": no pof.raw_block_t events on " + (chan.empty() ? std::string("a POF_RAW* channel") : "channel " + chan) +
-                    " among " + std::to_string(n_events) + " event(s)");
+    throw DataError(path + ": no pof.raw_block_t events on " +
+                    (chan.empty() ? std::string("a POF_RAW* channel") : "channel " + excerpt(chan)) + " among " +
+                    std::to_string(log.result().events) + " event(s)");
   auto to_vec = [](const std::vector<double>& v) {
     return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size())));
   };

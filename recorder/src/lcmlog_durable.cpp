@@ -4,7 +4,6 @@
 
 #include <fcntl.h>
 #include <sys/file.h>
-#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -41,49 +40,6 @@ int fsync_dir(const std::filesystem::path& dir) {
   const int rc = ::fsync(dfd) == 0 ? 0 : errno;
   ::close(dfd);
   return rc;
-}
-
-// A read-only mapping of a whole file (empty files map to nothing).
-class MappedFile {
- public:
-  explicit MappedFile(const std::filesystem::path& path) {
-    fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd_ < 0) throw io::NoInputError(path.string() + ": cannot open: " + errstr(errno));
-    struct stat st {};
-    if (::fstat(fd_, &st) != 0) throw io::NoInputError(path.string() + ": cannot stat: " + errstr(errno));
-    if (!S_ISREG(st.st_mode)) throw io::NoInputError(path.string() + ": not a regular file");
-    size_ = static_cast<uint64_t>(st.st_size);
-    if (size_ > 0) {
-      void* m = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE, fd_, 0);
-      if (m == MAP_FAILED) throw io::NoInputError(path.string() + ": cannot map: " + errstr(errno));
-      data_ = static_cast<const unsigned char*>(m);
-      ::madvise(m, size_, MADV_SEQUENTIAL);
-    }
-  }
-  ~MappedFile() {
-    if (data_ != nullptr) ::munmap(const_cast<unsigned char*>(data_), size_);
-    if (fd_ >= 0) ::close(fd_);
-  }
-  MappedFile(const MappedFile&) = delete;
-  MappedFile& operator=(const MappedFile&) = delete;
-  [[nodiscard]] const unsigned char* data() const { return data_; }
-  [[nodiscard]] uint64_t size() const { return size_; }
-
- private:
-  int fd_ = -1;
-  const unsigned char* data_ = nullptr;
-  uint64_t size_ = 0;
-};
-
-// Next offset >= from holding a plausible complete event, or size when none.
-uint64_t resync(const unsigned char* d, uint64_t from, uint64_t size) {
-  for (uint64_t off = from; off + kLogHeaderBytes <= size; ++off) {
-    if (d[off] != 0xED || get_be32(d + off) != kLogSync) continue;
-    uint32_t cl = 0;
-    uint32_t dl = 0;
-    if (!header_problem(d + off, off, size, &cl, &dl)) return off;
-  }
-  return size;
 }
 
 }  // namespace
@@ -173,67 +129,25 @@ WriteStatus DurableLogWriter::close() {
 }
 
 // ----------------------------------------------------------------------------------------------
-std::optional<std::string> header_problem(const unsigned char* p, uint64_t offset, uint64_t file_bytes,
-                                          uint32_t* channel_len, uint32_t* data_len) {
-  const uint32_t sync = get_be32(p);
-  if (sync != kLogSync) {
-    char b[64];
-    std::snprintf(b, sizeof b, "bad sync word 0x%08X (expected 0xEDA1DA01)", sync);
-    return std::string(b);
-  }
-  *channel_len = get_be32(p + 20);
-  *data_len = get_be32(p + 24);
-  if (*channel_len == 0 || *channel_len > kMaxChannelBytes)
-    return "implausible channel length " + std::to_string(*channel_len);
-  if (*data_len > kMaxDataBytes) return "implausible data length " + std::to_string(*data_len);
-  const uint64_t end = offset + kLogHeaderBytes + *channel_len + *data_len;
-  if (end > file_bytes)
-    return "event truncated: needs " + std::to_string(end - offset) + " bytes, " +
-           std::to_string(file_bytes - offset) + " left";
-  return std::nullopt;
-}
-
 LogCheck scan_log(const std::filesystem::path& path, const std::function<void(const LogEventRef&)>& on_event) {
-  MappedFile f(path);
+  io::LcmLogReader log(path.string());
   LogCheck c;
-  c.file_bytes = f.size();
-  const unsigned char* d = f.data();
-  uint64_t off = 0;
-  while (off < c.file_bytes) {
-    if (c.file_bytes - off < kLogHeaderBytes) {
-      c.problem = "partial header: " + std::to_string(c.file_bytes - off) + " bytes";
-      break;
-    }
-    uint32_t cl = 0;
-    uint32_t dl = 0;
-    if (auto why = header_problem(d + off, off, c.file_bytes, &cl, &dl)) {
-      c.problem = *why;
-      break;
-    }
-    LogEventRef ev{off, static_cast<int64_t>(get_be64(d + off + 4)), static_cast<int64_t>(get_be64(d + off + 12)),
-                   std::string_view(reinterpret_cast<const char*>(d + off + kLogHeaderBytes), cl),
-                   d + off + kLogHeaderBytes + cl, dl};
+  const io::LcmLogScan& s = log.scan([&](const LogEventRef& ev) {
+    if (ev.after_damage) return;
     if (c.events == 0) c.first_utime = ev.utime;
     c.last_utime = ev.utime;
     ++c.channel_events[std::string(ev.channel)];
     ++c.events;
     if (on_event) on_event(ev);
-    off += kLogHeaderBytes + cl + dl;
-  }
-  c.good_bytes = off;
-  // Anything complete after the damage? (A torn tail has none; a damaged middle does.)
-  uint64_t r = resync(d, off + 1, c.file_bytes);
-  while (r < c.file_bytes) {
-    uint32_t cl = 0;
-    uint32_t dl = 0;
-    if (header_problem(d + r, r, c.file_bytes, &cl, &dl)) {
-      r = resync(d, r + 1, c.file_bytes);
-      continue;
-    }
-    ++c.events_after_damage;
-    c.bytes_after_damage += kLogHeaderBytes + cl + dl;
-    r += kLogHeaderBytes + cl + dl;
-  }
+  });
+  c.file_bytes = s.file_bytes;
+  c.good_bytes = s.first_damage;
+  c.problem = s.problem;
+  c.events_after_damage = s.events_after_damage();
+  c.bytes_after_damage = s.bytes_after_damage;
+  c.damaged_bytes = s.damaged_bytes;
+  c.damaged_regions = s.damaged_regions;
+  c.lost_events = s.lost_events;
   return c;
 }
 
@@ -281,6 +195,9 @@ bool log_is_being_written(const std::filesystem::path& path) {
 }
 
 RepairResult repair_log(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+    throw io::NoInputError(path.string() + ": not a regular file: nothing to repair in place");
   if (log_is_being_written(path))
     throw io::IoError(path.string() + ": a recorder is still writing this file (it holds its lock); stop it before --repair");
   RepairResult r;
@@ -296,8 +213,8 @@ RepairResult repair_log(const std::filesystem::path& path) {
     // Torn tail: keep the removed bytes (they may matter to someone), then truncate.
     r.backup = free_name(path.string() + ".torn-" + std::to_string(c.good_bytes));
     {
-      MappedFile f(path);
-      write_file_synced(r.backup, f.data() + c.good_bytes, static_cast<std::size_t>(c.torn_bytes()));
+      const io::LcmLogReader f(path.string());
+      write_file_synced(r.backup, f.bytes().data() + c.good_bytes, static_cast<std::size_t>(c.torn_bytes()));
     }
     const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
     if (fd < 0) throw io::IoError(path.string() + ": cannot open for repair: " + errstr(errno));
@@ -316,23 +233,12 @@ RepairResult repair_log(const std::filesystem::path& path) {
   const std::filesystem::path tmp = free_name(path.string() + ".repair-tmp");
   uint64_t kept = 0;
   {
-    MappedFile f(path);
-    const unsigned char* d = f.data();
+    io::LcmLogReader f(path.string());
     DurableLogWriter w(tmp);
-    uint64_t off = 0;
-    while (off < f.size()) {
-      uint32_t cl = 0;
-      uint32_t dl = 0;
-      if (f.size() - off < kLogHeaderBytes || header_problem(d + off, off, f.size(), &cl, &dl)) {
-        off = resync(d, off + 1, f.size());
-        continue;
-      }
-      w.append(static_cast<int64_t>(get_be64(d + off + 12)),
-               std::string_view(reinterpret_cast<const char*>(d + off + kLogHeaderBytes), cl),
-               d + off + kLogHeaderBytes + cl, dl);
+    f.scan([&](const LogEventRef& ev) {
+      w.append(ev.utime, ev.channel, ev.data, ev.data_size);
       ++kept;
-      off += kLogHeaderBytes + cl + dl;
-    }
+    });
     if (w.close() != WriteStatus::kOk) {
       const int err = w.error_errno();
       std::filesystem::remove(tmp);

@@ -8,14 +8,15 @@
 #include <pof/daq_status_t.hpp>
 #include <pof/raw_block_t.hpp>
 
+#include "pof/lcm/decode.hpp"
+
 namespace pof::recorder {
 namespace {
 
 template <class T>
 std::optional<int64_t> decode_seq(const void* data, std::size_t size) {
-  if (size > static_cast<std::size_t>(INT_MAX)) return std::nullopt;
   T m;
-  if (m.decode(data, 0, static_cast<int>(size)) < 0) return std::nullopt;
+  if (!lcmutil::decode(data, size, m)) return std::nullopt;  // bounded: lengths are checked first
   return m.seq;
 }
 

@@ -16,9 +16,9 @@
 #include <spdlog/spdlog.h>
 
 #include "pof/io/errors.hpp"
-#include "pof/recorder/channel_filter.hpp"
-#include "pof/recorder/udp_socket.hpp"
-#include "pof/recorder/udpm_receiver.hpp"
+#include "pof/bus/channel_filter.hpp"
+#include "pof/bus/udp_socket.hpp"
+#include "pof/bus/udpm_receiver.hpp"
 #include "pof/io/atomic_file.hpp"
 #include "pof/lcm/url.hpp"
 #include "pof/lcm/utime.hpp"
@@ -54,7 +54,7 @@ const char* outcome_name(Outcome o) {
 
 Session::Session(SessionOptions options) : opt_(std::move(options)) {
   if (opt_.output.empty()) throw io::ConfigError("pof record: no output file given (--output)");
-  { ChannelFilter check(opt_.channels); }  // a bad regex fails here, before anything is created
+  { bus::ChannelFilter check(opt_.channels); }  // a bad regex fails here, before anything is created
   if (opt_.rotate_seconds < 0 || opt_.sync_interval_s <= 0)
     throw io::ConfigError("--rotate-seconds must be >= 0 and --sync-interval > 0");
   // The output: a directory gets a timestamped file (the service records into /var/lib/pof).
@@ -87,7 +87,7 @@ Session::Session(SessionOptions options) : opt_(std::move(options)) {
   }
 
   url_ = lcmutil::resolve_url(opt_.lcm_url, opt_.recv_buf_bytes);
-  port_ = lcm_url_port(url_.c_str());
+  port_ = bus::lcm_url_port(url_.c_str());
 }
 
 Session::~Session() {
@@ -123,8 +123,8 @@ void Session::start() {
   }
 
   if (url_.rfind("udpm://", 0) == 0 && !opt_.use_liblcm) {
-    channel_filter_ = std::make_unique<ChannelFilter>(opt_.channels);
-    direct_ = std::make_unique<UdpmReceiver>(parse_udpm_url(url_));
+    channel_filter_ = std::make_unique<bus::ChannelFilter>(opt_.channels);
+    direct_ = std::make_unique<bus::UdpmReceiver>(bus::parse_udpm_url(url_));
   } else {
     lcm_ = std::make_unique<lcm::LCM>(url_);
     if (!lcm_->good())
@@ -135,14 +135,14 @@ void Session::start() {
   }
 
   if (port_ != 0) {
-    const auto socks = udp_sockets(port_);
+    const auto socks = bus::udp_sockets(port_);
     for (const auto& so : socks) udp_drops_at_start_ += so.drops;
     // SO_RCVBUF reads back twice what was granted (the kernel's bookkeeping allowance, socket(7));
     // less than asked means net.core.rmem_max capped it.
     if (!socks.empty() && socks.front().rcvbuf_bytes / 2 < opt_.recv_buf_bytes) {
       spdlog::warn("the kernel granted a UDP receive buffer of {} bytes (asked {}; net.core.rmem_max = {}): "
                    "bursts may be lost; install deploy/sysctl.d/60-pof-lcm.conf",
-                   socks.front().rcvbuf_bytes / 2, opt_.recv_buf_bytes, rmem_max());
+                   socks.front().rcvbuf_bytes / 2, opt_.recv_buf_bytes, bus::rmem_max());
     }
   }
   if (!open_next_file()) throw io::IoError(error_);
@@ -189,7 +189,7 @@ void Session::lcm_loop() {
   // (root or CAP_SYS_NICE; the unit can grant Nice= instead); failure is harmless.
   if (opt_.receive_nice != 0) ::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), opt_.receive_nice);
   if (direct_) {
-    const UdpmReceiver::Sink sink = [this](int64_t utime, std::string_view channel, const unsigned char* data,
+    const bus::UdpmReceiver::Sink sink = [this](int64_t utime, std::string_view channel, const unsigned char* data,
                                            uint32_t size) {
       if (channel_filter_->matches(channel)) enqueue(utime, channel, data, size);
     };
@@ -356,7 +356,7 @@ SessionStats Session::poll() {
     for (const auto& f : files_) s.files.push_back(f.path);
   }
   if (port_ != 0) {
-    const auto socks = udp_sockets(port_);
+    const auto socks = bus::udp_sockets(port_);
     uint64_t d = 0;
     for (const auto& so : socks) d += so.drops;
     s.udp_drops = d >= udp_drops_at_start_ ? d - udp_drops_at_start_ : 0;

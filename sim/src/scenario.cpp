@@ -13,6 +13,7 @@
 
 #include "builtin_scenarios.hpp"
 #include "pof/io/errors.hpp"
+#include "pof/io/text_file.hpp"
 
 namespace pof::sim {
 
@@ -44,7 +45,7 @@ std::string fmt_num(double v) {
 std::string describe(const toml::node& n) {
   std::ostringstream o;
   if (n.is_string()) {
-    o << '\'' << *n.value<std::string>() << '\'';
+    o << '\'' << pof::io::excerpt(*n.value<std::string>()) << '\'';
   } else if (n.is_table()) {
     o << "a table";
   } else if (n.is_array()) {
@@ -128,7 +129,7 @@ class Section {
         return;
       }
     }
-    fail_at(n, key, "expected one of " + list + ", got '" + s + "'");
+    fail_at(n, key, "expected one of " + list + ", got '" + pof::io::excerpt(s) + "'");
   }
   void numbers(std::string_view key, std::vector<double>& out, const std::function<std::string(double)>& check = {}) {
     const toml::node* n = get(key);
@@ -163,7 +164,7 @@ class Section {
   void finish() const {
     for (const auto& [k, v] : t_) {
       if (!used_.contains(std::string(k.str())))
-        fail_at(&v, k.str(), "unknown key (misspelt? see docs/simulator.md for the schema)");
+        fail_at(&v, pof::io::excerpt(k.str()), "unknown key (misspelt? see docs/simulator.md for the schema)");
     }
   }
 
@@ -244,7 +245,7 @@ Segment read_segment(Section& s) {
     g.min_deg = 10;
     g.max_deg = 80;
   } else {
-    s.fail_at(kind_node, "kind", "expected one of 'quasi_static', 'cycles', 'table1', 'table3', 'subject', 'gait', 'hold', 'random_moves', got '" + g.label + "'");
+    s.fail_at(kind_node, "kind", "expected one of 'quasi_static', 'cycles', 'table1', 'table3', 'subject', 'gait', 'hold', 'random_moves', got '" + pof::io::excerpt(g.label) + "'");
   }
   s.number("move_velocity_rad_s", g.move_velocity_rad_s, velocity);
   switch (g.kind) {
@@ -611,7 +612,7 @@ Scenario parse_scenario(std::string_view toml_text, const std::string& source) {
   try {
     root = toml::parse(toml_text, source);
   } catch (const toml::parse_error& e) {
-    throw pof::io::ConfigError(source + ":" + std::to_string(e.source().begin.line) + ": TOML syntax error: " + std::string(e.description()));
+    throw pof::io::ConfigError(source + ":" + std::to_string(e.source().begin.line) + ": TOML syntax error: " + pof::io::bound_quotes(e.description()));
   }
   Scenario sc = read_scenario(root, source);
   if (sc.name.empty()) sc.name = std::filesystem::path(source).stem().string();
@@ -620,12 +621,7 @@ Scenario parse_scenario(std::string_view toml_text, const std::string& source) {
 }
 
 Scenario load_scenario(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw pof::io::NoInputError(path.string() + ": cannot open scenario file");
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw pof::io::IoError(path.string() + ": read error");
-  return parse_scenario(text.str(), path.string());
+  return parse_scenario(pof::io::read_text_file(path.string(), "scenario file"), path.string());
 }
 
 Scenario builtin_scenario(std::string_view name) {

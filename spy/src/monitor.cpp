@@ -7,14 +7,17 @@
 #include <cstdio>
 #include <string>
 
+#include "pof/lcm/decode.hpp"
+
 namespace pof::spy {
 namespace {
 
+// The bounded decoder (pof/lcm/decode.hpp): a message whose lengths do not fit its size is a
+// decode error, never an allocation of what it claims.
 template <class T>
 bool decode_into(std::optional<T>& slot, const void* data, std::size_t size) {
-  if (size > static_cast<std::size_t>(INT_MAX)) return false;
   T m;
-  if (m.decode(data, 0, static_cast<int>(size)) < 0) return false;
+  if (!lcmutil::decode(data, size, m)) return false;
   slot = std::move(m);
   return true;
 }
@@ -147,9 +150,13 @@ void Monitor::tick(int64_t now_utime) {
 std::string render(const Monitor& m, const RenderOptions& o) {
   std::string s;
   if (o.ansi) s += "\x1b[H\x1b[2J";
-  s += heading(o, fmt("pof spy  %s  up %.1f s  %llu messages  kernel UDP drops %llu", o.url.c_str(), o.uptime_s,
+  std::string bad;  // shown only when there is some: hostile or broken traffic on the port
+  if (o.malformed_datagrams > 0 || o.incomplete_messages > 0)
+    bad = fmt("  malformed datagrams %llu  incomplete messages %llu", static_cast<unsigned long long>(o.malformed_datagrams),
+              static_cast<unsigned long long>(o.incomplete_messages));
+  s += heading(o, fmt("pof spy  %s  up %.1f s  %llu messages  kernel UDP drops %llu%s", o.url.c_str(), o.uptime_s,
                       static_cast<unsigned long long>(m.total_messages()),
-                      static_cast<unsigned long long>(o.kernel_drops))) +
+                      static_cast<unsigned long long>(o.kernel_drops), bad.c_str())) +
        (o.ansi ? "   (q quits)\n" : "\n");
   s += "\n";
   s += heading(o, fmt("%-26s %-19s %9s %10s %7s %8s %9s %7s", "CHANNEL", "TYPE", "RATE/s", "MSGS", "SIZE", "GAPS",
@@ -246,6 +253,9 @@ std::string render(const Monitor& m, const RenderOptions& o) {
       s += fmt("   angles %lld  cycles %lld  reloads %d  reload failures %d%s%s\n", static_cast<long long>(d.angles),
                static_cast<long long>(d.cycles), d.reloads, d.reload_failures,
                d.last_error.empty() ? "" : "  last error: ", d.last_error.c_str());
+      s += fmt("   decode_errors %lld  malformed_datagrams %lld  duplicate_blocks %lld\n",
+               static_cast<long long>(d.decode_errors), static_cast<long long>(d.malformed_datagrams),
+               static_cast<long long>(d.duplicate_blocks));
     }
   }
   if (m.channels().empty()) s += "(no messages yet)\n";

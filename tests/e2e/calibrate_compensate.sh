@@ -89,7 +89,7 @@ expect_exit 0 "$POF" compensate val.lcmlog --cal cal_lcm.toml --json stats_lcm.j
   fail "LCM log recording: unexpected statistics"
 head -c 50123 val.lcmlog >trunc.lcmlog   # events are 500 bytes: cut inside one
 expect_exit 65 "$POF" compensate trunc.lcmlog --cal cal.toml
-grep -q "trunc.lcmlog: byte [0-9]*: truncated or corrupt LCM event" <<<"$err" || fail "truncated LCM log: $err"
+grep -q "trunc.lcmlog: damaged LCM log: first damage at byte 50000: event truncated" <<<"$err" || fail "truncated LCM log: $err"
 
 # --- potentiometer-only recordings need --pot-cal (78 otherwise)
 expect_exit 78 "$POF" calibrate cal_pot.csv -o pot_cal.toml

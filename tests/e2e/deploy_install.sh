@@ -76,6 +76,14 @@ while p.poll() is None or time.time() - t0 < 0.5:
     except socket.timeout:
         if p.poll() is not None:
             break
+# Drain: the last datagrams (STOPPING=1 right before exit) may still be queued when the loop sees
+# the process gone.
+s.settimeout(0.05)
+while True:
+    try:
+        msgs.append((round(time.time() - t0, 2), s.recv(4096).decode()))
+    except socket.timeout:
+        break
 print(p.returncode)
 for t, m in msgs:
     print(t, m.replace("\n", " ; "))

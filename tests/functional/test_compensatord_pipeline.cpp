@@ -7,12 +7,13 @@
 
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <vector>
 
 #include "pipeline.hpp"
 #include "pof/core/model.hpp"
 #include "pof/core/offline.hpp"
-#include "pof/lcm/subscribe.hpp"
+#include "pof/bus/receiver.hpp"
 #include "pof/sim/scenario.hpp"
 #include "pof/sim/simulator.hpp"
 
@@ -116,14 +117,23 @@ TEST_F(PipelineTest, EveryScanMatchesTheOfflinePath) {
     }
     ASSERT_EQ(m.quality, off.quality[size_t(i)]) << "scan " << i;
   }
-  // Cycles close when the next flexion starts; offline also closes the last one at the end.
+  // Cycles close at the next flexion or after a hold; finish() (the stream went quiet, or the
+  // daemon stops) closes the last one as the offline path does at the end of the recording: the
+  // daemon publishes every cycle `pof compensate` reports, the last one included.
+  const std::size_t before_finish = out.cycles.size();
+  p.finish(out);
   ASSERT_GE(out.cycles.size(), 3u);
-  ASSERT_GE(off.cycles.size(), out.cycles.size());
-  for (size_t c = 0; c < out.cycles.size(); ++c) {
+  EXPECT_EQ(out.cycles.size(), off.cycles.size()) << before_finish << " before finish()";
+  p.finish(out);  // nothing left to close
+  EXPECT_EQ(out.cycles.size(), off.cycles.size());
+  for (size_t c = 0; c < std::min(out.cycles.size(), off.cycles.size()); ++c) {
     EXPECT_EQ(out.cycles[c].cycle, off.cycles[c].cycle);
     EXPECT_EQ(out.cycles[c].rmse_comp_deg, float(off.cycles[c].rmse_comp_deg));
     EXPECT_EQ(out.cycles[c].seq, std::int64_t(c));
     EXPECT_LT(out.cycles[c].rmse_comp_deg, out.cycles[c].rmse_uncomp_deg) << "compensation must help";
+    // utime is the cycle's last scan (cycle_stats_t.lcm), not the scan that closed it.
+    EXPECT_EQ(out.cycles[c].utime, out.cycles[c].end_utime);
+    EXPECT_NEAR(double(out.cycles[c].end_utime - kEpochUtime), off.cycles[c].t_end_s * 1e6, 2.0);
   }
   const auto st = p.status(0);
   EXPECT_EQ(st.scans, n);
@@ -248,12 +258,18 @@ TEST_F(PipelineTest, DecimationPublishesTheMeanOfEachWindow) {
 TEST_F(PipelineTest, ReloadSwapsTheCalibrationAndCountsFailures) {
   Pipeline p(paper_calibration(), "a.toml", PipelineSettings{});
   Collect before, after;
-  p.on_block((*blocks_)[0], 0, before);
+  Pipeline old_cal(paper_calibration(), "a.toml", PipelineSettings{});  // what block 1 gives on a.toml
+  old_cal.on_block((*blocks_)[0], 0, before);
+  before.angles.clear();
+  old_cal.on_block((*blocks_)[1], 0, before);
+  Collect ignored;
+  p.on_block((*blocks_)[0], 0, ignored);
   pof::io::CalibrationFile shifted = paper_calibration();
   shifted.cal.model.c10 += 5.0;  // a calibration 5 deg off
   shifted.sensor_id = "OTHER";
   p.replace_calibration(shifted, "b.toml");
-  p.on_block((*blocks_)[0], 0, after);
+  p.on_block((*blocks_)[1], 0, after);
+  ASSERT_FALSE(after.angles.empty());
   EXPECT_NEAR(double(after.angles[0].angle_uncomp_deg - before.angles[0].angle_uncomp_deg), 5.0, 1e-3);
   p.note_reload_failure("b.toml: key 'quasi_static.c9': expected a finite number");
   const auto st = p.status(0);
@@ -264,27 +280,156 @@ TEST_F(PipelineTest, ReloadSwapsTheCalibrationAndCountsFailures) {
   EXPECT_NE(st.last_error.find("quasi_static.c9"), std::string::npos);
 }
 
-// The daemon's wiring in-process: blocks published on memq:// reach the pipeline through the same
-// subscription helper, and the outputs are those of direct calls.
-TEST_F(PipelineTest, OverMemqTheOutputIsThatOfDirectCalls) {
+// Duplicated and replayed blocks (the same or an older first_scan, seq not advancing) are dropped
+// and counted; the angles are exactly those of the clean stream, published once.
+TEST_F(PipelineTest, DuplicatesAndReplaysAreDroppedAndCounted) {
+  Pipeline clean(paper_calibration(), "x", PipelineSettings{}), dirty(paper_calibration(), "x", PipelineSettings{});
+  Collect want, got;
+  int injected = 0;
+  for (size_t i = 0; i < 60; ++i) {
+    clean.on_block((*blocks_)[i], 0, want);
+    dirty.on_block((*blocks_)[i], 0, got);
+    if (i % 10 == 5) {  // the network duplicates the block
+      dirty.on_block((*blocks_)[i], 0, got);
+      ++injected;
+    }
+    if (i % 10 == 7) {  // a replay of an old block, and of the stream's first one (seq 0, old time)
+      dirty.on_block((*blocks_)[i - 3], 0, got);
+      dirty.on_block((*blocks_)[0], 0, got);
+      injected += 2;
+    }
+    if (i % 10 == 9) {  // seq advancing but scans overlapping what was compensated
+      pof::raw_block_t overlap = (*blocks_)[i];
+      overlap.seq += 1000;
+      dirty.on_block(overlap, 0, got);
+      ++injected;
+    }
+  }
+  ASSERT_EQ(got.angles.size(), want.angles.size());
+  for (size_t k = 0; k < got.angles.size(); ++k) {
+    ASSERT_EQ(got.angles[k].scan_index, want.angles[k].scan_index);
+    ASSERT_EQ(got.angles[k].angle_deg, want.angles[k].angle_deg);
+    ASSERT_EQ(got.angles[k].quality, want.angles[k].quality);
+  }
+  const auto st = dirty.status(0);
+  EXPECT_EQ(st.duplicate_blocks, injected);
+  EXPECT_EQ(st.lost_blocks, 0);
+  EXPECT_EQ(st.lost_scans, 0);
+  EXPECT_EQ(st.blocks, 60 + injected);
+}
+
+// A restarted pof-daqd numbers from 0 again and stamps with the current clock: a new stream, taken
+// at once, with no loss counted; its first block replayed later is a duplicate.
+TEST_F(PipelineTest, RestartIsSeqZeroWithALaterTime) {
+  Pipeline p(paper_calibration(), "x", PipelineSettings{});
+  Collect out;
+  for (size_t i = 0; i < 50; ++i) p.on_block((*blocks_)[i], 0, out);
+  std::vector<pof::raw_block_t> restarted;
+  for (size_t i = 0; i < 5; ++i) {
+    pof::raw_block_t b = (*blocks_)[i];
+    b.utime = (*blocks_)[60 + i].utime;  // later than anything seen
+    restarted.push_back(b);
+  }
+  const size_t before = out.angles.size();
+  for (const auto& b : restarted) p.on_block(b, 0, out);
+  EXPECT_EQ(out.angles.size(), before + 5 * kScansPerBlock);
+  EXPECT_TRUE(out.angles[before].quality & pof::angle_t::QUALITY_SETTLING);  // the estimator restarted
+  p.on_block(restarted[0], 0, out);  // replayed: not later than the last block taken
+  const auto st = p.status(0);
+  EXPECT_EQ(st.duplicate_blocks, 1);
+  EXPECT_EQ(st.lost_blocks, 0);
+  EXPECT_EQ(st.lost_scans, 0);
+}
+
+// A forged block far ahead (seq and first_scan near 2^62 and INT64_MAX): the loss counters saturate
+// instead of wrapping negative, the real stream is dropped as stale for kResyncBlocks - 1 blocks
+// and then taken again; blocks with negative or overflowing indices are rejected outright.
+TEST_F(PipelineTest, ForgedNumbersSaturateAndTheStreamResumes) {
+  constexpr std::int64_t kMax = std::numeric_limits<std::int64_t>::max();
+  Pipeline p(paper_calibration(), "x", PipelineSettings{});
+  Collect out;
+  for (size_t i = 0; i < 10; ++i) p.on_block((*blocks_)[i], 0, out);
+  pof::raw_block_t far = (*blocks_)[10];
+  far.seq = std::int64_t{1} << 62;  // a jump of 2^62
+  far.first_scan = std::int64_t{1} << 62;
+  p.on_block(far, 0, out);
+  auto st = p.status(0);
+  EXPECT_EQ(st.lost_blocks, (std::int64_t{1} << 62) - 10);
+  EXPECT_EQ(st.lost_scans, (std::int64_t{1} << 62) - 10 * kScansPerBlock);
+
+  pof::raw_block_t negative = (*blocks_)[11];
+  negative.seq = -5;
+  p.on_block(negative, 0, out);
+  pof::raw_block_t overflowing = (*blocks_)[11];
+  overflowing.first_scan = kMax - 3;
+  p.on_block(overflowing, 0, out);
+  pof::raw_block_t no_time = (*blocks_)[11];
+  no_time.utime = kMax;
+  p.on_block(no_time, 0, out);
+  EXPECT_EQ(p.status(0).rejected_blocks, 3);
+
+  // The real stream, now "behind" the forged block, is taken again after kResyncBlocks.
+  size_t before = out.angles.size();
+  size_t next = 11;
+  for (; next < 11 + Pipeline::kResyncBlocks + 5; ++next) p.on_block((*blocks_)[next], 0, out);
+  st = p.status(0);
+  EXPECT_EQ(st.duplicate_blocks, Pipeline::kResyncBlocks - 1);
+  EXPECT_EQ(out.angles.size(), before + size_t(6 * kScansPerBlock));  // the resync block and 5 more
+  EXPECT_EQ(out.angles[before].scan_index, (*blocks_)[11 + Pipeline::kResyncBlocks - 1].first_scan);
+
+  // A second forged jump, to INT64_MAX: the counters stop there, never wrap negative.
+  far.seq = kMax - 1;
+  far.first_scan = kMax - kScansPerBlock;
+  p.on_block(far, 0, out);
+  st = p.status(0);
+  EXPECT_EQ(st.lost_blocks, kMax);
+  EXPECT_EQ(st.lost_scans, kMax);
+  before = out.angles.size();
+  for (size_t k = 0; k < size_t(Pipeline::kResyncBlocks) + 2; ++k) p.on_block((*blocks_)[next++], 0, out);
+  st = p.status(0);
+  EXPECT_EQ(out.angles.size(), before + size_t(3 * kScansPerBlock));
+  EXPECT_EQ(st.lost_blocks, kMax);
+  EXPECT_EQ(st.lost_scans, kMax);
+  EXPECT_EQ(st.duplicate_blocks, 2 * (Pipeline::kResyncBlocks - 1));
+}
+
+// The daemon's wiring in-process: blocks published on memq:// reach the pipeline through
+// pof::bus::Receiver, and the outputs are those of direct calls, whatever else is on the channel:
+// undecodable messages are counted by the receiver, duplicates by the pipeline.
+TEST_F(PipelineTest, OverMemqTheOutputIsThatOfDirectCallsDespiteHostileTraffic) {
   lcm::LCM lc("memq://");
   ASSERT_TRUE(lc.good());
   Pipeline direct(paper_calibration(), "x", PipelineSettings{}), bused(paper_calibration(), "x", PipelineSettings{});
   Collect want, got;
-  auto sub = pof::lcmutil::subscribe<pof::raw_block_t>(
-      lc, "POF_RAW_LEFT_KNEE", [&](const pof::raw_block_t& b, const lcm::ReceiveBuffer&, const std::string&) {
-        bused.on_block(b, 0, got);
-      });
-  sub->get()->setQueueCapacity(1000);
+  pof::bus::Receiver rx(lc, "memq://");
+  rx.subscribe<pof::raw_block_t>("POF_RAW_LEFT_KNEE",
+                                 [&](const pof::raw_block_t& b, const pof::bus::Delivery&) { bused.on_block(b, 0, got); });
+  // A raw_block_t claiming 2^31-1 scans (std::bad_alloc in the generated decoder).
+  pof::raw_block_t empty{};
+  std::vector<unsigned char> bomb(static_cast<size_t>(empty.getEncodedSize()));
+  empty.encode(bomb.data(), 0, int(bomb.size()));
+  bomb[bomb.size() - 8] = 0x7f;
+  for (size_t k = 1; k < 4; ++k) bomb[bomb.size() - 8 + k] = 0xff;
+  int bombs = 0, dups = 0;
   for (size_t i = 0; i < 300; ++i) {
     direct.on_block((*blocks_)[i], 0, want);
     ASSERT_EQ(lc.publish("POF_RAW_LEFT_KNEE", &(*blocks_)[i]), 0);
-  }
-  while (lc.handleTimeout(0) > 0) {
+    if (i % 50 == 3) {
+      ASSERT_EQ(lc.publish("POF_RAW_LEFT_KNEE", bomb.data(), unsigned(bomb.size())), 0);
+      ++bombs;
+    }
+    if (i % 50 == 7) {
+      ASSERT_EQ(lc.publish("POF_RAW_LEFT_KNEE", &(*blocks_)[i]), 0);
+      ++dups;
+    }
+    while (rx.handle(0) > 0) {
+    }
   }
   ASSERT_EQ(got.angles.size(), want.angles.size());
   for (size_t i = 0; i < got.angles.size(); ++i) ASSERT_EQ(got.angles[i].angle_deg, want.angles[i].angle_deg);
   EXPECT_EQ(bused.status(0).lost_blocks, 0);
+  EXPECT_EQ(bused.status(0).duplicate_blocks, dups);
+  EXPECT_EQ(rx.stats().decode_errors, std::uint64_t(bombs));
 }
 
 }  // namespace

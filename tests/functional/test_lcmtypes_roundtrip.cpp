@@ -5,28 +5,33 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 
 #include "pof/angle_t.hpp"
+#include "pof/compensator_status_t.hpp"
 #include "pof/cycle_stats_t.hpp"
 #include "pof/daq_status_t.hpp"
-#include "pof/lcm/subscribe.hpp"
+#include "pof/bus/receiver.hpp"
 #include "pof/raw_block_t.hpp"
 
 namespace {
 
-// Publishes `msg` on `channel` over memq:// and returns what a subscriber decoded.
+// Publishes `msg` on `channel` over memq:// and returns what a subscriber decoded (through
+// pof::bus::Receiver and its bounded decoder, the way every pofkit process receives).
 template <typename Msg>
 std::optional<Msg> round_trip(const std::string& channel, const Msg& msg) {
   lcm::LCM lc("memq://");
   EXPECT_TRUE(lc.good());
   std::optional<Msg> got;
   {
-    auto sub = pof::lcmutil::subscribe<Msg>(lc, channel, [&got](const Msg& m, const lcm::ReceiveBuffer&, const std::string&) { got = m; });
-    EXPECT_NE(sub->get(), nullptr);
+    pof::bus::Receiver rx(lc, "memq://");
+    rx.subscribe<Msg>(channel, [&got](const Msg& m, const pof::bus::Delivery&) { got = m; });
     EXPECT_EQ(lc.publish(channel, &msg), 0);
-    EXPECT_EQ(lc.handleTimeout(1000), 1);  // memq delivers synchronously into the queue
+    EXPECT_EQ(rx.handle(1000), 1);  // memq delivers synchronously into the queue
+    EXPECT_EQ(rx.stats().decode_errors, 0u);
   }
   return got;
 }
@@ -181,6 +186,29 @@ TEST(LcmTypesRoundTrip, DaqStatus) {
   EXPECT_EQ(got->usb_errors, m.usb_errors);
   EXPECT_EQ(got->overruns, m.overruns);
   EXPECT_EQ(got->reconnects, m.reconnects);
+}
+
+TEST(LcmTypesRoundTrip, CompensatorStatus) {
+  pof::compensator_status_t m{};
+  m.utime = 1'763'700'030'000'000;
+  m.seq = 12;
+  m.sensor_id = "LEFT_KNEE";
+  m.calibration_path = "/etc/pof/calibration/left_knee.toml";
+  m.calibration_sensor_id = "LK";
+  m.calibration_date = "2026-11-21T00:00:00Z";
+  m.blocks = 1000;
+  m.lost_blocks = std::numeric_limits<std::int64_t>::max();  // saturated
+  m.last_error = "";
+  m.decode_errors = 5;
+  m.malformed_datagrams = 1001;
+  m.duplicate_blocks = 2;
+  const auto got = round_trip("POF_COMPENSATOR_STATUS", m);
+  ASSERT_TRUE(got);
+  EXPECT_EQ(got->calibration_path, m.calibration_path);
+  EXPECT_EQ(got->lost_blocks, m.lost_blocks);
+  EXPECT_EQ(got->decode_errors, 5);
+  EXPECT_EQ(got->malformed_datagrams, 1001);
+  EXPECT_EQ(got->duplicate_blocks, 2);
 }
 
 // A message of one type sent on a channel subscribed with another type must not decode: the

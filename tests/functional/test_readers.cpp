@@ -8,6 +8,13 @@
 #include <random>
 #include <sstream>
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <csignal>
+#include <thread>
+
 #include <lcm/lcm-cpp.hpp>
 #include <pof/raw_block_t.hpp>
 
@@ -17,7 +24,9 @@
 #include "pof/io/atomic_file.hpp"
 #include "pof/io/calibration_file.hpp"
 #include "pof/io/errors.hpp"
+#include "pof/io/lcmlog_scan.hpp"
 #include "pof/io/recording_reader.hpp"
+#include "pof/io/text_file.hpp"
 #include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
@@ -168,13 +177,15 @@ TEST(LcmLogReader, MapsChannelsByNameAndTimesFromTheBlocks) {
   for (std::size_t cut : {all.size() - 1, all.size() - 30, all.size() - 200}) {
     const auto t = d.file("cut.lcmlog", all.substr(0, cut));
     const std::string e = error_of([&] { pof::io::read_lcmlog(t); });
-    EXPECT_NE(e.find("truncated or corrupt LCM event"), std::string::npos) << e;
+    EXPECT_NE(e.find(t + ": damaged LCM log: first damage at byte "), std::string::npos) << e;
+    EXPECT_NE(e.find("at least 1 event lost"), std::string::npos) << e;
   }
   // Garbage between events.
   std::string g = all;
   g.insert(200, "garbage");
   const std::string e = error_of([&] { pof::io::read_lcmlog(d.file("garbage.lcmlog", g)); });
-  EXPECT_NE(e.find("corrupt"), std::string::npos) << e;
+  EXPECT_NE(e.find("damaged LCM log: first damage at byte "), std::string::npos) << e;
+  EXPECT_NE(e.find("1 damaged region (7 bytes) skipped"), std::string::npos) << e;
 }
 
 TEST(LcmLogReader, MissingChannelsAreNamed) {
@@ -193,9 +204,148 @@ TEST(LcmLogReader, MissingChannelsAreNamed) {
     write_block(log, "POF_RAW", 1'950'000, 0, {"sensor", "reference", "angle_ref"}, 10, 0.0);
   }
   const std::string e3 = error_of([&] { pof::io::read_lcmlog(q); });
-  EXPECT_NE(e3.find("event 2 on POF_RAW: block utime 1950000 does not follow"), std::string::npos) << e3;
+  EXPECT_NE(e3.find("event 1 on POF_RAW (byte "), std::string::npos) << e3;
+  EXPECT_NE(e3.find("block utime 1950000 does not follow"), std::string::npos) << e3;
   const std::string e2 = error_of([&] { pof::io::read_lcmlog(p, "POF_RAW_RIGHT_KNEE"); });
   EXPECT_NE(e2.find("no pof.raw_block_t events on channel POF_RAW_RIGHT_KNEE"), std::string::npos) << e2;
+}
+
+namespace {
+
+std::string slurp(const std::string& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// A log of `n` raw blocks on POF_RAW, as its bytes.
+std::string raw_log(const TempDir& d, int n) {
+  const auto p = d.path("raw.lcmlog");
+  {
+    lcm::LogFile log(p, "w");
+    for (int b = 0; b < n; ++b)
+      write_block(log, "POF_RAW", 1'000'000 + b * 50'000, b * 10, {"sensor", "reference", "angle_ref"}, 10, 0.0);
+  }
+  return slurp(p);
+}
+
+// Writes `content` into a new FIFO at `path` from a thread (the reader opens the other end).
+struct FifoWriter {
+  std::thread t;
+  FifoWriter(const std::string& path, std::string content) {
+    EXPECT_EQ(::mkfifo(path.c_str(), 0600), 0);
+    t = std::thread([path, content = std::move(content)] {
+      const int fd = ::open(path.c_str(), O_WRONLY);
+      if (fd < 0) return;
+      std::size_t done = 0;
+      while (done < content.size()) {
+        const ssize_t w = ::write(fd, content.data() + done, content.size() - done);
+        if (w <= 0) break;  // the reader stopped early (EPIPE)
+        done += static_cast<std::size_t>(w);
+      }
+      ::close(fd);
+    });
+  }
+  ~FifoWriter() { t.join(); }
+};
+
+}  // namespace
+
+TEST(LcmLogReader, HugeDataLengthIsADataErrorWithOffsetAndCounts) {
+  TempDir d;
+  std::string log = raw_log(d, 10);
+  // Event 4's data length (bytes 24..27 of its header) set to 0x7fffffff: liblcm's reader crashed.
+  const std::size_t ev = log.size() / 10 * 4;
+  ASSERT_EQ(static_cast<unsigned char>(log[ev]), 0xED);
+  log[ev + 24] = '\x7f';
+  log[ev + 25] = log[ev + 26] = log[ev + 27] = '\xff';
+  const auto p = d.file("huge.lcmlog", log);
+  const std::string e = error_of([&] { pof::io::read_recording(p); });
+  EXPECT_EQ(e, p + ": damaged LCM log: first damage at byte " + std::to_string(ev) +
+                   ": implausible data length 2147483647; 1 damaged region (" + std::to_string(log.size() / 10) +
+                   " bytes) skipped, at least 1 event lost; 0 events not decodable; 9 complete events read");
+}
+
+TEST(LcmLogReader, PayloadsThatDoNotDecodeAreCountedDamage) {
+  TempDir d;
+  std::string log = raw_log(d, 6);
+  const std::size_t ev = log.size() / 6 * 2;
+  log[ev + 28 + 7 + 3] ^= 0x10;  // a fingerprint byte of event 2's raw_block_t
+  const std::string e = error_of([&] { pof::io::read_lcmlog(d.file("fp.lcmlog", log)); });
+  EXPECT_NE(e.find("first damage at byte " + std::to_string(ev) + ": event 2 on channel POF_RAW: not a pof.raw_block_t"),
+            std::string::npos) << e;
+  EXPECT_NE(e.find("1 event not decodable; 6 complete events read"), std::string::npos) << e;
+}
+
+TEST(RecordingReaders, StreamsAreReadOnceAndBounded) {
+  std::signal(SIGPIPE, SIG_IGN);
+  TempDir d;
+  // CSV and LCM log through a pipe: the sniffed first bytes are not lost.
+  {
+    FifoWriter w(d.path("csv.fifo"), "t_s,sensor_v,reference_v,angle_ref_deg\n0,1,2,3\n0.1,1,2,3\n");
+    EXPECT_EQ(pof::io::read_recording(d.path("csv.fifo")).size(), 2);
+  }
+  {
+    FifoWriter w(d.path("log.fifo"), raw_log(d, 5));
+    EXPECT_EQ(pof::io::read_recording(d.path("log.fifo")).size(), 50);
+  }
+  // A stream longer than the bound is refused once it has read past it, not read to its end.
+  {
+    std::string big = raw_log(d, 1);
+    big.resize(3u << 20, 'x');
+    FifoWriter w(d.path("big.fifo"), big);
+    const std::string e = error_of([&] { pof::io::LcmLogReader log(d.path("big.fifo"), 1u << 20); });
+    EXPECT_NE(e.find("not a regular file and longer than 1 MiB"), std::string::npos) << e;
+  }
+  // Endless devices: refused quickly, the message bounded.
+  const std::string csv = error_of([&] { pof::io::read_recording("/dev/zero"); });
+  EXPECT_EQ(csv, "/dev/zero:1: line longer than 65536 bytes (starts '"
+                 "\\x00\\x00\\x00\\x00\\x00\\x00\\x00\\x00\\x00\\x00\u2026'): not a CSV recording");
+  const std::string lcm = error_of([&] { pof::io::read_lcmlog("/dev/zero"); });
+  EXPECT_EQ(lcm, "/dev/zero: byte 0: not an LCM log (bad sync word 0x00000000 (expected 0xEDA1DA01)); stopped reading "
+                 "this device after 28 bytes");
+  const std::string cal = error_of([&] { pof::io::load_calibration("/dev/zero"); });
+  EXPECT_EQ(cal, "/dev/zero: longer than 1024 KiB: not a calibration file");
+}
+
+TEST(CsvReader, LongLinesAreErrorsNamingFileAndLine) {
+  TempDir d;
+  const std::string h = "t_s,sensor_v,reference_v,angle_ref_deg\n0,1,2,3\n";
+  const auto p = d.file("long.csv", h + std::string(200'000, '9') + "\n");
+  const std::string e = error_of([&] { pof::io::read_csv(p); });
+  EXPECT_EQ(e.rfind(p + ":3: line longer than 65536 bytes (starts '9999", 0), 0u) << e;
+  EXPECT_LT(e.size(), p.size() + 150);
+  // A header with megabytes of fields is quoted in 40 bytes.
+  const auto q = d.file("wide.csv", std::string(60'000, 'a') + "\n0\n");
+  const std::string e2 = error_of([&] { pof::io::read_csv(q); });
+  EXPECT_NE(e2.find("got '" + std::string(40, 'a') + "\u2026')"), std::string::npos) << e2.substr(0, 300);
+  EXPECT_LT(e2.size(), q.size() + 200);
+  // Exactly at the bound is still a line.
+  const auto r = d.file("edge.csv", h + "#" + std::string(pof::io::kMaxCsvLineBytes - 1, 'c') + "\n");
+  EXPECT_EQ(pof::io::read_csv(r).size(), 1);
+}
+
+TEST(OutputGuard, AnOutputThatIsAnInputIsAUsageError) {
+  TempDir d;
+  const std::string in = d.file("run.csv", "data");
+  ASSERT_EQ(::symlink(in.c_str(), d.path("link.csv").c_str()), 0);
+  ASSERT_EQ(::link(in.c_str(), d.path("hard.csv").c_str()), 0);
+  const std::filesystem::path dotted = std::filesystem::path(d.path()) / "." / "run.csv";
+  for (const std::string& out : {in, d.path("link.csv"), d.path("hard.csv"), dotted.string()}) {
+    try {
+      pof::io::refuse_output_over_input({{"recording", in}}, {{"-o", out}});
+      ADD_FAILURE() << out << " accepted";
+    } catch (const pof::io::UsageError& e) {
+      EXPECT_EQ(e.code(), 2);
+      EXPECT_NE(std::string(e.what()).find("-o " + out + ": is the same file as the input recording " + in), std::string::npos) << e.what();
+    }
+  }
+  // Other files, standard output and options not given are fine; two outputs may not collide.
+  pof::io::refuse_output_over_input({{"recording", in}, {"--pot-cal", ""}}, {{"-o", d.path("cal.toml")}, {"--csv", "-"}, {"--json", "-"}});
+  EXPECT_THROW(pof::io::refuse_output_over_input({{"recording", in}}, {{"--csv", d.path("x")}, {"--json", d.path("./x")}}),
+               pof::io::UsageError);
+  EXPECT_EQ(slurp(in), "data");
 }
 
 namespace {

@@ -14,9 +14,9 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "pof/io/errors.hpp"
-#include "pof/recorder/udpm_receiver.hpp"
+#include "pof/bus/udpm_receiver.hpp"
 
-using namespace pof::recorder;
+using namespace pof::bus;
 
 namespace {
 

@@ -18,13 +18,14 @@
 #include <pof/raw_block_t.hpp>
 
 #include "pof/io/errors.hpp"
-#include "pof/recorder/channel_filter.hpp"
+#include "pof/bus/channel_filter.hpp"
 #include "pof/recorder/lcmlog_durable.hpp"
 #include "pof/recorder/pof_messages.hpp"
 #include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace pof::recorder;
+using pof::bus::ChannelFilter;
 
 namespace {
 

@@ -52,6 +52,39 @@ TEST(Statistics, KnownLoops) {
   EXPECT_EQ(st.profile().count[0], 7 * 10);  // 0..4.5 deg: every moving scan, the dropped partial sweep too
 }
 
+// A hold of close_after_hold_s after the extension closes the cycle (a live stream's last cycle
+// must not wait for a flexion that never comes); a shorter pause inside the extension does not.
+TEST(Statistics, AHoldAfterTheExtensionClosesTheCycle) {
+  CycleStatistics st;  // close_after_hold_s = 2 s
+  double t = 0;
+  int closed = 0;
+  double closed_at = -1;
+  auto scan = [&](double x, Direction d) {
+    CompensatedScan s;
+    s.phase = d;
+    s.angle_deg = x + (d == Direction::kExtension ? -1 : 1);
+    s.angle_uncomp_deg = s.angle_deg;
+    if (st.add(t, s, x)) {
+      ++closed;
+      closed_at = t;
+    }
+    t += 0.005;
+  };
+  for (double x = 0; x <= 90; x += 0.5) scan(x, Direction::kFlexion);
+  for (double x = 90; x >= 45; x -= 0.5) scan(x, Direction::kExtension);
+  for (int k = 0; k < 200; ++k) scan(45, Direction::kHold);  // 1 s pause inside the extension
+  for (double x = 45; x >= 0; x -= 0.5) scan(x, Direction::kExtension);
+  EXPECT_EQ(closed, 0) << "a 1-s pause must not split the cycle";
+  const double hold_start = t;
+  for (int k = 0; k < 600; ++k) scan(0, Direction::kHold);  // 3 s hold at the end
+  ASSERT_EQ(closed, 1);
+  EXPECT_NEAR(closed_at - hold_start, 2.0, 0.006);
+  EXPECT_NEAR(st.last().t_end_s, hold_start - 0.005, 1e-9) << "the hold is not part of the cycle";
+  EXPECT_NEAR(st.last().rmse_comp_deg, 1.0, 1e-12);
+  EXPECT_FALSE(st.finish()) << "nothing left open";
+  EXPECT_EQ(st.cycles_kept(), 1);
+}
+
 // Compensation with a calibration fitted on one recording, applied to validation cycles like
 // table 3 (10-80 deg, 3 cycles at 0.05 ... 0.26 rad/s): less error and less hysteresis.
 TEST(Statistics, CompensationReducesErrorAndHysteresisOnValidationCycles) {

@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <vector>
 
 #include "commands.hpp"
 #include "plot.hpp"
@@ -78,6 +79,11 @@ bool run_plots(const std::string& dir) {
 }
 
 void run(const CalibrateOptions& o) {
+  std::vector<pof::io::NamedPath> outputs = {{"-o", o.output}};
+  if (!o.report.empty())
+    for (const char* f : {"calibration.json", "compensated.csv", "dynamic.csv"})
+      outputs.push_back({"--report", std::filesystem::path(o.report) / f});
+  pof::io::refuse_output_over_input({{"recording", o.recording}, {"--pot-cal", o.pot_cal}}, outputs);
   Progress progress("calibrate");
   std::optional<pof::core::PotentiometerCalibration> pot;
   if (!o.pot_cal.empty()) pot = pof::io::load_potentiometer(o.pot_cal);

@@ -44,6 +44,8 @@ void print_table(std::FILE* out, const pof::core::OfflineResult& r) {
 void run(const CompensateOptions& o) {
   if (o.reversal_window_s > o.window_s)
     throw CLI::ValidationError("--reversal-window", "must not exceed --velocity-window (" + std::to_string(o.window_s) + " s)");
+  pof::io::refuse_output_over_input({{"recording", o.recording}, {"--cal", o.cal}, {"--pot-cal", o.pot_cal}},
+                                    {{"--csv", o.csv}, {"--json", o.json}});
   Progress progress("compensate");
   progress.stage("reading " + o.cal);
   const pof::io::CalibrationFile cal = pof::io::load_calibration(o.cal, o.model);

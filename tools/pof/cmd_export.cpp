@@ -1,10 +1,15 @@
 // `pof export <log> --channel CH -o out.csv`: one channel of an LCM log as CSV, for spreadsheets,
 // plots and checks (e.g. what pof-compensatord published, recorded by `pof record`).
-// The message type is recognised by its 8-byte fingerprint (../shared/notes/lcm.md), so any
-// channel name works (POF_ANGLE_LEFT_KNEE, ...). raw_block_t is flattened to one row per scan.
-#include <unistd.h>
-
-#include <cerrno>
+// The message type is recognised by its 8-byte fingerprint (LCM type specification: every message
+// starts with its type's fingerprint), so any channel name works (POF_ANGLE_LEFT_KNEE, ...).
+// raw_block_t is flattened to one row per scan; the status types give one row per message, text
+// fields quoted as RFC 4180 says.
+//
+// The log is scanned by io::LcmLogReader (lengths bounded by the file, resynchronising after
+// damage). A damaged log (damaged framing, or an event on the channel that does not decode as the
+// channel's type) is bad input: exit 65 naming the first damage and the counts, nothing written.
+// --salvage writes the rows of every event that could be read, then still exits 65 with the counts,
+// so a script cannot mistake a salvaged export for a complete one.
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
@@ -12,8 +17,7 @@
 #include <memory>
 #include <sstream>
 #include <string>
-
-#include <lcm/lcm-cpp.hpp>
+#include <vector>
 
 #include "commands.hpp"
 #include "pof/angle_t.hpp"
@@ -22,6 +26,7 @@
 #include "pof/daq_status_t.hpp"
 #include "pof/io/atomic_file.hpp"
 #include "pof/io/errors.hpp"
+#include "pof/io/lcmlog_scan.hpp"
 #include "pof/raw_block_t.hpp"
 
 namespace pof::cli {
@@ -35,11 +40,6 @@ std::int64_t fingerprint_of(const void* data, std::uint32_t size) {
   return std::int64_t(h);
 }
 
-template <typename Msg>
-bool decode(const lcm::LogEvent& ev, Msg& m) {
-  return m.decode(ev.data, 0, int(ev.datalen)) >= 0;
-}
-
 // Shortest text that reads back to the same float/double.
 std::string num(double v) {
   if (std::isnan(v)) return "nan";
@@ -48,63 +48,137 @@ std::string num(double v) {
   return buf;
 }
 
+// A text field as one CSV cell (RFC 4180): quoted when it holds a comma, quote or line break, so a
+// state text or a reload error cannot shift the columns.
+std::string text(const std::string& v) {
+  if (v.find_first_of(",\"\r\n") == std::string::npos) return v;
+  std::string q = "\"";
+  for (char c : v) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return q + '"';
+}
+
+const char* state_name(std::int8_t s) {
+  switch (s) {
+    case pof::daq_status_t::STATE_STARTING: return "starting";
+    case pof::daq_status_t::STATE_STREAMING: return "streaming";
+    case pof::daq_status_t::STATE_DISCONNECTED: return "disconnected";
+    case pof::daq_status_t::STATE_FAULT: return "fault";
+    case pof::daq_status_t::STATE_STOPPING: return "stopping";
+    default: return "unknown";
+  }
+}
+
 const char* phase_name(std::int8_t p) {
   return p == pof::angle_t::PHASE_FLEXION ? "flexion" : p == pof::angle_t::PHASE_EXTENSION ? "extension" : "hold";
 }
 
 struct ExportOptions {
   std::string log, channel, output;
+  bool salvage = false;
 };
 
+std::string hex_fingerprint(std::int64_t fp) {
+  char b[24];
+  std::snprintf(b, sizeof b, "0x%016" PRIx64, static_cast<std::uint64_t>(fp));
+  return b;
+}
+
 void run(const ExportOptions& o) {
-  if (::access(o.log.c_str(), R_OK) != 0) throw io::NoInputError(o.log + ": cannot open: " + std::strerror(errno));
-  lcm::LogFile log(o.log, "r");
-  if (!log.good()) throw io::NoInputError(o.log + ": cannot open as an LCM log");
+  io::refuse_output_over_input({{"log", o.log}}, {{"-o", o.output}});
+  io::LcmLogReader log(o.log);
   std::ostringstream out;
   std::int64_t rows = 0, events = 0;
   std::int64_t type = 0;
-  while (const lcm::LogEvent* ev = log.readNextEvent()) {
-    if (ev->channel != o.channel) continue;
+  bool raw_header_written = false;
+  std::vector<std::string> raw_names;
+  // Events before the first one of a known type: damage if the channel turns out to have a type,
+  // otherwise the channel is simply of another type.
+  std::vector<io::LcmEventRef> unknown_before_type;
+  log.scan([&](const io::LcmEventRef& ev) {
+    if (ev.channel != o.channel) return;
     ++events;
-    const std::int64_t fp = fingerprint_of(ev->data, std::uint32_t(ev->datalen));
+    const std::int64_t fp = fingerprint_of(ev.data, ev.data_size);
     if (type == 0) {
+      if (fp != pof::angle_t::getHash() && fp != pof::cycle_stats_t::getHash() && fp != pof::raw_block_t::getHash() &&
+          fp != pof::daq_status_t::getHash() && fp != pof::compensator_status_t::getHash()) {
+        unknown_before_type.push_back(ev);
+        return;
+      }
       type = fp;
+      for (const auto& u : unknown_before_type)
+        log.undecodable(u, "fingerprint " + hex_fingerprint(fingerprint_of(u.data, u.data_size)) +
+                               " differs from the channel's type");
       if (fp == pof::angle_t::getHash())
         out << "utime,seq,scan_index,angle_deg,angle_uncomp_deg,angle_ref_deg,velocity_rad_s,phase,quality\n";
       else if (fp == pof::cycle_stats_t::getHash())
         out << "utime,seq,cycle,start_utime,end_utime,velocity_rad_s,rmse_comp_deg,rmse_uncomp_deg,"
                "hysteresis_comp_pct,hysteresis_uncomp_pct,max_error_deg,n_samples\n";
-      else if (fp == pof::raw_block_t::getHash())
-        out << "utime,block_seq,scan_index,flags";  // channel columns follow from the first block
+      else if (fp == pof::daq_status_t::getHash())
+        out << "utime,seq,sensor_id,device_kind,vendor_id,product_id,serial,state,state_text,scan_rate_hz,"
+               "n_channels,scans,blocks,dropped_scans,usb_errors,overruns,reconnects,protocol_variant,padding_set\n";
+      else if (fp == pof::compensator_status_t::getHash())
+        out << "utime,seq,sensor_id,calibration_path,calibration_sensor_id,calibration_date,blocks,scans,"
+               "lost_blocks,lost_scans,rejected_blocks,fault_scans,angles,cycles,reloads,reload_failures,"
+               "last_error,decode_errors,malformed_datagrams,duplicate_blocks\n";
       else
-        throw io::DataError(o.log + ": channel " + o.channel +
-                            ": not a pof.angle_t, pof.cycle_stats_t or pof.raw_block_t message");
+        out << "utime,block_seq,scan_index,flags";  // channel columns follow from the first block
     } else if (fp != type) {
-      throw io::DataError(o.log + ": channel " + o.channel + ": event " + std::to_string(ev->eventnum) +
-                          " changes message type");
+      log.undecodable(ev, "fingerprint " + hex_fingerprint(fp) + " differs from the channel's first message");
+      return;
     }
     if (fp == pof::angle_t::getHash()) {
       pof::angle_t m{};
-      if (!decode(*ev, m)) throw io::DataError(o.log + ": event " + std::to_string(ev->eventnum) + ": cannot decode");
+      if (auto why = io::decode_lcm_event(ev, m)) return log.undecodable(ev, *why);
       out << m.utime << ',' << m.seq << ',' << m.scan_index << ',' << num(double(m.angle_deg)) << ','
           << num(double(m.angle_uncomp_deg)) << ',' << num(double(m.angle_ref_deg)) << ','
           << num(double(m.velocity_rad_s)) << ',' << phase_name(m.phase) << ',' << m.quality << '\n';
       ++rows;
     } else if (fp == pof::cycle_stats_t::getHash()) {
       pof::cycle_stats_t m{};
-      if (!decode(*ev, m)) throw io::DataError(o.log + ": event " + std::to_string(ev->eventnum) + ": cannot decode");
+      if (auto why = io::decode_lcm_event(ev, m)) return log.undecodable(ev, *why);
       out << m.utime << ',' << m.seq << ',' << m.cycle << ',' << m.start_utime << ',' << m.end_utime << ','
           << num(double(m.velocity_rad_s)) << ',' << num(double(m.rmse_comp_deg)) << ','
           << num(double(m.rmse_uncomp_deg)) << ',' << num(double(m.hysteresis_comp_pct)) << ','
           << num(double(m.hysteresis_uncomp_pct)) << ',' << num(double(m.max_error_deg)) << ',' << m.n_samples
           << '\n';
       ++rows;
+    } else if (fp == pof::daq_status_t::getHash()) {
+      pof::daq_status_t m{};
+      if (auto why = io::decode_lcm_event(ev, m)) return log.undecodable(ev, *why);
+      out << m.utime << ',' << m.seq << ',' << text(m.sensor_id) << ',' << text(m.device_kind) << ',' << m.vendor_id
+          << ',' << m.product_id << ',' << text(m.serial) << ',' << state_name(m.state) << ','
+          << text(m.state_text) << ',' << num(m.scan_rate_hz) << ',' << m.n_channels << ',' << m.scans << ','
+          << m.blocks << ',' << m.dropped_scans << ',' << m.usb_errors << ',' << m.overruns << ',' << m.reconnects
+          << ',' << text(m.protocol_variant) << ',' << m.padding_set << '\n';
+      ++rows;
+    } else if (fp == pof::compensator_status_t::getHash()) {
+      pof::compensator_status_t m{};
+      if (auto why = io::decode_lcm_event(ev, m)) return log.undecodable(ev, *why);
+      out << m.utime << ',' << m.seq << ',' << text(m.sensor_id) << ',' << text(m.calibration_path) << ','
+          << text(m.calibration_sensor_id) << ',' << text(m.calibration_date) << ',' << m.blocks << ',' << m.scans
+          << ',' << m.lost_blocks << ',' << m.lost_scans << ',' << m.rejected_blocks << ',' << m.fault_scans << ','
+          << m.angles << ',' << m.cycles << ',' << m.reloads << ',' << m.reload_failures << ','
+          << text(m.last_error) << ',' << m.decode_errors << ',' << m.malformed_datagrams << ','
+          << m.duplicate_blocks << '\n';
+      ++rows;
     } else {
       pof::raw_block_t m{};
-      if (!decode(*ev, m)) throw io::DataError(o.log + ": event " + std::to_string(ev->eventnum) + ": cannot decode");
-      if (rows == 0) {
+      if (auto why = io::decode_lcm_event(ev, m)) return log.undecodable(ev, *why);
+      if (!(m.scan_rate_hz > 0) || !std::isfinite(m.scan_rate_hz))
+        return log.undecodable(ev, "scan_rate_hz " + num(m.scan_rate_hz) + ", expected > 0");
+      // Times and scan indices of a damaged block can be any int64: no row may overflow.
+      const double span_us = m.n_scans > 0 ? (m.n_scans - 1) * 1e6 / m.scan_rate_hz : 0.0;
+      std::int64_t last = 0;
+      if (!(span_us < 1e15) || __builtin_add_overflow(m.utime, static_cast<std::int64_t>(span_us) + 1, &last) ||
+          __builtin_add_overflow(m.first_scan, std::int64_t{m.n_scans}, &last))
+        return log.undecodable(ev, "utime or first_scan out of range");
+      if (!raw_header_written) {
+        raw_header_written = true;
+        raw_names = m.channel_names;
         for (const auto& c : m.channel_names) out << ',' << c;
         out << '\n';
+      } else if (m.channel_names != raw_names) {
+        return log.undecodable(ev, "channel names differ from the first block's (the CSV columns)");
       }
       for (int k = 0; k < m.n_scans; ++k) {
         out << m.utime + std::llround(k * 1e6 / m.scan_rate_hz) << ',' << m.seq << ',' << m.first_scan + k << ','
@@ -114,23 +188,38 @@ void run(const ExportOptions& o) {
         ++rows;
       }
     }
+  });
+  const bool damaged = log.damaged();
+  if (events == 0 && !damaged) throw io::DataError(o.log + ": no event on channel " + io::excerpt(o.channel));
+  if (type == 0 && !damaged) {
+    throw io::DataError(o.log + ": channel " + io::excerpt(o.channel) +
+                        ": not a pofkit message (angle_t, cycle_stats_t, raw_block_t, daq_status_t, "
+                        "compensator_status_t)");
   }
-  if (events == 0) throw io::DataError(o.log + ": no event on channel " + o.channel);
+  if (damaged && !o.salvage)
+    throw io::DataError(log.damage_report() + "; nothing written (--salvage writes what is readable)");
+  if (type == 0 && damaged)
+    throw io::DataError(log.damage_report() + "; no readable event on channel " + io::excerpt(o.channel) + ", nothing written");
   io::write_output(o.output, out.str());
   if (o.output != "-") {
     std::fprintf(stderr, "pof export: %s: %" PRId64 " events -> %" PRId64 " rows in %s\n", o.channel.c_str(), events,
                  rows, o.output.c_str());
   }
+  if (damaged)
+    throw io::DataError(log.damage_report() + "; salvaged " + std::to_string(rows) + " rows of channel " +
+                        io::excerpt(o.channel) + " into " + o.output);
 }
 
 }  // namespace
 
 void add_export(CLI::App& app) {
   auto o = std::make_shared<ExportOptions>();
-  auto* cmd = app.add_subcommand("export", "Write one channel of an LCM log (angles, cycle statistics, raw blocks) as CSV");
+  auto* cmd = app.add_subcommand("export", "Write one channel of an LCM log (angles, cycle statistics, raw blocks, DAQ and compensator status) as CSV");
   cmd->add_option("log", o->log, "LCM log file (from pof record, lcm-logger or pof sim)")->required();
   cmd->add_option("--channel,-c", o->channel, "Channel, e.g. POF_ANGLE or POF_STATS_LEFT_KNEE")->required();
   cmd->add_option("-o,--output", o->output, "Output CSV ('-' for stdout)")->required();
+  cmd->add_flag("--salvage", o->salvage,
+                "From a damaged log, write the rows of every event that can be read (still exit 65, with the counts)");
   cmd->callback([o] { run(*o); });
 }
 

@@ -16,6 +16,7 @@
 #include "plot.hpp"
 #include "pof/gap/gap.hpp"
 #include "pof/gap/io.hpp"
+#include "pof/io/atomic_file.hpp"
 #include "pof/io/recording_reader.hpp"
 #include "pof/io/errors.hpp"
 
@@ -57,6 +58,9 @@ void add_gap(CLI::App& app) {
   cmd->add_flag("--no-plots", a->no_plots, "Skip the matplotlib plots");
   cmd->callback([a] {
     const fs::path in(a->input);
+    std::vector<io::NamedPath> outputs;
+    for (const char* f : {"gap.json", "model.toml", "series.csv", "report.md"}) outputs.push_back({"--out", fs::path(a->out) / f});
+    io::refuse_output_over_input({{"recording", a->input}}, outputs);
     const bool tty = isatty(STDERR_FILENO) != 0;  // progress on a terminal only, quiet in pipes
     gap::Options opt;
     opt.folds = a->folds;

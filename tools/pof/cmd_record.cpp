@@ -90,9 +90,11 @@ bool check_one(const std::string& file) {
                 static_cast<unsigned long long>(c.torn_bytes()), static_cast<unsigned long long>(c.good_bytes),
                 c.problem.c_str());
   } else {
-    std::printf("  DAMAGED at offset %llu (%s); %llu complete events follow the damage\n",
+    std::printf("  DAMAGED at offset %llu (%s); %llu complete events follow the damage; %llu bytes in %llu damaged "
+                "region(s), at least %llu event(s) lost\n",
                 static_cast<unsigned long long>(c.good_bytes), c.problem.c_str(),
-                static_cast<unsigned long long>(c.events_after_damage));
+                static_cast<unsigned long long>(c.events_after_damage), static_cast<unsigned long long>(c.damaged_bytes),
+                static_cast<unsigned long long>(c.damaged_regions), static_cast<unsigned long long>(c.lost_events));
   }
   std::fflush(stdout);
   return c.clean();

@@ -15,6 +15,7 @@
 
 #include "commands.hpp"
 #include "plot.hpp"
+#include "pof/io/atomic_file.hpp"
 #include "pof/io/csv_writer.hpp"
 #include "pof/io/errors.hpp"
 #include "pof/io/lcmlog_writer.hpp"
@@ -55,6 +56,10 @@ void run_plot(const fs::path& trace_csv, const std::string& png, const std::stri
 }
 
 void run_sim(const SimOptions& o) {
+  std::error_code ec;
+  const bool scenario_file = fs::exists(o.scenario, ec);
+  pof::io::refuse_output_over_input({{"scenario", scenario_file ? o.scenario : std::string()}},
+                                    {{"-o", o.output}, {"--plot", o.plot}, {"--trace", o.trace}});
   pof::sim::Scenario sc = resolve_scenario(o.scenario);
   if (o.seconds > 0) sc.duration_s = o.seconds;
   if (sc.loop && sc.duration_s <= 0)

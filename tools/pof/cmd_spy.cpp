@@ -1,6 +1,7 @@
 // `pof spy`: a terminal live view of the LCM bus (plain ANSI, works over SSH, no Java). The model
-// and renderer are pof_spy (spy/); this file is the loop: one thread poll()s the LCM fd, stdin and a
-// signalfd, so there is no locking and 'q' or SIGINT quit at once.
+// and renderer are pof_spy (spy/); this file is the loop: one thread poll()s the receiver's fd
+// (pof::bus::Receiver: bounded, total, counts malformed datagrams), stdin and a signalfd, so there
+// is no locking and 'q' or SIGINT quit at once.
 #include <poll.h>
 #include <signal.h>
 #include <sys/ioctl.h>
@@ -16,10 +17,12 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "commands.hpp"
+#include "pof/bus/receiver.hpp"
+#include "pof/bus/udp_socket.hpp"
 #include "pof/io/errors.hpp"
-#include "pof/recorder/udp_socket.hpp"
-#include "pof/spy/monitor.hpp"
+#include "pof/lcm/url.hpp"
 #include "pof/lcm/utime.hpp"
+#include "pof/spy/monitor.hpp"
 
 namespace pof::cli {
 namespace {
@@ -62,11 +65,6 @@ class RawTerminal {
   bool active_ = false;
 };
 
-// liblcm's C callback: the C++ template wrappers of lcm-cpp-impl.hpp trip UBSan's vptr check.
-void on_lcm_message(const lcm_recv_buf_t* rbuf, const char* channel, void* monitor) {
-  static_cast<spy::Monitor*>(monitor)->on_message(channel, rbuf->data, rbuf->data_size, rbuf->recv_utime);
-}
-
 int terminal_width() {
   winsize ws{};
   if (::ioctl(STDOUT_FILENO, TIOCGWINSZ, &ws) == 0 && ws.ws_col > 0) return ws.ws_col;
@@ -74,21 +72,18 @@ int terminal_width() {
 }
 
 void run_spy(const SpyArgs& a) {
-  std::string url = a.url;
-  if (url.empty()) {
-    const char* env = std::getenv("LCM_DEFAULT_URL");
-    url = env != nullptr && *env != '\0' ? env : "udpm://239.255.76.67:7667?ttl=0";
-  }
-  if (url.rfind("udpm://", 0) == 0 && url.find("recv_buf_size=") == std::string::npos)
-    url += std::string(url.find('?') == std::string::npos ? "?" : "&") + "recv_buf_size=8388608";
+  const std::string url = lcmutil::resolve_url(a.url);
   lcm::LCM lcm(url);
   if (!lcm.good()) throw io::ConfigError("LCM URL '" + url + "': cannot open (is there a multicast route? see docs/deployment.md)");
   spy::Monitor monitor;
-  lcm_subscription_t* sub = lcm_subscribe(lcm.getUnderlyingLCM(), a.channels.c_str(), &on_lcm_message, &monitor);
-  if (sub == nullptr) throw io::ConfigError("--channels '" + a.channels + "': LCM refused the subscription");
-  lcm_subscription_set_queue_capacity(sub, a.queue_capacity);
-  const uint16_t port = recorder::lcm_url_port(url.c_str());
-  const uint64_t drops0 = port != 0 ? recorder::udp_drops(port) : 0;
+  bus::ReceiverOptions ro;
+  ro.lcm_queue_capacity = a.queue_capacity;
+  bus::Receiver rx(lcm, url, ro);
+  rx.subscribe_raw(a.channels, [&monitor](const bus::Delivery& d, const unsigned char* data, std::size_t size) {
+    monitor.on_message(d.channel, data, size, d.recv_utime);
+  });
+  const uint16_t port = bus::lcm_url_port(url.c_str());
+  const uint64_t drops0 = port != 0 ? bus::udp_drops(port) : 0;
 
   sigset_t set;
   sigemptyset(&set);
@@ -107,7 +102,7 @@ void run_spy(const SpyArgs& a) {
   const auto t0 = std::chrono::steady_clock::now();
   const auto period = std::chrono::duration<double>(1.0 / a.refresh_hz);
   auto next_frame = t0;
-  const int lcm_fd = lcm.getFileno();
+  const int rx_fd = rx.fd();
   bool quit = false;
   auto draw = [&](bool ansi) {
     const int64_t now = now_utime();
@@ -117,7 +112,10 @@ void run_spy(const SpyArgs& a) {
     o.width = terminal_width();
     o.url = url;
     o.uptime_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    o.kernel_drops = port != 0 ? recorder::udp_drops(port) - drops0 : 0;
+    o.kernel_drops = port != 0 ? bus::udp_drops(port) - drops0 : 0;
+    const bus::ReceiverStats rs = rx.stats();
+    o.malformed_datagrams = rs.malformed_datagrams;
+    o.incomplete_messages = rs.incomplete_messages;
     o.now_utime = now;
     const std::string text = spy::render(monitor, o);
     std::fwrite(text.data(), 1, text.size(), stdout);
@@ -133,15 +131,13 @@ void run_spy(const SpyArgs& a) {
       if (next_frame < now) next_frame = now;
     }
     const int wait_ms = static_cast<int>(std::chrono::duration_cast<std::chrono::milliseconds>(next_frame - now).count()) + 1;
-    pollfd fds[3] = {{lcm_fd, POLLIN, 0}, {sfd, POLLIN, 0}, {STDIN_FILENO, POLLIN, 0}};
+    pollfd fds[3] = {{rx_fd, POLLIN, 0}, {sfd, POLLIN, 0}, {STDIN_FILENO, POLLIN, 0}};
     const nfds_t nfds = term && term->active() ? 3 : 2;
     if (::poll(fds, nfds, wait_ms) < 0) continue;
     if ((fds[0].revents & POLLIN) != 0) {
       // Drain what is queued without blocking, but yield to the screen at the frame time.
       do {
-        if (lcm.handle() != 0) break;
-        pollfd p{lcm_fd, POLLIN, 0};
-        if (::poll(&p, 1, 0) <= 0) break;
+        if (rx.handle(0) <= 0) break;
       } while (std::chrono::steady_clock::now() < next_frame);
     }
     if ((fds[1].revents & POLLIN) != 0) quit = true;
@@ -168,7 +164,7 @@ void add_spy(CLI::App& app) {
   cmd->add_flag("--once", a->once, "Listen for 1 s (or --duration), print one plain-text snapshot and exit");
   cmd->add_option("--duration", a->duration_s, "Listen this long [s], print one plain-text snapshot and exit")
       ->check(CLI::PositiveNumber);
-  cmd->add_option("--queue-capacity", a->queue_capacity, "LCM subscription queue [messages]")
+  cmd->add_option("--queue-capacity", a->queue_capacity, "LCM subscription queue [messages] (transports other than udpm://)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   cmd->callback([a] { run_spy(*a); });

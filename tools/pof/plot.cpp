@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 
 #include "pof/io/errors.hpp"
 
@@ -14,11 +15,28 @@ extern char** environ;
 
 namespace pof::cli {
 
+namespace {
+
+// <prefix>/share/pofkit/plot for the prefix this binary runs from (<prefix>/bin/pof): an install
+// with `cmake --install --prefix P`, a .deb (/usr) or an unpacked package all find their own
+// scripts, whatever prefix the build was configured with.
+std::string installed_plot_dir() {
+  std::error_code ec;
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (ec) return {};
+  return (exe.parent_path().parent_path() / POF_PLOT_DIR_RELATIVE).string();
+}
+
+}  // namespace
+
 std::string find_plot_script(const std::string& script) {
-  const char* const dirs[] = {std::getenv("POF_PLOT_DIR"), POF_PLOT_DIR_SOURCE, POF_PLOT_DIR_INSTALLED};
-  for (const char* dir : dirs) {
-    if (dir == nullptr) continue;
-    const std::string p = std::string(dir) + "/" + script;
+  // In order: the user's override, the installed copy next to this binary, and the source tree
+  // when running from a build directory (build/bin has no share/ beside it).
+  const char* env = std::getenv("POF_PLOT_DIR");
+  const std::string dirs[] = {env != nullptr ? env : "", installed_plot_dir(), POF_PLOT_DIR_SOURCE};
+  for (const std::string& dir : dirs) {
+    if (dir.empty()) continue;
+    const std::string p = dir + "/" + script;
     if (::access(p.c_str(), R_OK) == 0) return p;
   }
   return {};

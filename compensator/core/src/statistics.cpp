@@ -17,7 +17,12 @@ void ErrorProfile::add(double angle_ref_deg, double err_comp, double err_uncomp)
 }
 
 bool CycleStatistics::add(double t_s, const CompensatedScan& scan, double angle_ref_deg) noexcept {
-  if (scan.phase == Direction::kHold) return false;
+  if (scan.phase == Direction::kHold) {
+    if (!cur_.seen_extension || s_.close_after_hold_s <= 0) return false;
+    if (cur_.hold_since < 0) cur_.hold_since = t_s;
+    return t_s - cur_.hold_since >= s_.close_after_hold_s && close();
+  }
+  cur_.hold_since = -1;
   if (!std::isfinite(angle_ref_deg) || !std::isfinite(scan.angle_deg) || !std::isfinite(scan.angle_uncomp_deg))
     return false;
   bool closed = false;

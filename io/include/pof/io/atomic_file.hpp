@@ -4,6 +4,7 @@
 // half-written recording where a good one was (brief: "never overwrite good data with bad").
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace pof::io {
 
@@ -34,5 +35,19 @@ void write_file_atomic(const std::filesystem::path& path, const std::string& con
 /// Where a command's output option points: "-" is standard output (an error writing it is an
 /// IoError naming "standard output"), anything else write_file_atomic().
 void write_output(const std::filesystem::path& path, const std::string& content);
+
+/// A file a command reads or writes, with the option (or argument) that named it, for messages.
+struct NamedPath {
+  std::string option;  // e.g. "-o", "--csv", "recording"
+  std::filesystem::path path;
+};
+
+/// Refuses, before anything is read, a command line whose output would replace one of its inputs
+/// or another of its outputs: a write-then-rename onto the input recording succeeds and leaves the
+/// result where the data was. Files are the same when stat(2) gives the same st_dev and st_ino
+/// (so also through a symlink, a hard link or another spelling such as ./run.csv); an output that
+/// does not exist yet is compared by its absolute, normalised path. "" (option not given) and "-"
+/// (standard output) are skipped. Throws UsageError (exit 2) naming both options and the file.
+void refuse_output_over_input(const std::vector<NamedPath>& inputs, const std::vector<NamedPath>& outputs);
 
 }  // namespace pof::io

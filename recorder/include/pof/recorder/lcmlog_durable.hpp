@@ -1,13 +1,7 @@
 #pragma once
 // Crash-safe writing, checking and repair of standard LCM log files (the format lcm-logplayer and
-// lcm_eventlog_* read; ../shared/notes/lcm.md "Log format"):
-//
-//   offset 0   u32 sync 0xEDA1DA01         (all integers big-endian)
-//          4   i64 event number            (0, 1, 2, ... within one file)
-//         12   i64 timestamp [us since the Unix epoch]
-//         20   u32 channel length
-//         24   u32 data length
-//         28   channel bytes, then data bytes
+// lcm_eventlog_* read, described with the one reader every tool scans logs with in
+// pof/io/lcmlog_scan.hpp).
 //
 // Durability model (why the writer looks like this): a file is only ever extended by whole events.
 // Events are encoded in user space and handed to write(2) as complete batches; a short or failed
@@ -28,14 +22,18 @@
 #include <string_view>
 #include <vector>
 
+#include "pof/io/lcmlog_scan.hpp"
+
 namespace pof::recorder {
 
-inline constexpr uint32_t kLogSync = 0xEDA1DA01u;
-inline constexpr std::size_t kLogHeaderBytes = 28;
-// lcm.h: LCM_MAX_CHANNEL_NAME_LENGTH is 63; lcm_eventlog_read_next_event refuses longer ones.
-inline constexpr uint32_t kMaxChannelBytes = 63;
-// Upper bound used to tell a header from garbage; LCM's largest UDP fragmented message is far below.
-inline constexpr uint32_t kMaxDataBytes = 1u << 30;
+inline constexpr uint32_t kLogSync = io::kLcmLogSync;
+inline constexpr std::size_t kLogHeaderBytes = io::kLcmLogHeaderBytes;
+inline constexpr uint32_t kMaxChannelBytes = io::kLcmLogMaxChannelBytes;
+inline constexpr uint32_t kMaxDataBytes = io::kLcmLogMaxDataBytes;
+using io::get_be32;
+using io::get_be64;
+using io::put_be32;
+using io::put_be64;
 
 /// Result of a streaming-path write. Never thrown; the caller decides and reports.
 enum class WriteStatus { kOk, kNoSpace, kIoError };
@@ -109,6 +107,9 @@ struct LogCheck {
   // means damage in the middle, not just a torn tail.
   uint64_t events_after_damage = 0;
   uint64_t bytes_after_damage = 0;  // bytes of those events
+  uint64_t damaged_bytes = 0;       // bytes in no complete event (io::LcmLogScan)
+  uint64_t damaged_regions = 0;
+  uint64_t lost_events = 0;         // at least this many events lost in the damaged regions
   int64_t first_utime = 0;
   int64_t last_utime = 0;
   std::map<std::string, uint64_t> channel_events;  // of the complete events before the damage
@@ -117,23 +118,11 @@ struct LogCheck {
   [[nodiscard]] uint64_t torn_bytes() const { return file_bytes - good_bytes; }
 };
 
-/// Parses the header at `p` (kLogHeaderBytes readable). Returns why it is not a plausible event
-/// header, or nullopt when it is.
-std::optional<std::string> header_problem(const unsigned char* p, uint64_t offset, uint64_t file_bytes,
-                                          uint32_t* channel_len, uint32_t* data_len);
+/// A complete event inside the scanned file; pointers valid only during the callback.
+using LogEventRef = io::LcmEventRef;
 
-/// A complete event inside a mapped file; pointers valid only during the callback.
-struct LogEventRef {
-  uint64_t offset;
-  int64_t event_number;
-  int64_t utime;
-  std::string_view channel;
-  const unsigned char* data;
-  uint32_t data_size;
-};
-
-/// Reads a log (memory-mapped, read-only) and calls `on_event` for every complete event before the
-/// first damage. Throws pof::io::NoInputError when the file cannot be opened.
+/// Reads a log (io::LcmLogReader) and calls `on_event` for every complete event before the first
+/// damage. Throws pof::io::NoInputError when the file cannot be opened.
 LogCheck scan_log(const std::filesystem::path& path, const std::function<void(const LogEventRef&)>& on_event);
 LogCheck check_log(const std::filesystem::path& path);
 /// check_log() + the events themselves (for tests and small files).
@@ -158,24 +147,5 @@ struct RepairResult {
 ///    as `<path>.bak`.
 /// A clean file is left untouched. Throws pof::io::NoInputError / IoError naming the file.
 RepairResult repair_log(const std::filesystem::path& path);
-
-// ---------------------------------------------------------------------------------------------
-// Big-endian helpers shared by writer and reader.
-inline void put_be32(unsigned char* p, uint32_t v) {
-  p[0] = static_cast<unsigned char>(v >> 24);
-  p[1] = static_cast<unsigned char>(v >> 16);
-  p[2] = static_cast<unsigned char>(v >> 8);
-  p[3] = static_cast<unsigned char>(v);
-}
-inline void put_be64(unsigned char* p, uint64_t v) {
-  put_be32(p, static_cast<uint32_t>(v >> 32));
-  put_be32(p + 4, static_cast<uint32_t>(v));
-}
-inline uint32_t get_be32(const unsigned char* p) {
-  return (uint32_t{p[0]} << 24) | (uint32_t{p[1]} << 16) | (uint32_t{p[2]} << 8) | uint32_t{p[3]};
-}
-inline uint64_t get_be64(const unsigned char* p) {
-  return (uint64_t{get_be32(p)} << 32) | uint64_t{get_be32(p + 4)};
-}
 
 }  // namespace pof::recorder

@@ -38,6 +38,10 @@ namespace lcm {
 class LCM;
 }  // namespace lcm
 struct _lcm_recv_buf_t;
+namespace pof::bus {
+class UdpmReceiver;
+class ChannelFilter;
+}  // namespace pof::bus
 
 namespace pof::recorder {
 
@@ -131,8 +135,8 @@ class Session {
   std::filesystem::path attach_dir_;
   nlohmann::json attachments_ = nlohmann::json::array();
   std::unique_ptr<lcm::LCM> lcm_;
-  std::unique_ptr<class UdpmReceiver> direct_;
-  std::unique_ptr<class ChannelFilter> channel_filter_;  // receive thread only
+  std::unique_ptr<bus::UdpmReceiver> direct_;
+  std::unique_ptr<bus::ChannelFilter> channel_filter_;  // receive thread only
   uint16_t port_ = 0;
   uint64_t udp_drops_at_start_ = 0;
   int64_t start_utime_ = 0;

@@ -28,7 +28,7 @@ struct ChannelView {
   std::string name;
   uint64_t count = 0;
   uint64_t bytes = 0;
-  uint64_t decode_errors = 0;     // fingerprint matched one of our types but decode() failed
+  uint64_t decode_errors = 0;     // fingerprint matched one of our types but it did not decode (bounded decoder)
   std::size_t last_size = 0;
   uint64_t fingerprint = 0;
   recorder::PofType type = recorder::PofType::kUnknown;
@@ -67,6 +67,8 @@ struct RenderOptions {
   std::string url;
   double uptime_s = 0;
   uint64_t kernel_drops = 0; // UDP datagrams the kernel dropped on our socket
+  uint64_t malformed_datagrams = 0;  // datagrams on the port that are not LCM (pof::bus::ReceiverStats)
+  uint64_t incomplete_messages = 0;  // fragmented messages abandoned incomplete
   int64_t now_utime = 0;
 };
 

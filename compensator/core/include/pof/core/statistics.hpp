@@ -5,7 +5,8 @@
 // (offline) and pof-compensatord (online, cycle_stats_t) run the same code on the same scans.
 //
 // A cycle is a flexion sweep followed by an extension sweep, in the phases the compensator decided;
-// it closes when the next flexion starts (or at finish()). Holds are not part of a cycle (they use
+// it closes when the next flexion starts, after a hold of close_after_hold_s that follows its
+// extension, or at finish(). Holds are not part of a cycle (they use
 // f5 only). A cycle is kept when both sweeps have min_samples scans and span min_span_deg of the
 // reference; a partial cycle at the start or end of a recording is dropped and counted.
 // eq. (1) here: x = reference angle, y = sensor angle; lines fitted per sweep (running sums).
@@ -21,6 +22,10 @@ namespace pof::core {
 struct StatisticsSettings {
   double min_span_deg = 20.0;
   std::int64_t min_samples = 20;
+  // A hold this long after the extension sweep closes the cycle: its statistics are complete (holds
+  // are not part of a cycle), and a live stream must not wait for the next flexion, which may never
+  // come (the last cycle of a session). 0 = close only at the next flexion or at finish().
+  double close_after_hold_s = 2.0;
 };
 
 struct CycleStats {
@@ -50,7 +55,8 @@ class CycleStatistics {
   explicit CycleStatistics(const StatisticsSettings& s = {}) : s_(s) {}
 
   /// One compensated scan with its reference angle. Returns true when this scan closed a valid
-  /// cycle; last() then holds it. NaN angles or references are skipped.
+  /// cycle; last() then holds it. NaN angles or references are skipped. Hold scans only time the
+  /// hold that closes a finished cycle.
   bool add(double t_s, const CompensatedScan& scan, double angle_ref_deg) noexcept;
   /// Closes the cycle in progress (end of a recording). Returns true if it was valid.
   bool finish() noexcept;
@@ -71,6 +77,7 @@ class CycleStatistics {
     double t_start = 0, t_end = 0;
     std::int64_t n = 0;
     bool seen_extension = false;
+    double hold_since = -1;  // start of the hold that follows the extension [s]; -1 = none
   };
   bool close() noexcept;
 

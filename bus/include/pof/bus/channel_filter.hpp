@@ -7,7 +7,7 @@
 #include <string>
 #include <string_view>
 
-namespace pof::recorder {
+namespace pof::bus {
 
 class ChannelFilter {
  public:
@@ -26,4 +26,4 @@ class ChannelFilter {
   std::map<std::string, bool, std::less<>> cache_;
 };
 
-}  // namespace pof::recorder
+}  // namespace pof::bus

@@ -1,4 +1,4 @@
-#include "pof/recorder/udpm_receiver.hpp"
+#include "pof/bus/udpm_receiver.hpp"
 
 #include <arpa/inet.h>
 #include <poll.h>
@@ -10,16 +10,22 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "pof/io/errors.hpp"
-#include "pof/recorder/lcmlog_durable.hpp"
+#include <lcm/lcm.h>
 
-namespace pof::recorder {
+#include "pof/io/errors.hpp"
+
+namespace pof::bus {
 namespace {
 
 constexpr uint32_t kMagicShort = 0x4C433032;  // "LC02"
 constexpr uint32_t kMagicFrag = 0x4C433033;   // "LC03"
 
 uint16_t get_be16(const unsigned char* p) { return static_cast<uint16_t>((p[0] << 8) | p[1]); }
+uint32_t get_be32(const unsigned char* p) {
+  return (uint32_t{p[0]} << 24) | (uint32_t{p[1]} << 16) | (uint32_t{p[2]} << 8) | uint32_t{p[3]};
+}
+// lcm.h: liblcm refuses longer channel names.
+constexpr std::size_t kMaxChannelBytes = LCM_MAX_CHANNEL_NAME_LENGTH;
 
 }  // namespace
 
@@ -69,7 +75,8 @@ UdpmUrl parse_udpm_url(const std::string& url) {
   return u;
 }
 
-UdpmReceiver::UdpmReceiver(const UdpmUrl& url) {
+UdpmReceiver::UdpmReceiver(const UdpmUrl& url, UdpmLimits limits) : limits_(limits) {
+  if (limits_.max_senders == 0) limits_.max_senders = 1;
   const std::string where = "udpm://" + url.group + ":" + std::to_string(url.port);
   fd_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
   if (fd_ < 0) throw io::ConfigError(where + ": socket: " + std::strerror(errno));
@@ -90,13 +97,16 @@ UdpmReceiver::UdpmReceiver(const UdpmUrl& url) {
     ::setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &url.recv_buf_size, sizeof url.recv_buf_size);
   if (::setsockopt(fd_, SOL_SOCKET, SO_TIMESTAMP, &one, sizeof one) != 0) fail("SO_TIMESTAMP");
   ::setsockopt(fd_, IPPROTO_IP, IP_MULTICAST_ALL, &zero, sizeof zero);
+  // Bound to the group, not INADDR_ANY (liblcm's choice): Linux hands a UDP datagram only to
+  // sockets bound to its destination address or to INADDR_ANY, so unicast sent to one of the
+  // host's addresses on this port stays out (tests/functional/test_bus_receiver.cpp checks it).
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_ANY);
+  inet_aton(url.group.c_str(), &addr.sin_addr);
   addr.sin_port = htons(url.port);
   if (::bind(fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) fail("bind");
   ip_mreq mreq{};
-  inet_aton(url.group.c_str(), &mreq.imr_multiaddr);
+  mreq.imr_multiaddr = addr.sin_addr;
   mreq.imr_interface.s_addr = htonl(INADDR_ANY);
   if (::setsockopt(fd_, IPPROTO_IP, IP_ADD_MEMBERSHIP, &mreq, sizeof mreq) != 0) fail("IP_ADD_MEMBERSHIP");
   buf_.resize(kBatch * kDatagramBytes);
@@ -115,7 +125,9 @@ int UdpmReceiver::receive(int timeout_ms, const Sink& sink) {
   iovec iov[kBatch];
   sockaddr_in from[kBatch];
   int delivered = 0;
-  for (;;) {
+  // At most kMaxBatches batches per call: a flood must not keep the caller from its other duties
+  // (status, watchdog, signals); what is left stays in the kernel buffer for the next call.
+  for (int batch = 0; batch < kMaxBatches; ++batch) {
     for (int i = 0; i < kBatch; ++i) {
       iov[i] = {buf_.data() + static_cast<std::size_t>(i) * kDatagramBytes, kDatagramBytes};
       msgs[i] = {};
@@ -153,6 +165,36 @@ int UdpmReceiver::receive(int timeout_ms, const Sink& sink) {
   return delivered;
 }
 
+UdpmReceiver::Partial& UdpmReceiver::start_partial(uint64_t key, uint32_t seq, uint32_t size, uint16_t frags) {
+  // Make room: a sender beyond the count, or bytes beyond the budget, evict the sender heard from
+  // least recently (a forger cycling source ports cannot grow the table or starve it forever:
+  // a live sender is heard again and again).
+  auto oldest = [this] {
+    auto o = partial_.begin();
+    for (auto it = partial_.begin(); it != partial_.end(); ++it)
+      if (it->second.last_heard < o->second.last_heard) o = it;
+    return o;
+  };
+  while (!partial_.empty() &&
+         (partial_.size() >= limits_.max_senders || partial_bytes_ + size > limits_.max_partial_bytes)) {
+    ++incomplete_;
+    drop_partial(oldest());
+  }
+  Partial& m = partial_[key];
+  m.seq = seq;
+  m.size = size;
+  m.fragments = frags;
+  m.last_heard = datagrams_;
+  m.data.reset(new unsigned char[size == 0 ? 1 : size]);  // default-initialised: untouched pages
+  partial_bytes_ += size;
+  return m;
+}
+
+void UdpmReceiver::drop_partial(std::map<uint64_t, Partial>::iterator it) {
+  partial_bytes_ -= it->second.size;
+  partial_.erase(it);
+}
+
 void UdpmReceiver::handle_datagram(const unsigned char* p, std::size_t n, const sockaddr_in& from, int64_t utime,
                                    const Sink& sink, int& delivered) {
   if (n < 8) {
@@ -188,55 +230,55 @@ void UdpmReceiver::handle_datagram(const unsigned char* p, std::size_t n, const 
   const unsigned char* body = p + 20;
   std::size_t body_len = n - 20;
   const uint64_t key = (uint64_t{from.sin_addr.s_addr} << 16) | from.sin_port;
-  Partial& m = partial_[key];
-  if (m.fragments != 0 && m.seq != seq) {
-    ++incomplete_;  // the sender moved on: liblcm drops the incomplete message too
-    m = Partial{};
+  // The header alone must be possible: a message within the limit, a fragment inside it, a number
+  // below the count. Nothing is allocated for a datagram that fails these.
+  if (size == 0 || size > limits_.max_message_bytes || frags == 0 || frag_no >= frags) {
+    ++malformed_;
+    return;
   }
+  std::string_view channel;
   if (frag_no == 0) {
     const auto* ch = reinterpret_cast<const char*>(body);
     const std::size_t len = strnlen(ch, body_len);
-    if (len == body_len || len == 0 || len > kMaxChannelBytes || size > kMaxDataBytes || frags == 0) {
+    if (len == body_len || len == 0 || len > kMaxChannelBytes) {
       ++malformed_;
       return;
     }
-    if (m.fragments == 0) {
-      m.seq = seq;
-      m.size = size;
-      m.fragments = frags;
-      m.data.assign(size, 0);
-    }
-    m.channel.assign(ch, len);
+    channel = std::string_view(ch, len);
     body += len + 1;
     body_len -= len + 1;
-  } else if (m.fragments == 0) {
-    // A later fragment before fragment 0: start the message; the channel comes with fragment 0.
-    if (size > kMaxDataBytes || frags == 0) {
-      ++malformed_;
-      return;
-    }
-    m.seq = seq;
-    m.size = size;
-    m.fragments = frags;
-    m.data.assign(size, 0);
   }
-  if (size != m.size || frags != m.fragments || uint64_t{offset} + body_len > m.size) {
+  if (uint64_t{offset} + body_len > size) {  // e.g. offset 0xFFFFFFFF
     ++malformed_;
-    partial_.erase(key);
     return;
   }
-  std::memcpy(m.data.data() + offset, body, body_len);
+  auto it = partial_.find(key);
+  if (it != partial_.end() && it->second.seq != seq) {
+    ++incomplete_;  // the sender moved on: liblcm drops the incomplete message too
+    drop_partial(it);
+    it = partial_.end();
+  }
+  if (it != partial_.end() && (size != it->second.size || frags != it->second.fragments)) {
+    ++malformed_;  // one message, two shapes: neither can be trusted
+    drop_partial(it);
+    return;
+  }
+  Partial& m = it != partial_.end() ? it->second : start_partial(key, seq, size, frags);
+  m.last_heard = datagrams_;
+  if (!channel.empty()) m.channel.assign(channel);
+  std::memcpy(m.data.get() + offset, body, body_len);
   m.received += static_cast<uint32_t>(body_len);
   ++m.got;
-  if (m.got == m.fragments && !m.channel.empty()) {
-    if (m.received == m.size) {
-      sink(utime, m.channel, m.data.data(), m.size);
+  if (m.got == m.fragments) {
+    const auto done = partial_.find(key);
+    if (m.received == m.size && !m.channel.empty()) {
+      sink(utime, m.channel, m.data.get(), m.size);
       ++delivered;
     } else {
-      ++malformed_;
+      ++malformed_;  // duplicated fragments, or fragment 0 never came
     }
-    partial_.erase(key);
+    drop_partial(done);
   }
 }
 
-}  // namespace pof::recorder
+}  // namespace pof::bus

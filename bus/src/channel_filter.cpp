@@ -1,10 +1,10 @@
-#include "pof/recorder/channel_filter.hpp"
+#include "pof/bus/channel_filter.hpp"
 
 #include <glib.h>
 
 #include "pof/io/errors.hpp"
 
-namespace pof::recorder {
+namespace pof::bus {
 
 ChannelFilter::ChannelFilter(const std::string& regex) {
   const std::string anchored = "^" + regex + "$";
@@ -32,4 +32,4 @@ bool ChannelFilter::matches(std::string_view channel) {
   return m;
 }
 
-}  // namespace pof::recorder
+}  // namespace pof::bus

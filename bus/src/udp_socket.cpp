@@ -1,4 +1,4 @@
-#include "pof/recorder/udp_socket.hpp"
+#include "pof/bus/udp_socket.hpp"
 
 #include <dirent.h>
 #include <sys/socket.h>
@@ -12,7 +12,7 @@
 #include <sstream>
 #include <string>
 
-namespace pof::recorder {
+namespace pof::bus {
 
 std::vector<UdpSocketInfo> udp_sockets(uint16_t port) {
   std::vector<UdpSocketInfo> socks;
@@ -85,4 +85,4 @@ uint16_t lcm_url_port(const char* url) {
   return static_cast<uint16_t>(std::strtoul(colon + 1, nullptr, 10));
 }
 
-}  // namespace pof::recorder
+}  // namespace pof::bus

@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <vector>
 
-namespace pof::recorder {
+namespace pof::bus {
 
 struct UdpSocketInfo {
   int fd = -1;
@@ -30,4 +30,4 @@ long rmem_max();
 /// The port of an LCM udpm:// URL (default 7667), 0 for other providers.
 uint16_t lcm_url_port(const char* url);
 
-}  // namespace pof::recorder
+}  // namespace pof::bus

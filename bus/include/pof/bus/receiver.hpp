@@ -1,0 +1,174 @@
+#pragma once
+// pof::bus::Receiver: the one way pofkit's processes take messages off the LCM bus
+// (pof-compensatord, `pof spy`). Total: no datagram, message or handler makes it throw, crash or
+// grow without bound; what it cannot use it counts.
+//
+//   udpm:// (every deployment)  UdpmReceiver: our own socket, bounded reassembly, bound to the
+//                               group address (udpm_receiver.hpp), never liblcm's receive thread
+//                               (a fragment with offset 0xFFFFFFFF crashes liblcm 1.3.1).
+//   anything else (memq:// in   subscriptions on the caller's lcm::LCM (memq delivers only within
+//   tests)                      one LCM instance, so it must be the one the process publishes on).
+//
+// Both paths hand the raw bytes to one dispatcher: typed subscriptions decode them with the bounded
+// decoder (pof/lcm/decode.hpp) into a message object kept per subscription (so the vectors of a
+// raw block are reused, not reallocated per message), count what does not decode per channel, and
+// call the handler; raw subscriptions (a channel regex with liblcm's semantics, ChannelFilter)
+// get the bytes. Exceptions from handlers are caught and counted: nothing crosses the receive loop
+// or liblcm's C callback. Errors are also reported, one by one, to an optional error handler (the
+// daemons log them rate-limited with ErrorLog).
+//
+// Threads: one thread subscribes and calls handle(); handlers run on it.
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "pof/bus/channel_filter.hpp"
+#include "pof/bus/udpm_receiver.hpp"
+#include "pof/lcm/decode.hpp"
+
+namespace lcm {
+class LCM;
+}  // namespace lcm
+struct _lcm_recv_buf_t;
+struct _lcm_subscription_t;
+
+namespace pof::bus {
+
+/// Where a message came from.
+struct Delivery {
+  std::string_view channel;
+  int64_t recv_utime = 0;  // receive time [us since the Unix epoch] (a kernel timestamp on udpm)
+};
+
+/// Per typed channel, since the receiver was created.
+struct ChannelStats {
+  uint64_t messages = 0;        // messages received on the channel, decodable or not
+  uint64_t decode_errors = 0;   // ... that did not decode as the subscribed type
+  uint64_t handler_errors = 0;  // handler calls that threw
+};
+
+struct ReceiverStats {
+  // udpm:// only (liblcm counts nothing of the kind): datagrams read, datagrams that are not LCM
+  // packets or carry impossible fragment headers, fragmented messages abandoned incomplete.
+  uint64_t datagrams = 0;
+  uint64_t malformed_datagrams = 0;
+  uint64_t incomplete_messages = 0;
+  // Summed over the typed channels.
+  uint64_t decode_errors = 0;
+  uint64_t handler_errors = 0;
+};
+
+/// One message that could not be used, as reported to the error handler.
+struct ReceiveError {
+  enum class Kind : uint8_t { kDecode, kHandler };
+  Kind kind = Kind::kDecode;
+  std::string_view channel;
+  lcmutil::DecodeResult decode;  // kDecode
+  std::string_view what;         // kHandler: the exception's what()
+  /// "POF_RAW: raw_block_t: array 'volts' at byte 90: ..." (bounded, no payload bytes).
+  [[nodiscard]] std::string describe() const;
+};
+
+struct ReceiverOptions {
+  UdpmLimits udpm;
+  // Other transports: liblcm's queue per subscription [messages]. Its default, 30, drops the
+  // excess silently when the handler thread falls behind.
+  int lcm_queue_capacity = 10000;
+};
+
+class Receiver {
+ public:
+  using RawHandler = std::function<void(const Delivery&, const unsigned char* data, std::size_t size)>;
+  using ErrorHandler = std::function<void(const ReceiveError&)>;
+
+  /// `url` as resolved by pof::lcmutil::resolve_url(). Throws pof::io::ConfigError naming the URL
+  /// when the socket cannot be set up or `lc` is not good() on a non-udpm URL.
+  Receiver(lcm::LCM& lc, const std::string& url, ReceiverOptions options = {});
+  ~Receiver();
+  Receiver(const Receiver&) = delete;
+  Receiver& operator=(const Receiver&) = delete;
+
+  /// fn(const Msg&, const Delivery&) for every message on `channel` (exact name) that decodes as
+  /// Msg. Throws std::logic_error if Msg's bounded-decoder layout does not match the generated
+  /// type (a build error, caught here at setup rather than as decode errors at run time).
+  template <class Msg, class Fn>
+  void subscribe(const std::string& channel, Fn fn) {
+    add_typed(channel, std::make_unique<Typed<Msg, Fn>>(std::move(fn)), lcmutil::layout_matches<Msg>(),
+              lcmutil::Layout<Msg>::kName);
+  }
+
+  /// fn(delivery, bytes, size) for every message on a channel matching `regex` (whole name, liblcm's
+  /// PCRE syntax). Throws pof::io::ConfigError naming the pattern when it does not compile.
+  void subscribe_raw(const std::string& regex, RawHandler fn);
+
+  /// Called for every decode or handler error (after counting). Must not throw.
+  void on_error(ErrorHandler fn) { on_error_ = std::move(fn); }
+
+  /// Waits up to timeout_ms for traffic, then delivers what arrived (a bounded amount, so a flood
+  /// cannot hold the caller). Returns the messages taken off the transport (0 on timeout), -1 on a
+  /// socket error. Never throws.
+  int handle(int timeout_ms) noexcept;
+
+  /// The descriptor to poll() for readability.
+  [[nodiscard]] int fd() const;
+  /// True when udpm:// is received on our own socket.
+  [[nodiscard]] bool direct() const { return udpm_ != nullptr; }
+  [[nodiscard]] ReceiverStats stats() const;
+  /// Zeros for a channel nobody subscribed to with a type.
+  [[nodiscard]] ChannelStats channel_stats(std::string_view channel) const;
+
+ private:
+  struct TypedBase {
+    virtual ~TypedBase() = default;
+    virtual lcmutil::DecodeResult decode(const unsigned char* data, std::size_t size) noexcept = 0;
+    virtual void call(const Delivery& d) = 0;
+  };
+  template <class Msg, class Fn>
+  struct Typed final : TypedBase {
+    explicit Typed(Fn f) : fn(std::move(f)) {}
+    lcmutil::DecodeResult decode(const unsigned char* data, std::size_t size) noexcept override {
+      return lcmutil::decode<Msg>(data, size, msg);
+    }
+    void call(const Delivery& d) override { fn(static_cast<const Msg&>(msg), d); }
+    Msg msg{};
+    Fn fn;
+  };
+  struct Channel {
+    std::vector<std::unique_ptr<TypedBase>> subs;
+    ChannelStats stats;
+  };
+  struct Raw {
+    std::unique_ptr<ChannelFilter> filter;
+    RawHandler fn;
+  };
+  // What a liblcm subscription's C callback gets: the receiver and whom to deliver to.
+  struct Hook {
+    Receiver* rx = nullptr;
+    Raw* raw = nullptr;  // null: the typed subscriptions of the message's channel
+    _lcm_subscription_t* sub = nullptr;
+  };
+
+  void add_typed(const std::string& channel, std::unique_ptr<TypedBase> sub, bool layout_ok, std::string_view type);
+  void add_lcm_subscription(const std::string& regex, Raw* raw);
+  static void on_lcm_message(const _lcm_recv_buf_t* rbuf, const char* channel, void* hook);
+  void dispatch(std::string_view channel, const unsigned char* data, std::size_t size, int64_t utime) noexcept;
+  void deliver_typed(Channel& c, const Delivery& d, const unsigned char* data, std::size_t size) noexcept;
+  void deliver_raw(Raw& r, const Delivery& d, const unsigned char* data, std::size_t size) noexcept;
+  void report(const ReceiveError& e) noexcept;
+
+  lcm::LCM& lc_;
+  ReceiverOptions opt_;
+  std::unique_ptr<UdpmReceiver> udpm_;
+  UdpmReceiver::Sink sink_;
+  std::map<std::string, Channel, std::less<>> channels_;
+  std::vector<std::unique_ptr<Raw>> raw_;
+  std::vector<std::unique_ptr<Hook>> hooks_;
+  ErrorHandler on_error_;
+};
+
+}  // namespace pof::bus

@@ -1,0 +1,200 @@
+#include "pof/bus/receiver.hpp"
+
+#include <lcm/lcm-cpp.hpp>
+
+#include <cctype>
+#include <exception>
+#include <stdexcept>
+
+#include "pof/io/errors.hpp"
+
+namespace pof::bus {
+namespace {
+
+// A channel name as a regex matching only itself: liblcm subscribes by GRegex (PCRE), where a
+// backslash before a non-alphanumeric character makes it literal.
+std::string literal_regex(const std::string& channel) {
+  std::string r;
+  for (const char c : channel) {
+    if (std::isalnum(static_cast<unsigned char>(c)) == 0 && c != '_') r += '\\';
+    r += c;
+  }
+  return r;
+}
+
+// Messages taken per handle() call on the liblcm path, like UdpmReceiver's batch bound.
+constexpr int kMaxLcmMessagesPerHandle = 1024;
+
+}  // namespace
+
+std::string ReceiveError::describe() const {
+  std::string s(channel);
+  if (kind == Kind::kDecode) return s + ": " + decode.describe();
+  constexpr std::size_t kMaxWhat = 200;  // bounded: a handler's message may quote input
+  return s + ": handler failed: " + std::string(what.substr(0, kMaxWhat));
+}
+
+Receiver::Receiver(lcm::LCM& lc, const std::string& url, ReceiverOptions options) : lc_(lc), opt_(options) {
+  if (url.rfind("udpm://", 0) == 0) {
+    udpm_ = std::make_unique<UdpmReceiver>(parse_udpm_url(url), opt_.udpm);
+    sink_ = [this](int64_t utime, std::string_view channel, const unsigned char* data, uint32_t size) {
+      dispatch(channel, data, size, utime);
+    };
+  } else if (!lc_.good()) {
+    throw io::ConfigError("LCM URL '" + url + "': cannot open");
+  }
+}
+
+Receiver::~Receiver() {
+  for (const auto& h : hooks_)
+    if (h->sub != nullptr) lcm_unsubscribe(lc_.getUnderlyingLCM(), h->sub);
+}
+
+void Receiver::add_lcm_subscription(const std::string& regex, Raw* raw) {
+  auto hook = std::make_unique<Hook>();
+  hook->rx = this;
+  hook->raw = raw;
+  hook->sub = lcm_subscribe(lc_.getUnderlyingLCM(), regex.c_str(), &Receiver::on_lcm_message, hook.get());
+  if (hook->sub == nullptr) throw io::ConfigError("channel '" + regex + "': LCM refused the subscription");
+  lcm_subscription_set_queue_capacity(hook->sub, opt_.lcm_queue_capacity);
+  hooks_.push_back(std::move(hook));
+}
+
+void Receiver::add_typed(const std::string& channel, std::unique_ptr<TypedBase> sub, bool layout_ok,
+                         std::string_view type) {
+  if (!layout_ok)
+    throw std::logic_error(std::string(type) +
+                           ": pof/lcm/decode.hpp's layout does not match the generated type (update it with the .lcm file)");
+  auto [it, fresh] = channels_.try_emplace(channel);
+  it->second.subs.push_back(std::move(sub));
+  if (fresh && !udpm_) add_lcm_subscription(literal_regex(channel), nullptr);
+}
+
+void Receiver::subscribe_raw(const std::string& regex, RawHandler fn) {
+  auto raw = std::make_unique<Raw>();
+  raw->filter = std::make_unique<ChannelFilter>(regex);  // throws ConfigError on a bad pattern
+  raw->fn = std::move(fn);
+  if (!udpm_) add_lcm_subscription(regex, raw.get());
+  raw_.push_back(std::move(raw));
+}
+
+void Receiver::on_lcm_message(const lcm_recv_buf_t* rbuf, const char* channel, void* hook) {
+  // liblcm's C callback: nothing may propagate out of here (deliver_* are noexcept).
+  const auto* h = static_cast<const Hook*>(hook);
+  const Delivery d{channel, rbuf->recv_utime};
+  const auto* data = static_cast<const unsigned char*>(rbuf->data);
+  if (h->raw != nullptr) {
+    h->rx->deliver_raw(*h->raw, d, data, rbuf->data_size);
+    return;
+  }
+  const auto it = h->rx->channels_.find(d.channel);
+  if (it != h->rx->channels_.end()) h->rx->deliver_typed(it->second, d, data, rbuf->data_size);
+}
+
+void Receiver::dispatch(std::string_view channel, const unsigned char* data, std::size_t size, int64_t utime) noexcept {
+  const Delivery d{channel, utime};
+  if (const auto it = channels_.find(channel); it != channels_.end()) deliver_typed(it->second, d, data, size);
+  for (const auto& r : raw_) {
+    bool match = false;
+    try {
+      match = r->filter->matches(channel);  // may allocate its verdict cache
+    } catch (...) {
+      continue;
+    }
+    if (match) deliver_raw(*r, d, data, size);
+  }
+}
+
+void Receiver::deliver_typed(Channel& c, const Delivery& d, const unsigned char* data, std::size_t size) noexcept {
+  ++c.stats.messages;
+  for (const auto& sub : c.subs) {
+    const lcmutil::DecodeResult r = sub->decode(data, size);
+    if (!r) {
+      ++c.stats.decode_errors;
+      ReceiveError e;
+      e.kind = ReceiveError::Kind::kDecode;
+      e.channel = d.channel;
+      e.decode = r;
+      report(e);
+      continue;
+    }
+    try {
+      sub->call(d);
+    } catch (const std::exception& ex) {
+      ++c.stats.handler_errors;
+      ReceiveError e;
+      e.kind = ReceiveError::Kind::kHandler;
+      e.channel = d.channel;
+      e.what = ex.what();
+      report(e);
+    } catch (...) {
+      ++c.stats.handler_errors;
+      ReceiveError e;
+      e.kind = ReceiveError::Kind::kHandler;
+      e.channel = d.channel;
+      e.what = "an exception that is not a std::exception";
+      report(e);
+    }
+  }
+}
+
+void Receiver::deliver_raw(Raw& r, const Delivery& d, const unsigned char* data, std::size_t size) noexcept {
+  try {
+    r.fn(d, data, size);
+  } catch (const std::exception& ex) {
+    ReceiveError e;
+    e.kind = ReceiveError::Kind::kHandler;
+    e.channel = d.channel;
+    e.what = ex.what();
+    report(e);
+  } catch (...) {
+    ReceiveError e;
+    e.kind = ReceiveError::Kind::kHandler;
+    e.channel = d.channel;
+    e.what = "an exception that is not a std::exception";
+    report(e);
+  }
+}
+
+void Receiver::report(const ReceiveError& e) noexcept {
+  if (!on_error_) return;
+  try {
+    on_error_(e);
+  } catch (...) {  // an error handler that fails (e.g. out of memory while logging) loses the report only
+  }
+}
+
+int Receiver::handle(int timeout_ms) noexcept {
+  if (udpm_) return udpm_->receive(timeout_ms, sink_);
+  try {
+    int n = lc_.handleTimeout(timeout_ms);
+    if (n <= 0) return n < 0 ? -1 : 0;
+    while (n < kMaxLcmMessagesPerHandle && lc_.handleTimeout(0) > 0) ++n;
+    return n;
+  } catch (...) {  // liblcm's C++ wrapper does not throw; kept total regardless
+    return -1;
+  }
+}
+
+int Receiver::fd() const { return udpm_ ? udpm_->fd() : lc_.getFileno(); }
+
+ReceiverStats Receiver::stats() const {
+  ReceiverStats s;
+  if (udpm_) {
+    s.datagrams = udpm_->datagrams();
+    s.malformed_datagrams = udpm_->malformed();
+    s.incomplete_messages = udpm_->incomplete_messages();
+  }
+  for (const auto& [name, c] : channels_) {
+    s.decode_errors += c.stats.decode_errors;
+    s.handler_errors += c.stats.handler_errors;
+  }
+  return s;
+}
+
+ChannelStats Receiver::channel_stats(std::string_view channel) const {
+  const auto it = channels_.find(channel);
+  return it == channels_.end() ? ChannelStats{} : it->second.stats;
+}
+
+}  // namespace pof::bus

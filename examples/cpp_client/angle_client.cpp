@@ -1,0 +1,120 @@
+// pof-angle-client: what a controller does with pofkit's output, in one file.
+//
+// Subscribes to POF_ANGLE[_<SENSOR_ID>] (pof::angle_t) and, per message:
+//   - checks the sequence number: a jump of seq means angles were lost on the bus;
+//   - reads the quality flags: an angle with QUALITY_INVALID_INPUT is NaN and must not be used,
+//     the other flags say how far to trust it (see angle_t.lcm);
+//   - measures the sample age: receive time minus angle_t.utime, the host time of the scan the
+//     angle was computed from. That is what a control loop sees as measurement delay (the
+//     pipeline's lag; the model's own filter lag comes on top, docs/deployment.md "Latency").
+// Prints one line per second and a summary; exits 0 once --count angles have arrived, 1 on timeout.
+//
+// Robustness, as in pof-compensatord: messages are decoded here, not by a typed subscription, so a
+// malformed datagram on the bus is counted and skipped instead of ending the controller.
+#include <lcm/lcm-cpp.hpp>
+#include <poll.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "pof/angle_t.hpp"
+#include "pof/lcm/url.hpp"    // the LCM URL rule every pofkit process follows
+#include "pof/lcm/utime.hpp"  // microseconds since the epoch, the utime convention
+
+namespace {
+
+struct Stats {
+  std::int64_t angles = 0, lost = 0, undecodable = 0, unusable = 0, flagged = 0;
+  std::int64_t last_seq = -1;
+  std::vector<double> age_ms;
+};
+
+void on_message(const lcm::ReceiveBuffer* rbuf, const std::string& /*channel*/, Stats* s) {
+  pof::angle_t m;
+  if (rbuf->data_size > INT32_MAX || m.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) {
+    ++s->undecodable;
+    return;
+  }
+  const std::int64_t now = pof::lcmutil::now_utime();
+  if (s->last_seq >= 0 && m.seq > s->last_seq + 1) s->lost += m.seq - s->last_seq - 1;
+  if (s->last_seq >= 0 && m.seq <= s->last_seq && m.seq != 0) return;  // duplicate or reordered
+  s->last_seq = m.seq;
+  ++s->angles;
+  if ((m.quality & pof::angle_t::QUALITY_INVALID_INPUT) != 0 || !std::isfinite(m.angle_deg)) ++s->unusable;
+  else if (m.quality != 0) ++s->flagged;
+  s->age_ms.push_back(static_cast<double>(now - m.utime) / 1000.0);
+}
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return NAN;
+  const auto k = static_cast<std::size_t>(p / 100.0 * static_cast<double>(v.size() - 1));
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+  return v[k];
+}
+
+int usage(const char* argv0) {
+  std::fprintf(stderr, "usage: %s [--lcm-url URL] [--sensor-id ID] [--count N] [--timeout S]\n", argv0);
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string url_opt, sensor_id;
+  long count = 200;
+  double timeout_s = 30;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--help" || a == "-h") {
+      usage(argv[0]);
+      return 0;
+    }
+    if (i + 1 >= argc) return usage(argv[0]);
+    const char* v = argv[++i];
+    if (a == "--lcm-url") url_opt = v;
+    else if (a == "--sensor-id") sensor_id = v;
+    else if (a == "--count") count = std::strtol(v, nullptr, 10);
+    else if (a == "--timeout") timeout_s = std::strtod(v, nullptr);
+    else return usage(argv[0]);
+  }
+  const std::string url = pof::lcmutil::resolve_url(url_opt);
+  const std::string channel = pof::lcmutil::channel("POF_ANGLE", sensor_id);
+  lcm::LCM lc(url);
+  if (!lc.good()) {
+    std::fprintf(stderr, "pof-angle-client: cannot open LCM URL %s\n", url.c_str());
+    return 1;
+  }
+  Stats s;
+  lcm::Subscription* sub = lc.subscribeFunction(channel, &on_message, &s);
+  sub->setQueueCapacity(10000);  // LCM's default of 30 drops silently at 200 Hz under load
+  std::printf("listening on %s (%s)\n", channel.c_str(), url.c_str());
+
+  const auto t0 = std::chrono::steady_clock::now();
+  auto next_line = t0 + std::chrono::seconds(1);
+  while (s.angles < count) {
+    const auto now = std::chrono::steady_clock::now();
+    if (std::chrono::duration<double>(now - t0).count() > timeout_s) break;
+    pollfd p{lc.getFileno(), POLLIN, 0};
+    if (::poll(&p, 1, 100) > 0) lc.handle();
+    if (now >= next_line) {
+      std::printf("%lld angles, %lld lost, age p50 %.2f ms\n", static_cast<long long>(s.angles),
+                  static_cast<long long>(s.lost), percentile(s.age_ms, 50));
+      std::fflush(stdout);
+      next_line += std::chrono::seconds(1);
+    }
+  }
+  std::printf("summary: angles=%lld lost=%lld undecodable=%lld unusable=%lld flagged=%lld "
+              "age_p50_ms=%.3f age_p99_ms=%.3f age_max_ms=%.3f\n",
+              static_cast<long long>(s.angles), static_cast<long long>(s.lost),
+              static_cast<long long>(s.undecodable), static_cast<long long>(s.unusable),
+              static_cast<long long>(s.flagged), percentile(s.age_ms, 50), percentile(s.age_ms, 99),
+              s.age_ms.empty() ? NAN : *std::max_element(s.age_ms.begin(), s.age_ms.end()));
+  return s.angles >= count ? 0 : 1;
+}

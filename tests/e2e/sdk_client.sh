@@ -1,0 +1,100 @@
+# A controller project uses pofkit as a dependency: `cmake --install` gives headers, the
+# pure core and the C/C++/Python message types, a CMake package and a pkg-config file;
+# examples/cpp_client builds out of tree against that prefix alone (find_package(pofkit)), a C program
+# builds with pkg-config, and the installed daemons (sim backend) feed live angles to the C++ client
+# and to the Python client (examples/python) running on the installed Python package.
+source "$(dirname "$0")/lib.sh"
+BUILD_DIR=$(readlink -f "$BIN_DIR/..")
+prefix="$WORK_DIR/prefix"
+cmake --install "$BUILD_DIR" --prefix "$prefix" >install.log || fail "cmake --install failed: $(tail -5 install.log)"
+
+for f in include/pof/angle_t.hpp include/pof/raw_block_t.hpp include/pof_angle_t.h include/pof_raw_block_t.h \
+  include/pof/core/compensator.hpp include/pof/core/calibration.hpp include/pof/lcm/url.hpp \
+  lib/libpof_core.a lib/libpof_lcmtypes_c.a lib/cmake/pofkit/pofkitConfig.cmake \
+  lib/cmake/pofkit/pofkitConfigVersion.cmake lib/cmake/pofkit/pofkitTargets.cmake lib/pkgconfig/pofkit.pc \
+  share/pofkit/lcmtypes/angle_t.lcm share/pofkit/lcmtypes/raw_block_t.lcm share/pofkit/plot/calibration_report.py \
+  etc/pof/pof.env etc/pof/daqd.toml; do
+  [ -e "$prefix/$f" ] || fail "the install lacks $f"
+done
+# No debug sections in the installed binaries (pof is ~80 MB with them): stripped by default.
+for b in pof pof-daqd pof-compensatord; do
+  if readelf -S "$prefix/bin/$b" | awk '/\.debug_info/ {found=1} END {exit !found}'; then
+    fail "bin/$b still carries debug info after cmake --install"
+  fi
+done
+echo "installed pof: $(du -k "$prefix/bin/pof" | cut -f1) KiB (build tree: $(du -k "$BIN_DIR/pof" | cut -f1) KiB)"
+
+# Out of tree, against the prefix only: the example project (C++ client and embedded core).
+cmake -S "$SOURCE_DIR/examples/cpp_client" -B client -G Ninja -DCMAKE_PREFIX_PATH="$prefix" \
+  -DCMAKE_BUILD_TYPE=Release >client-configure.log 2>&1 || fail "find_package(pofkit) failed: $(tail -20 client-configure.log)"
+cmake --build client >client-build.log 2>&1 || fail "example client build failed: $(tail -30 client-build.log)"
+client/pof-embedded-compensator || fail "the installed pofkit::core compensates wrongly"
+
+# A C program through pkg-config: encode and decode an angle with the installed C types.
+cat >c_client.c <<'C'
+#include <stdio.h>
+#include <string.h>
+#include "pof_angle_t.h"
+int main(void) {
+  pof_angle_t a, b;
+  memset(&a, 0, sizeof a);
+  a.seq = 7; a.angle_deg = 42.5f; a.quality = POF_ANGLE_T_QUALITY_GAP;
+  unsigned char buf[256];
+  int n = pof_angle_t_encode(buf, 0, sizeof buf, &a);
+  if (n <= 0 || pof_angle_t_decode(buf, 0, n, &b) != n) return 1;
+  printf("C types: seq %lld angle %.1f quality %d\n", (long long)b.seq, b.angle_deg, b.quality);
+  return b.seq == 7 && b.angle_deg == 42.5f && b.quality == POF_ANGLE_T_QUALITY_GAP ? 0 : 1;
+}
+C
+export PKG_CONFIG_PATH="$prefix/lib/pkgconfig"
+pkg-config --exists pofkit || fail "pkg-config does not find pofkit: $(pkg-config --print-errors pofkit 2>&1)"
+# shellcheck disable=SC2046  # pkg-config output is a word list by design
+cc -std=c11 -Wall -Werror c_client.c -o c_client $(pkg-config --cflags --libs pofkit) -lstdc++ -lm ||
+  fail "C client does not build with pkg-config"
+./c_client || fail "C types round trip failed"
+
+# Live: the installed daemons (sim backend) -> the C++ client.
+PORT=$((20000 + RANDOM % 30000))
+URL="udpm://239.255.76.67:$PORT?ttl=0"
+pids=()
+cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; }
+trap cleanup EXIT
+"$prefix/bin/pof" sim paper -o cal.csv 2>/dev/null
+"$prefix/bin/pof" calibrate cal.csv -o cal.toml >/dev/null 2>&1 || fail "installed pof calibrate failed"
+printf 'schema_version = 1\n[potentiometer]\ndeg_per_volt = 22.5\nzero_v = 0.5\n' >pot.toml
+client/pof-angle-client --lcm-url "$URL" --count 400 --timeout 25 >client.out 2>&1 &
+client_pid=$!; pids+=($client_pid)
+# The Python client from the installed package alone (its types and pofkit beside each other).
+PYTHONPATH="$prefix/lib/python3/dist-packages" /usr/bin/python3 "$SOURCE_DIR/examples/python/angle_client.py" \
+  --lcm-url "$URL" --count 400 --timeout 25 >pyclient.out 2>&1 &
+py_pid=$!; pids+=($py_pid)
+# MATLAB/Octave through the Java jars, when GNU Octave is installed (it is not part of ./pofkit
+# setup: ~300 MB; `apt install octave` to run this part).
+oct_pid=
+if command -v octave-cli >/dev/null 2>&1; then
+  octave-cli --no-gui --quiet --eval "addpath('$SOURCE_DIR/examples/matlab'); \
+    s = pof_angle_client('POF_ANGLE', 400, '$URL', '$prefix/share/java'); exit(s.angles < 400)" >octave.out 2>&1 &
+  oct_pid=$!; pids+=($oct_pid)
+else
+  echo "note: octave-cli not installed; the MATLAB/Octave client (examples/matlab) was not run"
+fi
+"$prefix/bin/pof-compensatord" --cal cal.toml --pot-cal pot.toml --lcm-url "$URL" 2>comp.log &
+pids+=($!)
+sleep 1
+"$prefix/bin/pof-daqd" --device sim:session --lcm-url "$URL" --duration 6 2>daqd.log &
+pids+=($!)
+wait $client_pid || fail "the client did not get 400 angles: $(cat client.out) / $(tail -3 comp.log) / $(tail -3 daqd.log)"
+wait $py_pid || fail "the Python client did not get 400 angles: $(cat pyclient.out)"
+outs=(client.out pyclient.out)
+if [ -n "$oct_pid" ]; then
+  wait $oct_pid || fail "the Octave client did not get 400 angles: $(cat octave.out)"
+  outs+=(octave.out)
+fi
+for out in "${outs[@]}"; do
+  cat $out
+  summary=$(awk '/^summary:/' $out)
+  [ -n "$summary" ] || fail "no summary from $out"
+  case "$summary" in *" undecodable=0 "*) ;; *) fail "$out: angles not decoded: $summary" ;; esac
+  case "$summary" in *"age_p50_ms=nan"*) fail "$out: no sample age measured: $summary" ;; esac
+done
+echo ok

@@ -1,0 +1,156 @@
+"""The pofkit Python package against real LCM peers: liblcm publishing (pof-testpub) on udpm
+loopback, logs written by stock lcm-logger, and damaged logs and hostile datagrams.
+
+Run by ctest with PYTHONPATH = build/python (lcm-gen's `pof` classes) : python/ (pofkit) and
+POF_TESTPUB = build/tests/pof-testpub.
+"""
+import os
+import random
+import shutil
+import socket
+import struct
+import subprocess
+import tempfile
+import threading
+import time
+import unittest
+
+import numpy as np
+
+import pofkit
+
+TESTPUB = os.environ["POF_TESTPUB"]
+
+
+def private_url():
+    return f"udpm://239.255.76.67:{random.randint(20000, 50000)}?ttl=0"
+
+
+class Collector(threading.Thread):
+    """Subscribes in the background until `quiet_s` passes without a message."""
+
+    def __init__(self, url, channels, quiet_s=1.5):
+        super().__init__(daemon=True)
+        self.sub = pofkit.Subscriber(channels, url=url)
+        self.quiet_s, self.got = quiet_s, []
+
+    def run(self):
+        with self.sub:
+            for channel, utime, msg in self.sub.messages(timeout_s=self.quiet_s):
+                self.got.append((channel, utime, msg))
+
+
+class LiveStream(unittest.TestCase):
+    def test_short_and_fragmented_messages_from_liblcm(self):
+        url = private_url()
+        c = Collector(url, ["POF_RAW", "POF_ANGLE"])
+        c.start()
+        # 8000 scans x 3 channels x 4 B = 96 kB per block: liblcm sends it as 2 fragments.
+        subprocess.run([TESTPUB, "--lcm-url", url, "burst", "--channel", "POF_RAW", "--count", "20",
+                        "--rate", "50", "--scans", "8000"], check=True, capture_output=True)
+        subprocess.run([TESTPUB, "--lcm-url", url, "session", "--duration", "1"], check=True, capture_output=True)
+        c.join(timeout=30)
+        raw = [m for ch, _, m in c.got if ch == "POF_RAW" and m.sensor_id == "BURST"]
+        self.assertEqual([m.seq for m in raw], list(range(20)), "every fragmented block, in order")
+        self.assertEqual(raw[0].n_scans, 8000)
+        self.assertAlmostEqual(raw[0].volts[7999][1], 4.35, places=5)
+        angles = [m for ch, _, m in c.got if ch == "POF_ANGLE"]
+        self.assertGreater(len(angles), 50)
+        self.assertEqual([m.seq for m in angles], list(range(len(angles))))
+        self.assertEqual(c.sub.stats["malformed"], 0)
+
+    def test_hostile_datagrams_are_counted_not_raised(self):
+        url = private_url()
+        group, port, _ = pofkit.parse_udpm_url(url)
+        c = Collector(url, None, quiet_s=1.0)
+        c.start()
+        s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        s.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, 0)
+        hostile = [
+            b"",                                                    # empty
+            b"LC02",                                                # short header
+            struct.pack(">II", 0x4C433032, 1) + b"POF_RAW",         # no channel terminator
+            struct.pack(">IIIIHH", 0x4C433033, 2, 100, 0xFFFFFFFF, 1, 2),  # offset far out
+            struct.pack(">IIIIHH", 0x4C433033, 3, 0xFFFFFFFF, 0, 0, 2) + b"POF_RAW\0",  # 4 GiB message
+            struct.pack(">II", 0x4C433032, 4) + b"POF_RAW\0" + b"\x00" * 3,  # payload shorter than a fingerprint
+        ]
+        # A raw_block_t whose fingerprint is right but whose arrays claim 2^31-1 scans.
+        import pof
+        b = pof.raw_block_t()
+        b.channel_names, b.channel_units, b.n_channels = ["sensor"], ["V"], 1
+        good = b.encode()
+        huge = bytearray(good)
+        n_scans_at = len(good) - 4 - 4  # ... n_scans (i32), volts (empty), flags (i32)
+        huge[n_scans_at:n_scans_at + 4] = struct.pack(">i", 2**31 - 1)
+        hostile.append(struct.pack(">II", 0x4C433032, 5) + b"POF_RAW\0" + bytes(huge))
+        hostile += [random.randbytes(random.randint(1, 1500)) for _ in range(300)]
+        for d in hostile:
+            s.sendto(d, (group, port))
+        s.sendto(struct.pack(">II", 0x4C433032, 6) + b"POF_RAW\0" + good, (group, port))
+        c.join(timeout=20)
+        self.assertFalse(c.is_alive())
+        self.assertEqual(len(c.got), 1, "only the one good message comes through")
+        st = c.sub.stats
+        self.assertGreaterEqual(st["malformed"] + st["undecodable"], 6, st)
+
+
+class Logs(unittest.TestCase):
+    def setUp(self):
+        self.dir = tempfile.mkdtemp(prefix="pofkit-py-")
+
+    def tearDown(self):
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+    def record(self):
+        """A log of pof-testpub's session written by stock lcm-logger."""
+        url = private_url()
+        path = os.path.join(self.dir, "session.lcmlog")
+        logger = subprocess.Popen(["lcm-logger", "--lcm-url", url, "-q", path],
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            time.sleep(0.5)  # lcm-logger subscribes without telling anyone it is ready
+            subprocess.run([TESTPUB, "--lcm-url", url, "session", "--duration", "2"], check=True,
+                           capture_output=True)
+            time.sleep(0.5)
+        finally:
+            logger.terminate()
+            logger.wait(timeout=10)
+        return path
+
+    def test_lcm_logger_log_into_arrays(self):
+        path = self.record()
+        everything = pofkit.read_log(path)
+        self.assertNotIn("FOREIGN_TELEMETRY", everything, "foreign types are left out")
+        angles = everything["POF_ANGLE"]
+        n = len(angles["seq"])
+        self.assertGreater(n, 150)
+        np.testing.assert_array_equal(angles["seq"], np.arange(n))
+        self.assertTrue(np.all(angles["angle_deg"] - angles["angle_ref_deg"] > 0.39))
+        raw = pofkit.read_log(path, channel="POF_RAW")
+        self.assertEqual(len(raw["scan_index"]) % 10, 0, "10 scans per block")
+        np.testing.assert_array_equal(raw["scan_index"], np.arange(len(raw["scan_index"])))
+        np.testing.assert_allclose(raw["reference"], 4.35, rtol=1e-6)
+        # Scan times step by 1/scan_rate inside each block (testpub: 10 scans at 1 kHz).
+        np.testing.assert_array_equal(np.diff(raw["utime"].reshape(-1, 10), axis=1), 1000)
+
+    def test_damaged_log_names_the_offset_and_salvage_counts(self):
+        path = self.record()
+        blob = bytearray(open(path, "rb").read())
+        # The second event's data length becomes 0x7fffffff.
+        second = blob.find(struct.pack(">I", pofkit.log.SYNC), 4)
+        blob[second + 24:second + 28] = struct.pack(">I", 0x7FFFFFFF)
+        bad = os.path.join(self.dir, "bad.lcmlog")
+        open(bad, "wb").write(bytes(blob))
+        with self.assertRaises(pofkit.LogError) as e:
+            pofkit.read_log(bad)
+        self.assertEqual(e.exception.offset, second)
+        stats = {}
+        events = list(pofkit.read_events(bad, salvage=True, stats=stats))
+        self.assertGreater(stats["damaged_bytes"], 0)
+        self.assertEqual(len(events), len(list(pofkit.read_events(path))) - 1)
+        with self.assertRaises(pofkit.LogError):
+            pofkit.read_log("/dev/zero")
+
+
+if __name__ == "__main__":
+    unittest.main()

@@ -2,7 +2,7 @@
 
 #include <glib.h>
 
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 
 namespace pof::bus {
 
@@ -13,7 +13,7 @@ ChannelFilter::ChannelFilter(const std::string& regex) {
   if (re == nullptr) {
     const std::string why = err != nullptr ? err->message : "unknown error";
     if (err != nullptr) g_error_free(err);
-    throw io::ConfigError("channel regex '" + regex + "': " + why);
+    throw pof::ConfigError("channel regex '" + regex + "': " + why);
   }
   re_ = re;
 }

@@ -6,7 +6,7 @@
 #include <exception>
 #include <stdexcept>
 
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 
 namespace pof::bus {
 namespace {
@@ -41,7 +41,7 @@ Receiver::Receiver(lcm::LCM& lc, const std::string& url, ReceiverOptions options
       dispatch(channel, data, size, utime);
     };
   } else if (!lc_.good()) {
-    throw io::ConfigError("LCM URL '" + url + "': cannot open");
+    throw pof::ConfigError("LCM URL '" + url + "': cannot open");
   }
 }
 
@@ -55,7 +55,7 @@ void Receiver::add_lcm_subscription(const std::string& regex, Raw* raw) {
   hook->rx = this;
   hook->raw = raw;
   hook->sub = lcm_subscribe(lc_.getUnderlyingLCM(), regex.c_str(), &Receiver::on_lcm_message, hook.get());
-  if (hook->sub == nullptr) throw io::ConfigError("channel '" + regex + "': LCM refused the subscription");
+  if (hook->sub == nullptr) throw pof::ConfigError("channel '" + regex + "': LCM refused the subscription");
   lcm_subscription_set_queue_capacity(hook->sub, opt_.lcm_queue_capacity);
   hooks_.push_back(std::move(hook));
 }

@@ -12,7 +12,7 @@
 
 #include <lcm/lcm.h>
 
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 
 namespace pof::bus {
 namespace {
@@ -31,7 +31,7 @@ constexpr std::size_t kMaxChannelBytes = LCM_MAX_CHANNEL_NAME_LENGTH;
 
 UdpmUrl parse_udpm_url(const std::string& url) {
   UdpmUrl u;
-  if (url.rfind("udpm://", 0) != 0) throw io::ConfigError("LCM URL '" + url + "': not a udpm:// URL");
+  if (url.rfind("udpm://", 0) != 0) throw pof::ConfigError("LCM URL '" + url + "': not a udpm:// URL");
   std::string rest = url.substr(7);
   std::string query;
   if (const auto q = rest.find('?'); q != std::string::npos) {
@@ -45,13 +45,13 @@ UdpmUrl parse_udpm_url(const std::string& url) {
       char* end = nullptr;
       const long port = std::strtol(rest.c_str() + colon + 1, &end, 10);
       if (*end != '\0' || port <= 0 || port > 65535)
-        throw io::ConfigError("LCM URL '" + url + "': port: expected 1..65535");
+        throw pof::ConfigError("LCM URL '" + url + "': port: expected 1..65535");
       u.port = static_cast<uint16_t>(port);
     }
   }
   in_addr a{};
   if (inet_aton(u.group.c_str(), &a) == 0 || !IN_MULTICAST(ntohl(a.s_addr)))
-    throw io::ConfigError("LCM URL '" + url + "': '" + u.group + "' is not an IPv4 multicast address");
+    throw pof::ConfigError("LCM URL '" + url + "': '" + u.group + "' is not an IPv4 multicast address");
   std::size_t pos = 0;
   while (pos < query.size()) {
     const auto amp = query.find('&', pos);
@@ -64,10 +64,10 @@ UdpmUrl parse_udpm_url(const std::string& url) {
     const long n = std::strtol(v.c_str(), &end, 10);
     const bool num = !v.empty() && *end == '\0';
     if (k == "ttl") {
-      if (!num || n < 0 || n > 255) throw io::ConfigError("LCM URL '" + url + "': ttl: expected 0..255");
+      if (!num || n < 0 || n > 255) throw pof::ConfigError("LCM URL '" + url + "': ttl: expected 0..255");
       u.ttl = static_cast<int>(n);
     } else if (k == "recv_buf_size") {
-      if (!num || n < 0 || n > (1L << 30)) throw io::ConfigError("LCM URL '" + url + "': recv_buf_size: expected bytes");
+      if (!num || n < 0 || n > (1L << 30)) throw pof::ConfigError("LCM URL '" + url + "': recv_buf_size: expected bytes");
       u.recv_buf_size = static_cast<int>(n);
     }
     // Other liblcm options (transmit-only ones) do not concern a receiver.
@@ -79,12 +79,12 @@ UdpmReceiver::UdpmReceiver(const UdpmUrl& url, UdpmLimits limits) : limits_(limi
   if (limits_.max_senders == 0) limits_.max_senders = 1;
   const std::string where = "udpm://" + url.group + ":" + std::to_string(url.port);
   fd_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-  if (fd_ < 0) throw io::ConfigError(where + ": socket: " + std::strerror(errno));
+  if (fd_ < 0) throw pof::ConfigError(where + ": socket: " + std::strerror(errno));
   auto fail = [&](const char* what) {
     const int err = errno;
     ::close(fd_);
     fd_ = -1;
-    throw io::ConfigError(where + ": " + what + ": " + std::strerror(err) +
+    throw pof::ConfigError(where + ": " + what + ": " + std::strerror(err) +
                           (err == ENODEV || err == ENETUNREACH ? " (no multicast route? see docs/deployment.md)" : ""));
   };
   const int one = 1;

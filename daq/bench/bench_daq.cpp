@@ -6,10 +6,10 @@
 #include <cstring>
 #include <vector>
 
-#include "core/acquisition.hpp"
-#include "core/config.hpp"
+#include "pof/daq/stream/acquisition.hpp"
+#include "pof/daq/stream/config.hpp"
 #include "pof/raw_block_t.hpp"
-#include "protocol/ni_usb600x.hpp"
+#include "pof/daq/protocol/ni_usb600x.hpp"
 
 namespace ni = pof::daq::ni;
 

@@ -4,7 +4,7 @@
 //
 // 1. Blind: N recordings from the physics simulator (pof_sim), every 5th with no hidden effect,
 //    every 5th+4 with two, the rest with one, effect and magnitude drawn at random per seed
-//    (gap/src/blind.cpp). Each is written to CSV and analysed from the file alone; then the draw is
+//    (testing/src/gap_blind.cpp). Each is written to CSV and analysed from the file alone; then the draw is
 //    compared: confusion matrix, effects named correctly, false discoveries on the recordings with
 //    nothing hidden, median held-out gap shrink. Summary on stdout, per-trial JSON in DIR.
 // 2. Speed (Google Benchmark): `pof gap`'s read + analysis of a 40-minute 200 Hz recording of the
@@ -23,7 +23,7 @@
 
 #include <benchmark/benchmark.h>
 
-#include "pof/gap/blind.hpp"
+#include "pof/testing/gap_blind.hpp"
 #include "pof/gap/io.hpp"
 #include "pof/io/atomic_file.hpp"
 #include "pof/io/csv_writer.hpp"

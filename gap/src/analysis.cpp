@@ -16,7 +16,7 @@
 #include "pof/gap/gap.hpp"
 #include "pof/gap/localise.hpp"
 #include "pof/gap/signals.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 
 namespace pof::gap {
 
@@ -609,7 +609,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   const std::string src = rec.source.empty() ? std::string("recording") : rec.source;
   const Index moving = (k0.s_move.array() != 0).count();
   if (moving < s.n / 20 || moving > s.n - s.n / 20)
-    throw io::DataError(src + ": `pof gap` needs both holds and movements (the calibration protocol); " +
+    throw pof::DataError(src + ": `pof gap` needs both holds and movements (the calibration protocol); " +
                         std::to_string(moving) + " of " + std::to_string(s.n) + " scans move");
   cx.blocks = make_blocks(k0, std::max(2, opt.folds));
   const std::vector<Phase> phases = classify_phases(k0, s.dt);

@@ -12,7 +12,7 @@
 
 
 #include "pof/io/atomic_file.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 
 namespace pof::gap {
 
@@ -141,7 +141,7 @@ std::string report_md(const Result& r, const std::string& source) {
 void write_outputs(const Result& r, const std::string& source, const fs::path& dir) {
   std::error_code ec;
   fs::create_directories(dir, ec);
-  if (ec || !fs::is_directory(dir)) throw io::IoError(dir.string() + ": cannot create the output directory: " + ec.message());
+  if (ec || !fs::is_directory(dir)) throw pof::IoError(dir.string() + ": cannot create the output directory: " + ec.message());
   json j = r.to_json();
   j["source"] = source;
   io::write_file_atomic(dir / "gap.json", j.dump(2) + "\n");

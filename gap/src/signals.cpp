@@ -6,7 +6,7 @@
 #include <numbers>
 #include <string>
 
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 
 
 
@@ -30,28 +30,28 @@ Signals make_signals(const io::Recording& rec) {
   const std::string src = rec.source.empty() ? std::string("recording") : rec.source;
   const Index n = rec.size();
   if (rec.angle_ref_deg.size() != n)
-    throw io::DataError(src + ": column angle_ref_deg is required (a pot_v-only recording needs a potentiometer "
+    throw pof::DataError(src + ": column angle_ref_deg is required (a pot_v-only recording needs a potentiometer "
                               "calibration first: run `pof compensate`/`pof calibrate` to get angle_ref_deg)");
   if (rec.sensor_v.size() != n || rec.reference_v.size() != n)
-    throw io::DataError(src + ": columns sensor_v and reference_v must have one value per scan");
+    throw pof::DataError(src + ": columns sensor_v and reference_v must have one value per scan");
   // The blocked cross-validation needs several whole cycles; 60 s is about one slow calibration sweep.
   if (n < 200 || rec.t_s(n - 1) - rec.t_s(0) < 60.0)
-    throw io::DataError(src + ": recording too short for `pof gap` (" + std::to_string(n) +
+    throw pof::DataError(src + ": recording too short for `pof gap` (" + std::to_string(n) +
                         " scans); need at least 60 s containing holds and movements");
   Signals s;
   s.n = n;
   s.dt = (rec.t_s(n - 1) - rec.t_s(0)) / static_cast<double>(n - 1);
-  if (!(s.dt > 0)) throw io::DataError(src + ": column t_s is not increasing");
+  if (!(s.dt > 0)) throw pof::DataError(src + ": column t_s is not increasing");
   for (Index i = 1; i < n; ++i) {
     const double d = rec.t_s(i) - rec.t_s(i - 1);
     // "at any constant rate" (issue 7): tolerate timestamp jitter, not gaps or reordering.
     if (!(d > 0.5 * s.dt && d < 1.5 * s.dt))
-      throw io::DataError(src + ": data row " + std::to_string(i + 1) + ": t_s step " + std::to_string(d) +
+      throw pof::DataError(src + ": data row " + std::to_string(i + 1) + ": t_s step " + std::to_string(d) +
                           " s, expected a constant rate with period " + std::to_string(s.dt) + " s");
   }
   for (Index i = 0; i < n; ++i)
     if (!(rec.reference_v(i) > 0) || !std::isfinite(rec.sensor_v(i)) || !std::isfinite(rec.angle_ref_deg(i)))
-      throw io::DataError(src + ": data row " + std::to_string(i + 1) +
+      throw pof::DataError(src + ": data row " + std::to_string(i + 1) +
                           ": expected finite values and reference_v > 0 (the normalisation divides by it)");
   s.reference_level_v = median(rec.reference_v);
   s.t = rec.t_s.array() - rec.t_s(0);

@@ -11,7 +11,7 @@
 #include <system_error>
 #include <vector>
 
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 
 namespace pof::io {
 

@@ -14,8 +14,8 @@
 #include <toml++/toml.h>
 
 #include "pof/io/atomic_file.hpp"
-#include "pof/io/errors.hpp"
-#include "pof/io/text_file.hpp"
+#include "pof/base/errors.hpp"
+#include "pof/base/text_file.hpp"
 
 namespace pof::io {
 

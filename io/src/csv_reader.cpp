@@ -13,7 +13,7 @@
 #include <string_view>
 #include <vector>
 
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/io/lcmlog_scan.hpp"
 #include "pof/io/recording_reader.hpp"
 

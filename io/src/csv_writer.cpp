@@ -5,7 +5,7 @@
 #include <cstring>
 #include <stdexcept>
 
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 
 namespace pof::io {
 

@@ -6,7 +6,7 @@
 
 #include <pof/raw_block_t.hpp>
 
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/io/lcmlog_scan.hpp"
 #include "pof/io/recording_reader.hpp"
 

@@ -12,7 +12,7 @@
 #include <cstring>
 #include <utility>
 
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 
 namespace pof::io {
 namespace {

@@ -7,7 +7,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <pof/raw_block_t.hpp>
 
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 
 namespace pof::io {
 

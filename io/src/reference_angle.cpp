@@ -1,4 +1,4 @@
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/io/recording_reader.hpp"
 
 namespace pof::io {

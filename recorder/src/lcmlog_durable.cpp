@@ -11,7 +11,7 @@
 #include <cstring>
 #include <utility>
 
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 
 namespace pof::recorder {
 namespace {
@@ -49,13 +49,13 @@ DurableLogWriter::DurableLogWriter(std::filesystem::path path, Options options)
     : path_(std::move(path)), options_(options) {
   // O_EXCL: a recorder never overwrites an earlier recording.
   fd_ = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-  if (fd_ < 0) throw io::IoError(path_.string() + ": cannot create the log file: " + errstr(errno));
+  if (fd_ < 0) throw pof::IoError(path_.string() + ": cannot create the log file: " + errstr(errno));
   // Advisory lock for as long as we write: repair_log() refuses a file that is being recorded,
   // and check_log() says its tail may still be in flight.
   ::flock(fd_, LOCK_EX | LOCK_NB);
   // The directory entry must survive a power loss too, or the whole log vanishes.
   if (const int err = fsync_dir(path_.parent_path()); err != 0)
-    throw io::IoError(path_.parent_path().string() + ": cannot fsync the directory: " + errstr(err));
+    throw pof::IoError(path_.parent_path().string() + ": cannot fsync the directory: " + errstr(err));
   buf_.reserve(options_.buffer_bytes + 4096);
 }
 
@@ -168,13 +168,13 @@ namespace {
 
 void write_file_synced(const std::filesystem::path& path, const unsigned char* p, std::size_t n) {
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) throw io::IoError(path.string() + ": cannot create: " + errstr(errno));
+  if (fd < 0) throw pof::IoError(path.string() + ": cannot create: " + errstr(errno));
   int err = write_all(fd, p, n);
   if (err == 0 && ::fsync(fd) != 0) err = errno;
   ::close(fd);
   if (err != 0) {
     ::unlink(path.c_str());
-    throw io::IoError(path.string() + ": cannot write: " + errstr(err));
+    throw pof::IoError(path.string() + ": cannot write: " + errstr(err));
   }
 }
 
@@ -197,9 +197,9 @@ bool log_is_being_written(const std::filesystem::path& path) {
 RepairResult repair_log(const std::filesystem::path& path) {
   std::error_code ec;
   if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
-    throw io::NoInputError(path.string() + ": not a regular file: nothing to repair in place");
+    throw pof::NoInputError(path.string() + ": not a regular file: nothing to repair in place");
   if (log_is_being_written(path))
-    throw io::IoError(path.string() + ": a recorder is still writing this file (it holds its lock); stop it before --repair");
+    throw pof::IoError(path.string() + ": a recorder is still writing this file (it holds its lock); stop it before --repair");
   RepairResult r;
   r.before = check_log(path);
   const LogCheck& c = r.before;
@@ -217,12 +217,12 @@ RepairResult repair_log(const std::filesystem::path& path) {
       write_file_synced(r.backup, f.bytes().data() + c.good_bytes, static_cast<std::size_t>(c.torn_bytes()));
     }
     const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
-    if (fd < 0) throw io::IoError(path.string() + ": cannot open for repair: " + errstr(errno));
+    if (fd < 0) throw pof::IoError(path.string() + ": cannot open for repair: " + errstr(errno));
     int err = 0;
     if (::ftruncate(fd, static_cast<off_t>(c.good_bytes)) != 0) err = errno;
     if (err == 0 && ::fsync(fd) != 0) err = errno;
     ::close(fd);
-    if (err != 0) throw io::IoError(path.string() + ": cannot truncate: " + errstr(err));
+    if (err != 0) throw pof::IoError(path.string() + ": cannot truncate: " + errstr(err));
     r.changed = true;
     r.action = "truncated a torn tail of " + std::to_string(c.torn_bytes()) + " bytes at offset " +
                std::to_string(c.good_bytes) + " (" + c.problem + "); kept " + std::to_string(c.events) +
@@ -242,14 +242,14 @@ RepairResult repair_log(const std::filesystem::path& path) {
     if (w.close() != WriteStatus::kOk) {
       const int err = w.error_errno();
       std::filesystem::remove(tmp);
-      throw io::IoError(tmp.string() + ": cannot write the repaired log: " + errstr(err));
+      throw pof::IoError(tmp.string() + ": cannot write the repaired log: " + errstr(err));
     }
   }
   r.backup = free_name(path.string() + ".bak");
   if (::link(path.c_str(), r.backup.c_str()) != 0)
-    throw io::IoError(r.backup.string() + ": cannot keep the original: " + errstr(errno));
+    throw pof::IoError(r.backup.string() + ": cannot keep the original: " + errstr(errno));
   if (::rename(tmp.c_str(), path.c_str()) != 0)
-    throw io::IoError(path.string() + ": cannot replace with the repaired log: " + errstr(errno));
+    throw pof::IoError(path.string() + ": cannot replace with the repaired log: " + errstr(errno));
   fsync_dir(dir);
   r.changed = true;
   r.events_kept = kept;

@@ -15,7 +15,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <spdlog/spdlog.h>
 
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/bus/channel_filter.hpp"
 #include "pof/bus/udp_socket.hpp"
 #include "pof/bus/udpm_receiver.hpp"
@@ -53,16 +53,16 @@ const char* outcome_name(Outcome o) {
 }
 
 Session::Session(SessionOptions options) : opt_(std::move(options)) {
-  if (opt_.output.empty()) throw io::ConfigError("pof record: no output file given (--output)");
+  if (opt_.output.empty()) throw pof::ConfigError("pof record: no output file given (--output)");
   { bus::ChannelFilter check(opt_.channels); }  // a bad regex fails here, before anything is created
   if (opt_.rotate_seconds < 0 || opt_.sync_interval_s <= 0)
-    throw io::ConfigError("--rotate-seconds must be >= 0 and --sync-interval > 0");
+    throw pof::ConfigError("--rotate-seconds must be >= 0 and --sync-interval > 0");
   // The output: a directory gets a timestamped file (the service records into /var/lib/pof).
   base_ = opt_.output;
   const std::string s = base_.string();
   if (fs::is_directory(base_) || (!s.empty() && s.back() == '/')) {
     if (!fs::is_directory(base_))
-      throw io::IoError(s + ": output directory does not exist");
+      throw pof::IoError(s + ": output directory does not exist");
     const std::time_t t = std::time(nullptr);
     std::tm tm{};
     ::gmtime_r(&t, &tm);
@@ -72,18 +72,18 @@ Session::Session(SessionOptions options) : opt_(std::move(options)) {
   }
   if (!base_.has_parent_path()) base_ = fs::path(".") / base_;
   if (!fs::is_directory(base_.parent_path()))
-    throw io::IoError(base_.parent_path().string() + ": output directory does not exist");
+    throw pof::IoError(base_.parent_path().string() + ": output directory does not exist");
   fs::path stem = base_.parent_path() / base_.stem();
   manifest_path_ = stem.string() + ".manifest.json";
   attach_dir_ = stem.string() + ".files";
   for (unsigned i = 0; i < 1; ++i) {
     if (fs::exists(file_path(i)))
-      throw io::IoError(file_path(i).string() + ": exists; pof record never overwrites a recording");
+      throw pof::IoError(file_path(i).string() + ": exists; pof record never overwrites a recording");
   }
   if (fs::exists(manifest_path_))
-    throw io::IoError(manifest_path_.string() + ": exists; pof record never overwrites a recording");
+    throw pof::IoError(manifest_path_.string() + ": exists; pof record never overwrites a recording");
   for (const auto& f : opt_.manifest_files) {
-    if (!fs::is_regular_file(f)) throw io::NoInputError(f.string() + ": --manifest-file: no such file");
+    if (!fs::is_regular_file(f)) throw pof::NoInputError(f.string() + ": --manifest-file: no such file");
   }
 
   url_ = lcmutil::resolve_url(opt_.lcm_url, opt_.recv_buf_bytes);
@@ -111,11 +111,11 @@ void Session::start() {
   if (!opt_.manifest_files.empty()) {
     std::error_code ec;
     fs::create_directory(attach_dir_, ec);
-    if (ec) throw io::IoError(attach_dir_.string() + ": cannot create: " + ec.message());
+    if (ec) throw pof::IoError(attach_dir_.string() + ": cannot create: " + ec.message());
     for (const auto& f : opt_.manifest_files) {
       const fs::path dst = attach_dir_ / f.filename();
       if (!fs::copy_file(f, dst, fs::copy_options::overwrite_existing, ec) || ec)
-        throw io::IoError(dst.string() + ": cannot copy " + f.string() + ": " + ec.message());
+        throw pof::IoError(dst.string() + ": cannot copy " + f.string() + ": " + ec.message());
       attachments_.push_back({{"source", fs::absolute(f).string()},
                               {"copy", (attach_dir_.filename() / f.filename()).string()},
                               {"bytes", fs::file_size(dst)}});
@@ -128,9 +128,9 @@ void Session::start() {
   } else {
     lcm_ = std::make_unique<lcm::LCM>(url_);
     if (!lcm_->good())
-      throw io::ConfigError("LCM URL '" + url_ + "': cannot open (is there a multicast route? see docs/deployment.md)");
+      throw pof::ConfigError("LCM URL '" + url_ + "': cannot open (is there a multicast route? see docs/deployment.md)");
     lcm_subscription_t* sub = lcm_subscribe(lcm_->getUnderlyingLCM(), opt_.channels.c_str(), &Session::on_lcm_message, this);
-    if (sub == nullptr) throw io::ConfigError("--channels '" + opt_.channels + "': LCM refused the subscription");
+    if (sub == nullptr) throw pof::ConfigError("--channels '" + opt_.channels + "': LCM refused the subscription");
     lcm_subscription_set_queue_capacity(sub, opt_.lcm_queue_capacity);
   }
 
@@ -145,7 +145,7 @@ void Session::start() {
                    socks.front().rcvbuf_bytes / 2, opt_.recv_buf_bytes, bus::rmem_max());
     }
   }
-  if (!open_next_file()) throw io::IoError(error_);
+  if (!open_next_file()) throw pof::IoError(error_);
   // The hand-off arena never reallocates (a realloc would copy up to handoff_bytes inside the
   // receive thread's critical section while datagrams pile up in the kernel). Reserving is virtual
   // memory only: pages are touched as the queue first fills.
@@ -212,7 +212,7 @@ bool Session::open_next_file() {
     std::lock_guard lk(stats_mu_);
     writer_ = std::move(w);
     files_.push_back(FileInfo{p, 0, 0, 0, 0});
-  } catch (const io::Error& e) {
+  } catch (const pof::Error& e) {
     std::lock_guard lk(stats_mu_);
     outcome_ = Outcome::kIoError;
     error_ = e.what();

@@ -12,8 +12,8 @@
 #include <toml++/toml.h>
 
 #include "builtin_scenarios.hpp"
-#include "pof/io/errors.hpp"
-#include "pof/io/text_file.hpp"
+#include "pof/base/errors.hpp"
+#include "pof/base/text_file.hpp"
 
 namespace pof::sim {
 
@@ -45,7 +45,7 @@ std::string fmt_num(double v) {
 std::string describe(const toml::node& n) {
   std::ostringstream o;
   if (n.is_string()) {
-    o << '\'' << pof::io::excerpt(*n.value<std::string>()) << '\'';
+    o << '\'' << pof::excerpt(*n.value<std::string>()) << '\'';
   } else if (n.is_table()) {
     o << "a table";
   } else if (n.is_array()) {
@@ -72,7 +72,7 @@ class Section {
     std::string where = source_;
     if (n != nullptr && n->source().begin.line > 0) where += ":" + std::to_string(n->source().begin.line);
     else if (t_.source().begin.line > 0) where += ":" + std::to_string(t_.source().begin.line);
-    throw pof::io::ConfigError(where + ": key '" + key_path(key) + "': " + what);
+    throw pof::ConfigError(where + ": key '" + key_path(key) + "': " + what);
   }
 
   const toml::node* get(std::string_view key) {
@@ -129,7 +129,7 @@ class Section {
         return;
       }
     }
-    fail_at(n, key, "expected one of " + list + ", got '" + pof::io::excerpt(s) + "'");
+    fail_at(n, key, "expected one of " + list + ", got '" + pof::excerpt(s) + "'");
   }
   void numbers(std::string_view key, std::vector<double>& out, const std::function<std::string(double)>& check = {}) {
     const toml::node* n = get(key);
@@ -164,7 +164,7 @@ class Section {
   void finish() const {
     for (const auto& [k, v] : t_) {
       if (!used_.contains(std::string(k.str())))
-        fail_at(&v, pof::io::excerpt(k.str()), "unknown key (misspelt? see docs/simulator.md for the schema)");
+        fail_at(&v, pof::excerpt(k.str()), "unknown key (misspelt? see docs/simulator.md for the schema)");
     }
   }
 
@@ -245,7 +245,7 @@ Segment read_segment(Section& s) {
     g.min_deg = 10;
     g.max_deg = 80;
   } else {
-    s.fail_at(kind_node, "kind", "expected one of 'quasi_static', 'cycles', 'table1', 'table3', 'subject', 'gait', 'hold', 'random_moves', got '" + pof::io::excerpt(g.label) + "'");
+    s.fail_at(kind_node, "kind", "expected one of 'quasi_static', 'cycles', 'table1', 'table3', 'subject', 'gait', 'hold', 'random_moves', got '" + pof::excerpt(g.label) + "'");
   }
   s.number("move_velocity_rad_s", g.move_velocity_rad_s, velocity);
   switch (g.kind) {
@@ -540,7 +540,7 @@ Scenario read_scenario(const toml::table& root, const std::string& source) {
 void validate(const Scenario& s) {
   const std::string src = s.source.empty() ? std::string("scenario") : s.source;
   auto bad = [&](const std::string& key, const std::string& what) {
-    throw pof::io::ConfigError(src + ": key '" + key + "': " + what);
+    throw pof::ConfigError(src + ": key '" + key + "': " + what);
   };
   if (s.schema_version != 1) bad("schema_version", "expected 1, got " + std::to_string(s.schema_version));
   if (s.trajectory.empty()) bad("trajectory", "expected at least one segment");
@@ -612,7 +612,7 @@ Scenario parse_scenario(std::string_view toml_text, const std::string& source) {
   try {
     root = toml::parse(toml_text, source);
   } catch (const toml::parse_error& e) {
-    throw pof::io::ConfigError(source + ":" + std::to_string(e.source().begin.line) + ": TOML syntax error: " + pof::io::bound_quotes(e.description()));
+    throw pof::ConfigError(source + ":" + std::to_string(e.source().begin.line) + ": TOML syntax error: " + pof::bound_quotes(e.description()));
   }
   Scenario sc = read_scenario(root, source);
   if (sc.name.empty()) sc.name = std::filesystem::path(source).stem().string();
@@ -621,7 +621,7 @@ Scenario parse_scenario(std::string_view toml_text, const std::string& source) {
 }
 
 Scenario load_scenario(const std::filesystem::path& path) {
-  return parse_scenario(pof::io::read_text_file(path.string(), "scenario file"), path.string());
+  return parse_scenario(pof::read_text_file(path.string(), "scenario file"), path.string());
 }
 
 Scenario builtin_scenario(std::string_view name) {
@@ -634,7 +634,7 @@ Scenario builtin_scenario(std::string_view name) {
   }
   std::string list;
   for (const auto& b : detail::kBuiltinScenarios) list += (list.empty() ? "" : ", ") + std::string(b.name);
-  throw pof::io::NoInputError("no builtin scenario '" + std::string(name) + "' (builtin: " + list + ")");
+  throw pof::NoInputError("no builtin scenario '" + std::string(name) + "' (builtin: " + list + ")");
 }
 
 Scenario scenario_by_name_or_path(const std::string& name_or_path) {

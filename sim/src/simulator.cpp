@@ -8,7 +8,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 
 namespace pof::sim {
 
@@ -22,7 +22,7 @@ double checked_rate(const Scenario& s, double override_hz) {
   validate(s);
   const double r = override_hz > 0 ? override_hz : s.daq.scan_rate_hz;
   if (!(r > 0) || !std::isfinite(r) || !(override_hz >= 0))
-    throw pof::io::ConfigError(s.source + ": scan rate: expected a rate > 0 Hz, got " + std::to_string(override_hz));
+    throw pof::ConfigError(s.source + ": scan rate: expected a rate > 0 Hz, got " + std::to_string(override_hz));
   return r;
 }
 }  // namespace

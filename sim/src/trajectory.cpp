@@ -6,7 +6,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/sim/rng.hpp"
 
 namespace pof::sim {
@@ -37,7 +37,7 @@ Trajectory::Trajectory(const Scenario& s, std::uint64_t seed, double dt_s)
       amax_(s.knee.max_acceleration_rad_s2 * kDegPerRad),
       kp_(s.knee.tracking_gain_per_s),
       loop_(s.loop) {
-  if (s.trajectory.empty()) throw pof::io::ConfigError(s.source + ": key 'trajectory': expected at least one segment");
+  if (s.trajectory.empty()) throw pof::ConfigError(s.source + ": key 'trajectory': expected at least one segment");
   Rng rng(seed, kStreamSubject);
   auto ticks = [&](double seconds) { return static_cast<std::int64_t>(std::llround(seconds / dt_)); };
   double pos = s.knee.start_deg;  // planned position, for nominal duration only

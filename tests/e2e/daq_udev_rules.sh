@@ -1,4 +1,4 @@
-# The checked-in udev rule is generated from daq/device_ids.hpp: fail when it is stale, when a
+# The checked-in udev rule is generated from daq/include/pof/daq/device_ids.hpp: fail when it is stale, when a
 # device of the table has no rule, or when any rule would make the device world-writable.
 source "$(dirname "$0")/lib.sh"
 rules="$SOURCE_DIR/deploy/udev/60-pof-daq.rules"

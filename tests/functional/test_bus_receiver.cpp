@@ -19,7 +19,7 @@
 
 #include "pof/angle_t.hpp"
 #include "pof/bus/receiver.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/raw_block_t.hpp"
 
 namespace {
@@ -156,7 +156,7 @@ TEST(BusReceiver, MemqRawUsesLiblcmRegexAndTypedChannelsAreLiteral) {
   int dotted = 0;
   rx.subscribe<pof::angle_t>("POF.X", [&](const pof::angle_t&, const Delivery&) { ++dotted; });
   EXPECT_THROW(rx.subscribe_raw("(unclosed", [](const Delivery&, const unsigned char*, std::size_t) {}),
-               pof::io::ConfigError);
+               pof::ConfigError);
   const char x[] = "x";
   for (const char* ch : {"POF_A", "POF_B", "POF_C", "POF_AB"}) lc.publish(ch, x, sizeof x);
   const pof::angle_t a1 = angle(1), a2 = angle(2);

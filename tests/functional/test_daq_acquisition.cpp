@@ -5,8 +5,8 @@
 
 #include <vector>
 
-#include "core/acquisition.hpp"
-#include "core/config.hpp"
+#include "pof/daq/stream/acquisition.hpp"
+#include "pof/daq/stream/config.hpp"
 #include "pof/raw_block_t.hpp"
 
 using pof::daq::Acquisition;

@@ -8,7 +8,7 @@
 #include <iostream>
 #include <string>
 
-#include "pof/gap/blind.hpp"
+#include "pof/testing/gap_blind.hpp"
 
 namespace {
 

@@ -15,7 +15,7 @@
 #include <pof/raw_block_t.hpp>
 
 #include "pof/io/csv_writer.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/io/lcmlog_writer.hpp"
 #include "pof/sim/scenario.hpp"
 #include "pof/sim/simulator.hpp"
@@ -127,7 +127,7 @@ TEST_F(Writers, AbandonedOrFailedWritesLeaveTheOldFile) {
   }
   EXPECT_FALSE(fs::exists(dir_ / "keep.lcmlog"));
   EXPECT_EQ(files_in_dir(), 1u) << "temporary files are removed";
-  EXPECT_THROW(pof::io::CsvWriter(dir_ / "no" / "such" / "dir.csv"), pof::io::IoError);
+  EXPECT_THROW(pof::io::CsvWriter(dir_ / "no" / "such" / "dir.csv"), pof::IoError);
 }
 
 TEST_F(Writers, LcmLogDecodesToTheRawBlockContract) {

@@ -23,15 +23,15 @@
 #include "pof/core/offline.hpp"
 #include "pof/io/atomic_file.hpp"
 #include "pof/io/calibration_file.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/io/lcmlog_scan.hpp"
 #include "pof/io/recording_reader.hpp"
-#include "pof/io/text_file.hpp"
+#include "pof/base/text_file.hpp"
 #include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
-using pof::io::ConfigError;
-using pof::io::DataError;
+using pof::ConfigError;
+using pof::DataError;
 
 namespace {
 
@@ -40,7 +40,7 @@ using pof::test::TempDir;
 std::string error_of(const std::function<void()>& f) {
   try {
     f();
-  } catch (const pof::io::Error& e) {
+  } catch (const pof::Error& e) {
     return e.what();
   }
   return "(no error)";
@@ -81,7 +81,7 @@ TEST(CsvReader, BadInputNamesFileLineAndColumn) {
   EXPECT_NE(error_of([&] { pof::io::read_csv(d.file("g.csv", h)); }).find("no data rows"), std::string::npos);
   EXPECT_NE(error_of([&] { pof::io::read_csv(d.file("h.csv", "t_s,sensor_v,reference_v\n")); }).find("neither 'angle_ref_deg' nor 'pot_v'"), std::string::npos);
   EXPECT_NE(error_of([&] { pof::io::read_csv(d.file("i.csv", h + "0,1,inf,3\n")); }).find("i.csv:2: column reference_v: expected a finite number"), std::string::npos);
-  EXPECT_THROW(pof::io::read_csv(d.path("missing.csv")), pof::io::NoInputError);
+  EXPECT_THROW(pof::io::read_csv(d.path("missing.csv")), pof::NoInputError);
 }
 
 // Property: any single corrupted byte or any truncation of a valid file either still parses or is
@@ -336,7 +336,7 @@ TEST(OutputGuard, AnOutputThatIsAnInputIsAUsageError) {
     try {
       pof::io::refuse_output_over_input({{"recording", in}}, {{"-o", out}});
       ADD_FAILURE() << out << " accepted";
-    } catch (const pof::io::UsageError& e) {
+    } catch (const pof::UsageError& e) {
       EXPECT_EQ(e.code(), 2);
       EXPECT_NE(std::string(e.what()).find("-o " + out + ": is the same file as the input recording " + in), std::string::npos) << e.what();
     }
@@ -344,7 +344,7 @@ TEST(OutputGuard, AnOutputThatIsAnInputIsAUsageError) {
   // Other files, standard output and options not given are fine; two outputs may not collide.
   pof::io::refuse_output_over_input({{"recording", in}, {"--pot-cal", ""}}, {{"-o", d.path("cal.toml")}, {"--csv", "-"}, {"--json", "-"}});
   EXPECT_THROW(pof::io::refuse_output_over_input({{"recording", in}}, {{"--csv", d.path("x")}, {"--json", d.path("./x")}}),
-               pof::io::UsageError);
+               pof::UsageError);
   EXPECT_EQ(slurp(in), "data");
 }
 
@@ -563,7 +563,7 @@ TEST(AtomicWrite, ReplacesWholeFilesAndLeavesNothingOnFailure) {
   std::string s;
   std::getline(in, s);
   EXPECT_EQ(s, "new content");
-  EXPECT_THROW(pof::io::write_file_atomic(d.path("no_dir/out.txt"), "x"), pof::io::IoError);
+  EXPECT_THROW(pof::io::write_file_atomic(d.path("no_dir/out.txt"), "x"), pof::IoError);
   int files = 0;
   for (const auto& e : fs::directory_iterator(fs::path(p).parent_path())) files += e.is_regular_file() ? 1 : 0;
   EXPECT_EQ(files, 1) << "no temporary file left behind";

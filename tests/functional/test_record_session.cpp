@@ -14,7 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <pof/angle_t.hpp>
 
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/recorder/lcmlog_durable.hpp"
 #include "pof/recorder/session.hpp"
 #include "temp_dir.hpp"
@@ -97,15 +97,15 @@ TEST(RecordSession, SetupErrorsNameTheProblem) {
   o.lcm_url = random_url();
   o.output = d.path() / "x.lcmlog";
   o.channels = "(";
-  EXPECT_THROW(Session{o}, pof::io::ConfigError);
+  EXPECT_THROW(Session{o}, pof::ConfigError);
   o.channels = ".*";
   o.manifest_files = {d.path() / "missing.toml"};
-  EXPECT_THROW(Session{o}, pof::io::NoInputError);
+  EXPECT_THROW(Session{o}, pof::NoInputError);
   o.manifest_files.clear();
   o.output = d.path() / "no-such-dir" / "x.lcmlog";
-  EXPECT_THROW(Session{o}, pof::io::IoError);
+  EXPECT_THROW(Session{o}, pof::IoError);
   o.output = d.path() / "x.lcmlog";
   o.lcm_url = "udpm://10.1.2.3:7667";  // not a multicast group
   Session bad(o);
-  EXPECT_THROW(bad.start(), pof::io::ConfigError);
+  EXPECT_THROW(bad.start(), pof::ConfigError);
 }

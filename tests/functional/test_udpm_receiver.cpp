@@ -13,7 +13,7 @@
 #include <gtest/gtest.h>
 #include <lcm/lcm-cpp.hpp>
 
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/bus/udpm_receiver.hpp"
 
 using namespace pof::bus;
@@ -53,10 +53,10 @@ TEST(UdpmUrl, ParsesLiblcmSyntaxAndRejectsNonsense) {
   EXPECT_EQ(u.ttl, 1);
   EXPECT_EQ(u.recv_buf_size, 4194304);
   EXPECT_EQ(parse_udpm_url("udpm://").port, 7667);
-  EXPECT_THROW(parse_udpm_url("udpm://10.0.0.1:7667"), pof::io::ConfigError);  // not multicast
-  EXPECT_THROW(parse_udpm_url("udpm://239.255.76.67:99999"), pof::io::ConfigError);
-  EXPECT_THROW(parse_udpm_url("udpm://239.255.76.67:7667?ttl=x"), pof::io::ConfigError);
-  EXPECT_THROW(parse_udpm_url("memq://"), pof::io::ConfigError);
+  EXPECT_THROW(parse_udpm_url("udpm://10.0.0.1:7667"), pof::ConfigError);  // not multicast
+  EXPECT_THROW(parse_udpm_url("udpm://239.255.76.67:99999"), pof::ConfigError);
+  EXPECT_THROW(parse_udpm_url("udpm://239.255.76.67:7667?ttl=x"), pof::ConfigError);
+  EXPECT_THROW(parse_udpm_url("memq://"), pof::ConfigError);
 }
 
 TEST(UdpmReceiver, ReceivesShortAndFragmentedMessagesFromLiblcm) {

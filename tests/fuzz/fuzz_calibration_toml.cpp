@@ -8,14 +8,14 @@
 
 #include "fuzz_check.hpp"
 #include "pof/io/calibration_file.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);
   pof::io::CalibrationFile f;
   try {
     f = pof::io::parse_calibration(text, "fuzz.toml");
-  } catch (const pof::io::ConfigError& e) {
+  } catch (const pof::ConfigError& e) {
     FUZZ_CHECK(std::string_view(e.what()).size() < 1024);
     return 0;
   }
@@ -23,7 +23,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   pof::io::CalibrationFile g;
   try {
     g = pof::io::parse_calibration(once, "fuzz.toml (written back)");
-  } catch (const pof::io::ConfigError& e) {
+  } catch (const pof::ConfigError& e) {
     std::fprintf(stderr, "accepted, but its own output is refused: %s\n", e.what());
     FUZZ_CHECK(false);
   }

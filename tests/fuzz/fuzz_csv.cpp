@@ -8,7 +8,7 @@
 #include <string_view>
 
 #include "fuzz_check.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/io/recording_reader.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
@@ -23,7 +23,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       FUZZ_CHECK(std::isfinite(r.t_s[i]));
       if (i > 0) FUZZ_CHECK(r.t_s[i] > r.t_s[i - 1]);
     }
-  } catch (const pof::io::DataError& e) {
+  } catch (const pof::DataError& e) {
     const std::string_view what = e.what();
     FUZZ_CHECK(what.rfind("fuzz.csv:", 0) == 0);
     FUZZ_CHECK(what.size() < 512);

@@ -1,5 +1,5 @@
-// fuzz-link: pof_daq
-// The pof-daqd configuration loader (daq/core/config.hpp): any text is a TOML syntax error, a
+// fuzz-link: pof_daq_stream
+// The pof-daqd configuration loader (daq/include/pof/daq/stream/config.hpp): any text is a TOML syntax error, a
 // ConfigError, or a configuration whose --print-config output (to_toml) loads back to the same
 // output.
 #include <cstdint>
@@ -8,9 +8,9 @@
 
 #include <toml++/toml.h>
 
-#include "core/config.hpp"
+#include "pof/daq/stream/config.hpp"
 #include "fuzz_check.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view text(reinterpret_cast<const char*>(data), size);
@@ -20,7 +20,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     once = pof::daq::to_toml(pof::daq::config_from_table(t, "fuzz.toml"));
   } catch (const toml::parse_error&) {
     return 0;
-  } catch (const pof::io::ConfigError& e) {
+  } catch (const pof::ConfigError& e) {
     FUZZ_CHECK(std::string_view(e.what()).size() < 1024);
     return 0;
   }

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "fuzz_check.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/io/lcmlog_scan.hpp"
 #include "pof/io/recording_reader.hpp"
 
@@ -40,7 +40,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     FUZZ_CHECK(r.sensor_v.size() == n && r.reference_v.size() == n);
     FUZZ_CHECK(r.angle_ref_deg.size() == n || r.pot_v.size() == n);
     for (Eigen::Index i = 1; i < n; ++i) FUZZ_CHECK(!(r.t_s[i] < r.t_s[i - 1]) || std::isnan(r.t_s[i]));
-  } catch (const pof::io::DataError& e) {
+  } catch (const pof::DataError& e) {
     // The message quotes at most ~40 bytes of input, whatever the input.
     FUZZ_CHECK(std::string_view(e.what()).size() < 1024);
   }

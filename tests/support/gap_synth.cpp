@@ -7,8 +7,8 @@
 #include "pof/gap/io.hpp"
 #include "pof/io/csv_writer.hpp"
 #include "pof/io/recording_reader.hpp"
-#include "pof/gap/synth.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/testing/gap_synth.hpp"
+#include "pof/base/errors.hpp"
 
 int main(int argc, char** argv) {
   if (argc < 3) {
@@ -27,7 +27,7 @@ int main(int argc, char** argv) {
       else { std::cerr << "gap_synth: unknown argument '" << a << "'\n"; return 2; }
     }
     pof::io::write_csv(argv[1], pof::gap::synthesise(cfg, std::stoull(argv[2])));
-  } catch (const pof::io::Error& e) {
+  } catch (const pof::Error& e) {
     std::cerr << "gap_synth: " << e.what() << '\n';
     return e.code();
   } catch (const std::exception& e) {

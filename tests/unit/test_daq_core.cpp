@@ -7,11 +7,11 @@
 #include <random>
 #include <thread>
 
-#include "core/config.hpp"
-#include "core/doorbell.hpp"
-#include "core/scan_clock.hpp"
-#include "core/spsc_queue.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/daq/stream/config.hpp"
+#include "pof/daq/stream/doorbell.hpp"
+#include "pof/daq/stream/scan_clock.hpp"
+#include "pof/daq/stream/spsc_queue.hpp"
+#include "pof/base/errors.hpp"
 
 using pof::daq::ScanClock;
 
@@ -122,8 +122,8 @@ namespace {
 std::string config_error(const std::string& toml) {
   try {
     (void)pof::daq::config_from_table(toml::parse(toml), "t.toml");
-  } catch (const pof::io::ConfigError& e) {
-    EXPECT_EQ(e.code(), pof::io::kExitConfig);
+  } catch (const pof::ConfigError& e) {
+    EXPECT_EQ(e.code(), pof::kExitConfig);
     return e.what();
   }
   return "";
@@ -144,7 +144,7 @@ TEST(DaqConfig, DefaultsAndOverrides) {
   EXPECT_DOUBLE_EQ(c.published_rate_hz(), 200.0);
   ASSERT_EQ(c.channels().size(), 3U);
   EXPECT_EQ(c.channels()[1].name, "reference");
-  EXPECT_THROW(pof::daq::apply_override(t, "novalue"), pof::io::ConfigError);
+  EXPECT_THROW(pof::daq::apply_override(t, "novalue"), pof::ConfigError);
 }
 
 TEST(DaqConfig, EveryErrorNamesItsKey) {

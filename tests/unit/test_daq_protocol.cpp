@@ -1,11 +1,11 @@
 // The DAQ protocol modules against the byte sequences of the public captures
-// (daq/protocol/ni_usb600x.hpp [1]-[9], mcc_usb1208ls.hpp [1]-[7]) and their own inverses.
+// (daq/include/pof/daq/protocol/ni_usb600x.hpp [1]-[9], mcc_usb1208ls.hpp [1]-[7]) and their own inverses.
 #include <gtest/gtest.h>
 
 #include <vector>
 
-#include "protocol/mcc_usb1208ls.hpp"
-#include "protocol/ni_usb600x.hpp"
+#include "pof/daq/protocol/mcc_usb1208ls.hpp"
+#include "pof/daq/protocol/ni_usb600x.hpp"
 
 namespace ni = pof::daq::ni;
 namespace mcc = pof::daq::mcc;

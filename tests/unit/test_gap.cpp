@@ -10,8 +10,8 @@
 
 #include "pof/gap/gap.hpp"
 #include "pof/gap/signals.hpp"
-#include "pof/gap/synth.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/testing/gap_synth.hpp"
+#include "pof/base/errors.hpp"
 
 namespace {
 
@@ -115,7 +115,7 @@ TEST(GapSignals, ShortRecordingIsADataError) {
   try {
     (void)pof::gap::analyse(rec);
     FAIL() << "no error";
-  } catch (const pof::io::DataError& e) {
+  } catch (const pof::DataError& e) {
     EXPECT_NE(std::string(e.what()).find("tiny.csv"), std::string::npos);
   }
 }
@@ -129,7 +129,7 @@ TEST(GapSignals, NonConstantRateNamesTheRow) {
   try {
     (void)pof::gap::analyse(rec);
     FAIL() << "no error";
-  } catch (const pof::io::DataError& e) {
+  } catch (const pof::DataError& e) {
     EXPECT_NE(std::string(e.what()).find("gappy.csv: data row"), std::string::npos) << e.what();
   }
 }

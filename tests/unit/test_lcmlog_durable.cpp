@@ -17,7 +17,7 @@
 #include <pof/daq_status_t.hpp>
 #include <pof/raw_block_t.hpp>
 
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/bus/channel_filter.hpp"
 #include "pof/recorder/lcmlog_durable.hpp"
 #include "pof/recorder/pof_messages.hpp"
@@ -92,7 +92,7 @@ TEST(DurableLogWriter, NeverOverwritesAnExistingFile) {
   TempDir d;
   const fs::path p = d / "a.lcmlog";
   write_events(p, 3);
-  EXPECT_THROW(DurableLogWriter w(p), pof::io::IoError);
+  EXPECT_THROW(DurableLogWriter w(p), pof::IoError);
   EXPECT_EQ(check_log(p).events, 3u);
 }
 
@@ -188,7 +188,7 @@ TEST(RepairLog, RewritesAroundDamageInTheMiddleKeepingEveryCompleteEvent) {
 }
 
 TEST(CheckLog, MissingFileIsNoInput) {
-  EXPECT_THROW(check_log("/nonexistent/x.lcmlog"), pof::io::NoInputError);
+  EXPECT_THROW(check_log("/nonexistent/x.lcmlog"), pof::NoInputError);
 }
 
 TEST(DurableLogWriter, FileSizeLimitLeavesOnlyCompleteEvents) {
@@ -287,7 +287,7 @@ TEST(ChannelFilter, WholeNameMatchLikeLcmSubscribe) {
   ChannelFilter alt("POF_(ANGLE|STATS)_\\w+");  // PCRE syntax, as lcm-logger -c accepts
   EXPECT_TRUE(alt.matches("POF_STATS_RIGHT_KNEE"));
   EXPECT_FALSE(alt.matches("POF_RAW_RIGHT_KNEE"));
-  EXPECT_THROW(ChannelFilter("(unclosed"), pof::io::ConfigError);
+  EXPECT_THROW(ChannelFilter("(unclosed"), pof::ConfigError);
 }
 
 TEST(RepairLog, RefusesAFileARecorderIsStillWriting) {
@@ -298,7 +298,7 @@ TEST(RepairLog, RefusesAFileARecorderIsStillWriting) {
   w.append(1, "POF_RAW", data.data(), data.size());
   w.flush();
   EXPECT_TRUE(log_is_being_written(p));
-  EXPECT_THROW(repair_log(p), pof::io::IoError);
+  EXPECT_THROW(repair_log(p), pof::IoError);
   w.close();
   EXPECT_FALSE(log_is_being_written(p));
   EXPECT_FALSE(repair_log(p).changed);

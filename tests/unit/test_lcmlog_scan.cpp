@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 #include <pof/raw_block_t.hpp>
 
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/io/lcmlog_scan.hpp"
 
 using pof::io::LcmEventRef;
@@ -277,16 +277,16 @@ TEST(DecodeLcmEvent, RawBlockCountsAreCheckedBeforeTheDecoderAllocates) {
 }
 
 TEST(Excerpt, IsBoundedAndPrintable) {
-  EXPECT_EQ(pof::io::excerpt("t_s,sensor_v"), "t_s,sensor_v");
+  EXPECT_EQ(pof::excerpt("t_s,sensor_v"), "t_s,sensor_v");
   const std::string big(8'000'000, 'x');
-  const std::string e = pof::io::excerpt(big);
-  EXPECT_EQ(e, std::string(pof::io::kExcerptBytes, 'x') + "\u2026");
-  EXPECT_EQ(pof::io::excerpt(std::string("a\0b\x1b[2J", 7)), "a\\x00b\\x1b[2J");
-  EXPECT_LE(pof::io::excerpt(std::string(100, '\0')).size(), pof::io::kExcerptBytes + 3);
+  const std::string e = pof::excerpt(big);
+  EXPECT_EQ(e, std::string(pof::kExcerptBytes, 'x') + "\u2026");
+  EXPECT_EQ(pof::excerpt(std::string("a\0b\x1b[2J", 7)), "a\\x00b\\x1b[2J");
+  EXPECT_LE(pof::excerpt(std::string(100, '\0')).size(), pof::kExcerptBytes + 3);
   // Quotations inside a parser's message.
   const std::string k(100, 'k');
-  EXPECT_EQ(pof::io::bound_quotes("cannot redefine existing integer '" + k + "' here, saw 'x'"),
+  EXPECT_EQ(pof::bound_quotes("cannot redefine existing integer '" + k + "' here, saw 'x'"),
             "cannot redefine existing integer '" + std::string(40, 'k') + "\u2026' here, saw 'x'");
-  EXPECT_EQ(pof::io::bound_quotes("unterminated '" + k), "unterminated '" + std::string(40, 'k') + "\u2026");
-  EXPECT_EQ(pof::io::bound_quotes("no quotes"), "no quotes");
+  EXPECT_EQ(pof::bound_quotes("unterminated '" + k), "unterminated '" + std::string(40, 'k') + "\u2026");
+  EXPECT_EQ(pof::bound_quotes("no quotes"), "no quotes");
 }

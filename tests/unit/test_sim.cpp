@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "pof/core/model.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/sim/effects.hpp"
 #include "pof/sim/scenario.hpp"
 #include "pof/sim/simulator.hpp"
@@ -66,7 +66,7 @@ Scenario clean_cycles() {
 std::string config_error(const std::string& toml) {
   try {
     (void)pof::sim::parse_scenario(toml, "t.toml");
-  } catch (const pof::io::ConfigError& e) {
+  } catch (const pof::ConfigError& e) {
     return e.what();
   }
   return "(no error)";
@@ -122,8 +122,8 @@ TEST(SimScenario, BuiltinsLoadAndMatchThePaperProtocol) {
   const Scenario r = pof::sim::builtin_scenario("realistic");
   EXPECT_TRUE(r.sensor.creep.enabled);
   EXPECT_EQ(r.sensor.creep.terms.size(), 2u);
-  EXPECT_THROW((void)pof::sim::builtin_scenario("nope"), pof::io::NoInputError);
-  EXPECT_THROW((void)pof::sim::load_scenario("/nonexistent/x.toml"), pof::io::NoInputError);
+  EXPECT_THROW((void)pof::sim::builtin_scenario("nope"), pof::NoInputError);
+  EXPECT_THROW((void)pof::sim::load_scenario("/nonexistent/x.toml"), pof::NoInputError);
 }
 
 // How `sim:<x>` (daq.toml) and the virtual devices' --sim-scenario name a scenario.
@@ -131,8 +131,8 @@ TEST(SimScenario, ByNameOrPath) {
   EXPECT_EQ(pof::sim::scenario_by_name_or_path("session").name, "session");
   const auto file = pof::sim::scenario_by_name_or_path(std::string(POF_SOURCE_DIR) + "/sim/scenarios/paper.toml");
   EXPECT_NE(file.source.find("paper.toml"), std::string::npos);
-  EXPECT_THROW((void)pof::sim::scenario_by_name_or_path("no_such_scenario"), pof::io::NoInputError);
-  EXPECT_THROW((void)pof::sim::scenario_by_name_or_path("missing.toml"), pof::io::NoInputError);
+  EXPECT_THROW((void)pof::sim::scenario_by_name_or_path("no_such_scenario"), pof::NoInputError);
+  EXPECT_THROW((void)pof::sim::scenario_by_name_or_path("missing.toml"), pof::NoInputError);
 }
 
 TEST(SimScenario, ErrorsNameFileLineAndKey) {
@@ -353,7 +353,7 @@ TEST(SimPaper, RateOverrideAndLoop) {
   int returns = 0;
   for (std::size_t i = 1; i < n; ++i) returns += v[i - 1].angle_true_deg > 0 && v[i].angle_true_deg == 0;
   EXPECT_GE(returns, 2);
-  EXPECT_THROW(pof::sim::Simulator(s, 1, -5), pof::io::ConfigError);
+  EXPECT_THROW(pof::sim::Simulator(s, 1, -5), pof::ConfigError);
 }
 
 // ------------------------------------------------------------------------------ effects, one at a time

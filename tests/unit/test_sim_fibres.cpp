@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "pof/core/model.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/sim/scenario.hpp"
 #include "pof/sim/simulator.hpp"
 #include "pof/sim/trajectory.hpp"
@@ -118,7 +118,7 @@ double at_crossing(const SimRun& r, double w, double angle, Get get) {
 std::string config_error(const std::string& toml) {
   try {
     (void)pof::sim::parse_scenario(toml, "t.toml");
-  } catch (const pof::io::ConfigError& e) {
+  } catch (const pof::ConfigError& e) {
     return e.what();
   }
   return "(no error)";
@@ -596,13 +596,13 @@ TEST(SimFibreScenarios, BadKeysAreNamed) {
   try {
     pof::sim::Simulator sim(s, 1, 0);
     ADD_FAILURE() << "no error";
-  } catch (const pof::io::ConfigError& err) {
+  } catch (const pof::ConfigError& err) {
     EXPECT_NE(std::string(err.what()).find("'sensor.memory_hysteresis.width_deg'"), std::string::npos) << err.what();
   }
   s.sensor.memory_hysteresis.width_deg = 10;
   s.sensor.memory_hysteresis.family = MemoryHysteresisFamily::kMaxwellSlip;
   s.sensor.memory_hysteresis.weights = {1};
-  EXPECT_THROW(pof::sim::Simulator(s, 1, 0), pof::io::ConfigError);
+  EXPECT_THROW(pof::sim::Simulator(s, 1, 0), pof::ConfigError);
 }
 
 }  // namespace

@@ -43,7 +43,7 @@ struct BenchOptions {
 
 class AnalogBench {
  public:
-  /// Throws pof::io::ConfigError / NoInputError (unknown scenario), std::runtime_error (truth file).
+  /// Throws pof::ConfigError / NoInputError (unknown scenario), std::runtime_error (truth file).
   explicit AnalogBench(const BenchOptions& o);
   ~AnalogBench();
   AnalogBench(const AnalogBench&) = delete;

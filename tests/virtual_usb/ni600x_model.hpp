@@ -1,5 +1,5 @@
 #pragma once
-// A virtual NI USB-6008/6009 speaking daq/protocol/ni_usb600x.hpp: it acknowledges commands on
+// A virtual NI USB-6008/6009 speaking daq/include/pof/daq/protocol/ni_usb600x.hpp: it acknowledges commands on
 // 0x81, runs a scan clock from the start command (10/03) and serves samples on 0x82 no earlier
 // than its clock says they exist. Its analog inputs see the simulated knee (analog_bench.hpp):
 // scan `index` of a session samples the bench's signal on the channels of the scan list, so the
@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "analog_bench.hpp"
-#include "protocol/ni_usb600x.hpp"
+#include "pof/daq/protocol/ni_usb600x.hpp"
 #include "usbdevfs_device.hpp"
 
 namespace pof::vusb {
@@ -25,7 +25,7 @@ struct NiOptions {
   double clock_ppm = 0.0;  // device crystal error: positive = fast
   bool silent = false;     // never answers a command ("a device that never answers")
   int short_every = 0;     // every Nth data URB is answered 2 bytes short (a valid short packet)
-  // Variants where the public sources disagree (daq/protocol/ni_usb600x.hpp [3][9]):
+  // Variants where the public sources disagree (daq/include/pof/daq/protocol/ni_usb600x.hpp [3][9]):
   std::uint8_t reply_header = 0;  // header byte 1 of every reply: 00 ([C]) or 01 (6008 sources)
   bool padding_noise = false;     // padding bits below the value carry noise (no source checks them)
   double steady_volts = std::numeric_limits<double>::quiet_NaN();  // every input at this level

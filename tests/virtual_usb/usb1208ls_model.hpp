@@ -3,7 +3,7 @@
 // UsbdevfsDevice): HID interface, interrupt-IN 0x81 for 8-byte replies, commands as control
 // SET_REPORT (no interrupt-OUT endpoint: hidapi then writes output reports by control transfer),
 // scan data as 105-byte feature reports (GET_REPORT) paced by the device's scan timer.
-// Protocol: daq/protocol/mcc_usb1208ls.hpp. Its analog inputs see the simulated knee
+// Protocol: daq/include/pof/daq/protocol/mcc_usb1208ls.hpp. Its analog inputs see the simulated knee
 // (analog_bench.hpp); a session starts at each channel-queue load.
 #include <cstdint>
 #include <deque>
@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "analog_bench.hpp"
-#include "protocol/mcc_usb1208ls.hpp"
+#include "pof/daq/protocol/mcc_usb1208ls.hpp"
 #include "usbdevfs_device.hpp"
 
 namespace pof::vusb {
@@ -23,7 +23,7 @@ class Usb1208lsModel final : public DeviceModel {
   static constexpr int kInterfaceLen = 25;
 
   /// `layout`: where the device puts data and scan index in a feature report: the public sources
-  /// disagree (daq/protocol/mcc_usb1208ls.hpp [7]).
+  /// disagree (daq/include/pof/daq/protocol/mcc_usb1208ls.hpp [7]).
   Usb1208lsModel(double clock_ppm, AnalogBench& bench,
                  pof::daq::mcc::ReportLayout layout = pof::daq::mcc::ReportLayout::kRecordFirst)
       : ppm_(clock_ppm), bench_(bench), layout_(layout) {}

@@ -28,7 +28,7 @@
 #include "pof/core/offline.hpp"
 #include "pof/io/atomic_file.hpp"
 #include "pof/io/calibration_file.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/io/recording_reader.hpp"
 #include "pof/io/report_json.hpp"
 #include "progress.hpp"
@@ -72,7 +72,7 @@ bool run_plots(const std::string& dir) {
   try {
     run_plot_script("calibration_report.py", {dir});
     return true;
-  } catch (const pof::io::IoError& e) {
+  } catch (const pof::IoError& e) {
     std::fprintf(stderr, "pof calibrate: warning: %s; the JSON report is complete, the plots are not\n", e.what());
     return false;
   }
@@ -98,7 +98,7 @@ void run(const CalibrateOptions& o) {
   try {
     r = pof::core::calibrate(rec.t_s, rec.sensor_v, rec.reference_v, ref, s);
   } catch (const pof::core::CalibrationError& e) {
-    throw pof::io::DataError(rec.source + ": " + e.what());
+    throw pof::DataError(rec.source + ": " + e.what());
   }
   pof::io::CalibrationFile f = pof::io::make_calibration_file(
       r, o.sensor_id, std::filesystem::path(o.recording).filename().string(), utc_now());
@@ -118,7 +118,7 @@ void run(const CalibrateOptions& o) {
     cmp = pof::core::compare_held_out(rec.t_s, rec.sensor_v, rec.reference_v, ref, *dyn, s);
   } catch (const pof::core::DynamicFitError& e) {
     f.dynamic_note = std::string("no dynamic model: ") + e.what();
-    if (o.model == "dynamic") throw pof::io::DataError(rec.source + ": --model dynamic: " + e.what());
+    if (o.model == "dynamic") throw pof::DataError(rec.source + ": --model dynamic: " + e.what());
   }
   if (dyn) {
     f.cal.dynamic = dyn->model;
@@ -173,7 +173,7 @@ void run(const CalibrateOptions& o) {
     progress.stage("report");
     std::error_code ec;
     std::filesystem::create_directories(o.report, ec);
-    if (ec) throw pof::io::IoError(o.report + ": cannot create the report directory: " + ec.message());
+    if (ec) throw pof::IoError(o.report + ": cannot create the report directory: " + ec.message());
     // The calibration applied to its own recording: loops before/after and error against angle.
     const auto self = pof::core::compensate_recording(rec.t_s, rec.sensor_v, rec.reference_v, ref, r.cal);
     nlohmann::json j = pof::io::calibration_report(r);

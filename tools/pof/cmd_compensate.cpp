@@ -11,7 +11,7 @@
 #include "pof/core/offline.hpp"
 #include "pof/io/atomic_file.hpp"
 #include "pof/io/calibration_file.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/io/recording_reader.hpp"
 #include "pof/io/report_json.hpp"
 #include "progress.hpp"
@@ -56,7 +56,7 @@ void run(const CompensateOptions& o) {
   Eigen::VectorXd ref;
   try {
     ref = pof::io::reference_angle(rec, pot ? &*pot : nullptr);
-  } catch (const pof::io::DataError&) {
+  } catch (const pof::DataError&) {
     if (o.velocity_source == "reference") throw;
   }
   pof::core::CompensatorSettings s;

@@ -25,7 +25,7 @@
 #include "pof/cycle_stats_t.hpp"
 #include "pof/daq_status_t.hpp"
 #include "pof/io/atomic_file.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/io/lcmlog_scan.hpp"
 #include "pof/raw_block_t.hpp"
 
@@ -190,24 +190,24 @@ void run(const ExportOptions& o) {
     }
   });
   const bool damaged = log.damaged();
-  if (events == 0 && !damaged) throw io::DataError(o.log + ": no event on channel " + io::excerpt(o.channel));
+  if (events == 0 && !damaged) throw pof::DataError(o.log + ": no event on channel " + pof::excerpt(o.channel));
   if (type == 0 && !damaged) {
-    throw io::DataError(o.log + ": channel " + io::excerpt(o.channel) +
+    throw pof::DataError(o.log + ": channel " + pof::excerpt(o.channel) +
                         ": not a pofkit message (angle_t, cycle_stats_t, raw_block_t, daq_status_t, "
                         "compensator_status_t)");
   }
   if (damaged && !o.salvage)
-    throw io::DataError(log.damage_report() + "; nothing written (--salvage writes what is readable)");
+    throw pof::DataError(log.damage_report() + "; nothing written (--salvage writes what is readable)");
   if (type == 0 && damaged)
-    throw io::DataError(log.damage_report() + "; no readable event on channel " + io::excerpt(o.channel) + ", nothing written");
+    throw pof::DataError(log.damage_report() + "; no readable event on channel " + pof::excerpt(o.channel) + ", nothing written");
   io::write_output(o.output, out.str());
   if (o.output != "-") {
     std::fprintf(stderr, "pof export: %s: %" PRId64 " events -> %" PRId64 " rows in %s\n", o.channel.c_str(), events,
                  rows, o.output.c_str());
   }
   if (damaged)
-    throw io::DataError(log.damage_report() + "; salvaged " + std::to_string(rows) + " rows of channel " +
-                        io::excerpt(o.channel) + " into " + o.output);
+    throw pof::DataError(log.damage_report() + "; salvaged " + std::to_string(rows) + " rows of channel " +
+                        pof::excerpt(o.channel) + " into " + o.output);
 }
 
 }  // namespace

@@ -18,7 +18,7 @@
 #include "pof/gap/io.hpp"
 #include "pof/io/atomic_file.hpp"
 #include "pof/io/recording_reader.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 
 namespace pof::cli {
 
@@ -31,7 +31,7 @@ bool make_plots(const fs::path& dir, std::string& why) {
   try {
     run_plot_script("gap_report.py", {dir.string()});
     return true;
-  } catch (const pof::io::IoError& e) {
+  } catch (const pof::IoError& e) {
     why = e.what();
     return false;
   }

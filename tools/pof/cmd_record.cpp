@@ -15,7 +15,7 @@
 #include <spdlog/spdlog.h>
 
 #include "commands.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/recorder/lcmlog_durable.hpp"
 #include "pof/recorder/pof_messages.hpp"
 #include "pof/recorder/session.hpp"
@@ -107,7 +107,7 @@ void run_check(const std::vector<std::string>& files) {
   if (!bad.empty()) {
     std::string list;
     for (const auto& f : bad) list += " " + f;
-    throw io::DataError("torn or damaged LCM log:" + list + " (repair with: pof record --repair FILE)");
+    throw pof::DataError("torn or damaged LCM log:" + list + " (repair with: pof record --repair FILE)");
   }
 }
 
@@ -116,7 +116,7 @@ void run_repair(const std::string& file) {
   std::printf("%s: %s\n", file.c_str(), r.action.c_str());
   std::fflush(stdout);
   const rec::LogCheck after = rec::check_log(file);
-  if (!after.clean()) throw io::IoError(file + ": still not clean after repair at offset " + std::to_string(after.good_bytes));
+  if (!after.clean()) throw pof::IoError(file + ": still not clean after repair at offset " + std::to_string(after.good_bytes));
 }
 
 void run_record(const RecordArgs& a) {
@@ -197,8 +197,8 @@ void run_record(const RecordArgs& a) {
                  s.udp_rcvbuf_bytes, s.manifest.string());
   }
   if (s.outcome == rec::Outcome::kDiskFull)
-    throw io::IoError("disk full: " + s.error);
-  if (s.outcome == rec::Outcome::kIoError) throw io::IoError("write failed: " + s.error);
+    throw pof::IoError("disk full: " + s.error);
+  if (s.outcome == rec::Outcome::kIoError) throw pof::IoError("write failed: " + s.error);
 }
 
 }  // namespace

@@ -17,7 +17,7 @@
 #include "plot.hpp"
 #include "pof/io/atomic_file.hpp"
 #include "pof/io/csv_writer.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/io/lcmlog_writer.hpp"
 #include "pof/sim/scenario.hpp"
 #include "pof/sim/simulator.hpp"
@@ -48,7 +48,7 @@ pof::sim::Scenario resolve_scenario(const std::string& arg) {
     if (n == arg) return pof::sim::builtin_scenario(arg);
   std::string list;
   for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
-  throw pof::io::NoInputError(arg + ": no such scenario file, and not a builtin scenario (" + list + ")");
+  throw pof::NoInputError(arg + ": no such scenario file, and not a builtin scenario (" + list + ")");
 }
 
 void run_plot(const fs::path& trace_csv, const std::string& png, const std::string& title, double reference_level_v) {
@@ -63,7 +63,7 @@ void run_sim(const SimOptions& o) {
   pof::sim::Scenario sc = resolve_scenario(o.scenario);
   if (o.seconds > 0) sc.duration_s = o.seconds;
   if (sc.loop && sc.duration_s <= 0)
-    throw pof::io::ConfigError(sc.source + ": key 'loop': the scenario loops forever; give --seconds or duration_s");
+    throw pof::ConfigError(sc.source + ": key 'loop': the scenario loops forever; give --seconds or duration_s");
   pof::sim::Simulator sim(sc, o.seed, o.rate);
 
   const fs::path out(o.output);
@@ -89,7 +89,7 @@ void run_sim(const SimOptions& o) {
   if (!o.plot.empty() || keep_trace) {
     trace_path = keep_trace ? fs::path(o.trace) : fs::path(o.plot).replace_extension(".trace.csv.tmp");
     trace = std::fopen(trace_path.c_str(), "w");
-    if (trace == nullptr) throw pof::io::IoError(trace_path.string() + ": cannot write the plot data");
+    if (trace == nullptr) throw pof::IoError(trace_path.string() + ": cannot write the plot data");
     std::fputs("t_s,sensor_v,reference_v,pot_v,angle_ref_deg,angle_true_deg,velocity_rad_s,acceleration_rad_s2,"
                "direction,quasi_static_v,static_nonlinearity_v,hysteresis_v,rate_dependent_hysteresis_v,creep_v,"
                "acceleration_v,drift_v,normalised_v,source_power_rel,pot_error_deg,memory_hysteresis_v,viscoelastic_lag_v,"
@@ -141,7 +141,7 @@ void run_sim(const SimOptions& o) {
   if (trace != nullptr) {
     if (std::fclose(trace) != 0) {
       trace = nullptr;
-      throw pof::io::IoError(trace_path.string() + ": write error");
+      throw pof::IoError(trace_path.string() + ": write error");
     }
     trace = nullptr;
     if (!o.plot.empty()) {

@@ -19,7 +19,7 @@
 #include "commands.hpp"
 #include "pof/bus/receiver.hpp"
 #include "pof/bus/udp_socket.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/lcm/url.hpp"
 #include "pof/lcm/utime.hpp"
 #include "pof/spy/monitor.hpp"
@@ -74,7 +74,7 @@ int terminal_width() {
 void run_spy(const SpyArgs& a) {
   const std::string url = lcmutil::resolve_url(a.url);
   lcm::LCM lcm(url);
-  if (!lcm.good()) throw io::ConfigError("LCM URL '" + url + "': cannot open (is there a multicast route? see docs/deployment.md)");
+  if (!lcm.good()) throw pof::ConfigError("LCM URL '" + url + "': cannot open (is there a multicast route? see docs/deployment.md)");
   spy::Monitor monitor;
   bus::ReceiverOptions ro;
   ro.lcm_queue_capacity = a.queue_capacity;
@@ -91,7 +91,7 @@ void run_spy(const SpyArgs& a) {
   sigaddset(&set, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &set, nullptr);
   const int sfd = ::signalfd(-1, &set, SFD_CLOEXEC);
-  if (sfd < 0) throw io::IoError("signalfd failed");
+  if (sfd < 0) throw pof::IoError("signalfd failed");
 
   const bool snapshot = a.once || a.duration_s > 0;
   // A snapshot collects for --duration (default 1 s for --once) and prints plain text once.

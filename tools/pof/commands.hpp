@@ -1,7 +1,7 @@
 #pragma once
 // The `pof` CLI: one executable, one file per subcommand (cmd_<name>.cpp). Each file defines one
 // add_<name>() that registers its subcommand on the app; main.cpp calls them all and maps
-// pof::io::Error to the exit codes of pof/io/exit_codes.hpp.
+// pof::Error to the exit codes of pof/base/exit_codes.hpp.
 #include <CLI/CLI.hpp>
 
 namespace pof::cli {

@@ -7,7 +7,7 @@
 #include <spdlog/spdlog.h>
 
 #include "commands.hpp"
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 
 int main(int argc, char** argv) {
   // Diagnostics go to stderr: stdout carries results (tables, CSV, `pof record --check`,
@@ -31,13 +31,13 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     // CLI11 prints help/usage itself; its usage errors are exit 2 like every other pofkit tool.
     const int rc = app.exit(e);
-    return rc == 0 ? 0 : pof::io::kExitUsage;
-  } catch (const pof::io::Error& e) {
+    return rc == 0 ? 0 : pof::kExitUsage;
+  } catch (const pof::Error& e) {
     spdlog::error("{}", e.what());
     return e.code();
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
-    return pof::io::kExitIoErr;
+    return pof::kExitIoErr;
   }
   return 0;
 }

@@ -9,7 +9,7 @@
 #include <cstring>
 #include <filesystem>
 
-#include "pof/io/errors.hpp"
+#include "pof/base/errors.hpp"
 
 extern char** environ;
 
@@ -44,7 +44,7 @@ std::string find_plot_script(const std::string& script) {
 
 void run_plot_script(const std::string& script, const std::vector<std::string>& args) {
   const std::string path = find_plot_script(script);
-  if (path.empty()) throw io::IoError(script + ": plot script not found (set POF_PLOT_DIR to the tools/plot folder)");
+  if (path.empty()) throw pof::IoError(script + ": plot script not found (set POF_PLOT_DIR to the tools/plot folder)");
   std::vector<std::string> all{"/usr/bin/python3", path};
   all.insert(all.end(), args.begin(), args.end());
   std::vector<char*> argv;
@@ -52,12 +52,12 @@ void run_plot_script(const std::string& script, const std::vector<std::string>& 
   argv.push_back(nullptr);
   pid_t pid = 0;
   if (const int rc = ::posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ); rc != 0)
-    throw io::IoError(path + ": cannot start /usr/bin/python3: " + std::strerror(rc));
+    throw pof::IoError(path + ": cannot start /usr/bin/python3: " + std::strerror(rc));
   int status = 0;
   while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
   }
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    throw io::IoError(path + ": plotting failed (exit status " +
+    throw pof::IoError(path + ": plotting failed (exit status " +
                       std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) + ")");
 }
 

@@ -10,7 +10,7 @@ namespace pof::cli {
 /// else the installed share directory. Empty when none has it.
 std::string find_plot_script(const std::string& script);
 
-/// Runs /usr/bin/python3 <script> <args...> and waits. Throws pof::io::IoError naming the script
+/// Runs /usr/bin/python3 <script> <args...> and waits. Throws pof::IoError naming the script
 /// when it is missing, cannot start or exits non-zero.
 void run_plot_script(const std::string& script, const std::vector<std::string>& args);
 

@@ -11,7 +11,7 @@ namespace pof::bus {
 
 class ChannelFilter {
  public:
-  /// Throws pof::io::ConfigError naming the pattern and GLib's reason when it does not compile.
+  /// Throws pof::ConfigError naming the pattern and GLib's reason when it does not compile.
   explicit ChannelFilter(const std::string& regex);
   ~ChannelFilter();
   ChannelFilter(const ChannelFilter&) = delete;

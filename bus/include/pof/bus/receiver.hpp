@@ -86,7 +86,7 @@ class Receiver {
   using RawHandler = std::function<void(const Delivery&, const unsigned char* data, std::size_t size)>;
   using ErrorHandler = std::function<void(const ReceiveError&)>;
 
-  /// `url` as resolved by pof::lcmutil::resolve_url(). Throws pof::io::ConfigError naming the URL
+  /// `url` as resolved by pof::lcmutil::resolve_url(). Throws pof::ConfigError naming the URL
   /// when the socket cannot be set up or `lc` is not good() on a non-udpm URL.
   Receiver(lcm::LCM& lc, const std::string& url, ReceiverOptions options = {});
   ~Receiver();
@@ -103,7 +103,7 @@ class Receiver {
   }
 
   /// fn(delivery, bytes, size) for every message on a channel matching `regex` (whole name, liblcm's
-  /// PCRE syntax). Throws pof::io::ConfigError naming the pattern when it does not compile.
+  /// PCRE syntax). Throws pof::ConfigError naming the pattern when it does not compile.
   void subscribe_raw(const std::string& regex, RawHandler fn);
 
   /// Called for every decode or handler error (after counting). Must not throw.

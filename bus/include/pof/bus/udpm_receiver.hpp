@@ -32,7 +32,7 @@
 // delivered to it (docs/deployment.md, "Threat model"); IP_MULTICAST_ALL=0 keeps out datagrams for
 // other groups that share the port.
 //
-// Threads: receive() is called from one thread. Setup errors throw pof::io::ConfigError naming the
+// Threads: receive() is called from one thread. Setup errors throw pof::ConfigError naming the
 // URL; receive() never throws (the sink must not throw either).
 #include <netinet/in.h>
 
@@ -59,7 +59,7 @@ struct UdpmLimits {
   uint64_t max_partial_bytes = 64u << 20;   // their declared message sizes together
 };
 
-/// Parses udpm://GROUP:PORT?ttl=N&recv_buf_size=N (liblcm's syntax). Throws pof::io::ConfigError.
+/// Parses udpm://GROUP:PORT?ttl=N&recv_buf_size=N (liblcm's syntax). Throws pof::ConfigError.
 UdpmUrl parse_udpm_url(const std::string& url);
 
 class UdpmReceiver {

@@ -59,7 +59,7 @@ struct Result {
   [[nodiscard]] nlohmann::json to_json() const;
 };
 
-/// Runs the whole workflow on one recording. Throws pof::io::DataError when the recording cannot be
+/// Runs the whole workflow on one recording. Throws pof::DataError when the recording cannot be
 /// analysed (too short, no movement, no holds, non-constant rate), naming the source.
 Result analyse(const io::Recording& rec, const Options& opt = {});
 

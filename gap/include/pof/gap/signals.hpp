@@ -27,7 +27,7 @@ struct Signals {
   Eigen::VectorXd ref_rel;    // reference_v / reference_level_v - 1, 1 s centred mean (source power)
 };
 
-/// Builds Signals; throws pof::io::DataError on empty/short data, non-constant rate or a
+/// Builds Signals; throws pof::DataError on empty/short data, non-constant rate or a
 /// non-positive reference (naming the source and the row).
 Signals make_signals(const io::Recording& rec);
 

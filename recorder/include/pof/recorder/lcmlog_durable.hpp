@@ -45,7 +45,7 @@ class DurableLogWriter {
     std::size_t buffer_bytes = 1u << 20;  // events are batched up to this size before write(2)
   };
 
-  /// Creates `path` (must not exist: never overwrites a recording). Throws pof::io::IoError naming
+  /// Creates `path` (must not exist: never overwrites a recording). Throws pof::IoError naming
   /// the file when it cannot be created.
   DurableLogWriter(std::filesystem::path path, Options options);
   explicit DurableLogWriter(std::filesystem::path path) : DurableLogWriter(std::move(path), Options{}) {}
@@ -122,7 +122,7 @@ struct LogCheck {
 using LogEventRef = io::LcmEventRef;
 
 /// Reads a log (io::LcmLogReader) and calls `on_event` for every complete event before the first
-/// damage. Throws pof::io::NoInputError when the file cannot be opened.
+/// damage. Throws pof::NoInputError when the file cannot be opened.
 LogCheck scan_log(const std::filesystem::path& path, const std::function<void(const LogEventRef&)>& on_event);
 LogCheck check_log(const std::filesystem::path& path);
 /// check_log() + the events themselves (for tests and small files).
@@ -145,7 +145,7 @@ struct RepairResult {
 ///  - damage in the middle: every complete event (including those found after the damage) is
 ///    rewritten to a temporary file that is fsync'd and renamed over `path`; the original is kept
 ///    as `<path>.bak`.
-/// A clean file is left untouched. Throws pof::io::NoInputError / IoError naming the file.
+/// A clean file is left untouched. Throws pof::NoInputError / IoError naming the file.
 RepairResult repair_log(const std::filesystem::path& path);
 
 }  // namespace pof::recorder

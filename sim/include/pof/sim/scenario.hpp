@@ -171,14 +171,14 @@ struct Scenario {
   std::vector<Segment> trajectory;
 };
 
-/// Throws pof::io::ConfigError naming the file, line and key (e.g. "x.toml:12: key
+/// Throws pof::ConfigError naming the file, line and key (e.g. "x.toml:12: key
 /// 'sensor.creep.terms[0].tau_s': expected a number > 0, got -1"), also for unknown keys.
-/// Throws pof::io::NoInputError when the file cannot be read.
+/// Throws pof::NoInputError when the file cannot be read.
 Scenario load_scenario(const std::filesystem::path& path);
 /// Same, from TOML text; `source` names it in messages.
 Scenario parse_scenario(std::string_view toml_text, const std::string& source);
 /// The shipped scenarios ("paper", "realistic"), embedded in the library at build time.
-/// Throws pof::io::NoInputError for an unknown name.
+/// Throws pof::NoInputError for an unknown name.
 Scenario builtin_scenario(std::string_view name);
 std::vector<std::string> builtin_scenario_names();
 /// A scenario file when `name_or_path` looks like a path (has a '/' or ends in ".toml"), else the

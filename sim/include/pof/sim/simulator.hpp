@@ -48,7 +48,7 @@ struct EffectTrace {
 class Simulator {
  public:
   /// scan_rate_hz = 0 takes the scenario's daq.scan_rate_hz. Allocates every buffer here.
-  /// Throws pof::io::ConfigError for an invalid scenario or rate.
+  /// Throws pof::ConfigError for an invalid scenario or rate.
   Simulator(const Scenario& s, std::uint64_t seed, double scan_rate_hz);
 
   /// Fills consecutive scans; returns how many (less than out.size() only at the end; 0 once

@@ -20,7 +20,7 @@ struct KneeState {
 class Trajectory {
  public:
   /// Compiles the segments into moves and holds; random per-cycle variation (kSubject) is drawn
-  /// here from `seed`. Throws pof::io::ConfigError if the trajectory is empty.
+  /// here from `seed`. Throws pof::ConfigError if the trajectory is empty.
   Trajectory(const Scenario& s, std::uint64_t seed, double dt_s);
 
   /// Advances one time step and returns the new state. Never allocates or throws.

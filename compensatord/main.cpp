@@ -1,0 +1,232 @@
+// pof-compensatord: subscribes to raw sample blocks, compensates every scan (Leal-Junior et al.
+// 2017, eqs. (11)/(12)) and publishes the knee angle, per-cycle statistics and its own health.
+//
+//   POF_RAW[_ID] --> Pipeline --> POF_ANGLE[_ID], POF_STATS[_ID]; POF_COMPENSATOR_STATUS[_ID] at 1 Hz
+//
+// One thread: pof::bus::Receiver delivers blocks into the pipeline and the same loop publishes.
+// Whatever arrives on the bus, the loop keeps turning: undecodable messages, malformed datagrams
+// and duplicated or replayed blocks are counted in the status and logged rate-limited
+// (docs/deployment.md, "Threat model"). Signals only set flags (SIGTERM/SIGINT stop, SIGHUP reloads
+// the calibration between blocks: a bad file keeps the old calibration, is counted and named in the
+// status). Under systemd (Type=notify) the loop sends READY once subscribed and feeds the watchdog
+// only while it keeps turning.
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <limits>
+#include <optional>
+#include <string>
+
+#include <CLI/CLI.hpp>
+#include <lcm/lcm-cpp.hpp>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include "pipeline.hpp"
+#include "pof/bus/error_log.hpp"
+#include "pof/bus/receiver.hpp"
+#include "pof/io/calibration_file.hpp"
+#include "pof/base/errors.hpp"
+#include "pof/lcm/url.hpp"
+#include "pof/service/sd_notify.hpp"
+#include "pof/lcm/utime.hpp"
+
+namespace {
+
+using pof::lcmutil::now_utime;
+
+std::atomic<bool> g_stop{false};
+
+std::int64_t clamp_count(std::uint64_t n) {
+  return static_cast<std::int64_t>(std::min<std::uint64_t>(n, std::numeric_limits<std::int64_t>::max()));
+}
+std::atomic<bool> g_reload{false};
+
+extern "C" void on_signal(int sig) {
+  if (sig == SIGHUP) g_reload = true;
+  else g_stop = true;
+}
+
+class LcmSink final : public pof::compensatord::Sink {
+ public:
+  LcmSink(lcm::LCM& lc, std::string angle_ch, std::string stats_ch)
+      : lc_(lc), angle_ch_(std::move(angle_ch)), stats_ch_(std::move(stats_ch)) {}
+  void angle(const pof::angle_t& m) override { publish_failures_ += lc_.publish(angle_ch_, &m) != 0; }
+  void cycle(const pof::cycle_stats_t& m) override { publish_failures_ += lc_.publish(stats_ch_, &m) != 0; }
+  std::int64_t publish_failures_ = 0;
+
+ private:
+  lcm::LCM& lc_;
+  std::string angle_ch_, stats_ch_;
+};
+
+struct Options {
+  std::string cal;
+  std::string sensor_id;
+  std::string lcm_url;
+  std::string pot_cal;
+  std::string velocity_source = "sensor";
+  std::string model = "file";
+  double output_rate_hz = 0;
+  double velocity_window_s = 0.5;
+  double reversal_window_s = pof::core::CompensatorSettings{}.reversal_window_s;
+  int queue_capacity = 10000;
+  double duration_s = 0;
+};
+
+int run(const Options& o) {
+  pof::compensatord::PipelineSettings ps;
+  ps.sensor_id = o.sensor_id;
+  ps.output_rate_hz = o.output_rate_hz;
+  ps.compensator.velocity_window_s = o.velocity_window_s;
+  ps.compensator.reversal_window_s = o.reversal_window_s;
+  ps.compensator.velocity_source =
+      o.velocity_source == "reference" ? pof::core::VelocitySource::kReference : pof::core::VelocitySource::kSensor;
+  std::optional<pof::core::PotentiometerCalibration> pot;
+  if (!o.pot_cal.empty()) pot = pof::io::load_potentiometer(o.pot_cal);
+
+  pof::compensatord::Pipeline pipeline(pof::io::load_calibration(o.cal, o.model), o.cal, ps, pot);
+
+  const std::string url = pof::lcmutil::resolve_url(o.lcm_url);
+  lcm::LCM lc(url);
+  if (!lc.good()) throw pof::ConfigError("LCM URL '" + url + "': cannot open (is there a multicast route? see docs/deployment.md)");
+  const std::string raw_ch = pof::lcmutil::channel("POF_RAW", o.sensor_id);
+  LcmSink sink(lc, pof::lcmutil::channel("POF_ANGLE", o.sensor_id), pof::lcmutil::channel("POF_STATS", o.sensor_id));
+  const std::string status_ch = pof::lcmutil::channel("POF_COMPENSATOR_STATUS", o.sensor_id);
+
+  // The stream counts as quiet after kQuiet without blocks: the cycle in progress is closed then
+  // (pof-daqd stopped or the cable is out), so a session's last cycle reaches POF_STATS.
+  constexpr auto kQuiet = std::chrono::seconds(1);
+  auto last_block = std::chrono::steady_clock::now();
+  bool quiet = true;
+  pof::bus::ReceiverOptions ro;
+  ro.lcm_queue_capacity = o.queue_capacity;
+  pof::bus::Receiver rx(lc, url, ro);
+  rx.subscribe<pof::raw_block_t>(raw_ch, [&](const pof::raw_block_t& b, const pof::bus::Delivery&) {
+    pipeline.on_block(b, now_utime(), sink);  // noexcept
+    last_block = std::chrono::steady_clock::now();
+    quiet = false;
+  });
+  // Bad input is logged: the first of each kind in full, then a count every 10 s.
+  pof::bus::ErrorLog errors([](const std::string& line) { spdlog::warn("{}", line); });
+  rx.on_error([&](const pof::bus::ReceiveError& e) { errors.note(e.channel, e.describe(), now_utime()); });
+  std::uint64_t malformed_seen = 0, incomplete_seen = 0;
+
+  std::signal(SIGTERM, on_signal);
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGHUP, on_signal);
+
+  pof::service::ServiceNotifier notifier;
+  notifier.ready("compensating " + raw_ch + " with " + o.cal);
+  spdlog::info("{} -> {} on {} (calibration {}, output {})", raw_ch, pof::lcmutil::channel("POF_ANGLE", o.sensor_id),
+               url, o.cal, o.output_rate_hz > 0 ? std::to_string(o.output_rate_hz) + " Hz" : std::string("every scan"));
+
+  std::int64_t status_seq = 0;
+  auto next_status = std::chrono::steady_clock::now();
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                              std::chrono::duration<double>(o.duration_s));
+  while (!g_stop && (o.duration_s <= 0 || std::chrono::steady_clock::now() < deadline)) {
+    if (rx.handle(100) < 0) ::usleep(100'000);  // a socket error: do not spin; counters and status go on
+
+    if (g_reload.exchange(false)) {
+      try {
+        pipeline.replace_calibration(pof::io::load_calibration(o.cal, o.model), o.cal);
+        spdlog::info("reloaded calibration {}", o.cal);
+      } catch (const std::exception& e) {
+        pipeline.note_reload_failure(e.what());
+        spdlog::error("calibration reload failed, keeping the previous one: {}", e.what());
+      }
+    }
+    const auto now = std::chrono::steady_clock::now();
+    if (!quiet && now - last_block >= kQuiet) {
+      pipeline.finish(sink);
+      quiet = true;
+    }
+    if (now >= next_status) {
+      pof::compensator_status_t st = pipeline.status(now_utime());
+      st.seq = status_seq++;
+      const pof::bus::ReceiverStats rs = rx.stats();
+      st.decode_errors = clamp_count(rs.decode_errors);
+      st.malformed_datagrams = clamp_count(rs.malformed_datagrams + rs.incomplete_messages);
+      if (rs.malformed_datagrams > malformed_seen || rs.incomplete_messages > incomplete_seen)
+        errors.note("(udpm)",
+                    url + ": " + std::to_string(rs.malformed_datagrams - malformed_seen) +
+                        " datagrams that are not LCM packets or carry impossible fragment headers, " +
+                        std::to_string(rs.incomplete_messages - incomplete_seen) +
+                        " fragmented messages abandoned incomplete (in the last second)",
+                    now_utime());
+      malformed_seen = rs.malformed_datagrams;
+      incomplete_seen = rs.incomplete_messages;
+      errors.tick(now_utime());
+      lc.publish(status_ch, &st);
+      next_status = now + std::chrono::seconds(1);
+    }
+    notifier.watchdog_if_due();
+  }
+  pipeline.finish(sink);
+  notifier.stopping("stopping");
+  const pof::compensator_status_t fin = pipeline.status(0);
+  const pof::bus::ReceiverStats rs = rx.stats();
+  spdlog::info("stopped: {} blocks, {} scans, {} lost scans, {} angles, {} cycles; {} duplicate blocks, {} decode "
+               "errors, {} malformed datagrams, {} incomplete messages",
+               fin.blocks, fin.scans, fin.lost_scans, fin.angles, fin.cycles, fin.duplicate_blocks, rs.decode_errors,
+               rs.malformed_datagrams, rs.incomplete_messages);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  spdlog::set_default_logger(spdlog::stderr_color_mt("pof-compensatord"));
+  spdlog::set_pattern("pof-compensatord: %^%l%$: %v");
+  CLI::App app{"pof-compensatord: compensates POF_RAW blocks into POF_ANGLE and POF_STATS"};
+  app.set_version_flag("--version", POF_VERSION);
+  Options o;
+  app.add_option("--cal", o.cal, "Calibration file (TOML, from `pof calibrate`); SIGHUP reloads it")
+      ->required();
+  app.add_option("--sensor-id", o.sensor_id, "Sensor id suffixing every channel, e.g. LEFT_KNEE -> POF_RAW_LEFT_KNEE");
+  app.add_option("--lcm-url", o.lcm_url, "LCM URL (default: $LCM_DEFAULT_URL, else udpm on this host, ttl=0)");
+  app.add_option("--pot-cal", o.pot_cal, "Potentiometer calibration (TOML) when blocks carry `pot` volts and the calibration has none");
+  app.add_option("--velocity-source", o.velocity_source, "Where velocity and direction come from: sensor | reference")
+      ->capture_default_str();
+  app.add_option("--model", o.model, "Sensor model: file (the calibration's active_model), paper or dynamic")
+      ->check(CLI::IsMember({"file", "paper", "dynamic"}))->capture_default_str();
+  app.add_option("--output-rate", o.output_rate_hz, "Published angle rate [Hz] (boxcar decimation); 0 = every scan")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--velocity-window", o.velocity_window_s, "Velocity estimator window [s]")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--reversal-window", o.reversal_window_s,
+                 "Short window that detects reversals early [s] (0: direction from the velocity window alone)")
+      ->check(CLI::Range(0.0, 10.0))->capture_default_str();
+  app.add_option("--duration", o.duration_s, "Stop after this many seconds (tests, benchmarks); 0 = until SIGTERM")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--queue-capacity", o.queue_capacity, "LCM subscription queue [messages] (transports other than udpm://)")
+      ->check(CLI::Range(1, 1000000))->capture_default_str();
+  try {
+    app.parse(argc, argv);
+    if (o.velocity_source != "sensor" && o.velocity_source != "reference")
+      throw CLI::ValidationError("--velocity-source", "expected 'sensor' or 'reference', got '" + o.velocity_source + "'");
+    if (o.reversal_window_s > o.velocity_window_s)
+      throw CLI::ValidationError("--reversal-window", "must not exceed --velocity-window (" +
+                                 std::to_string(o.velocity_window_s) + " s)");
+  } catch (const CLI::ParseError& e) {
+    const int rc = app.exit(e);
+    return rc == 0 ? 0 : pof::kExitUsage;
+  }
+  try {
+    return run(o);
+  } catch (const pof::Error& e) {
+    spdlog::error("{}", e.what());
+    return e.code();
+  } catch (const std::invalid_argument& e) {
+    spdlog::error("{}", e.what());
+    return pof::kExitConfig;
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+    return pof::kExitIoErr;
+  }
+}

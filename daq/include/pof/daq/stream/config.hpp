@@ -1,0 +1,76 @@
+#pragma once
+// pof-daqd settings: a plain struct (the drake habit, style.md), read from TOML
+// (/etc/pof/daq.toml in deployment; example in deploy/config/daq.toml) and overridden from the
+// command line. Every error names the file and key and throws pof::ConfigError (exit 78).
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "pof/daq/protocol/ni_usb600x.hpp"
+
+#include <toml++/toml.h>
+
+namespace pof::daq {
+
+inline constexpr int kSchemaVersion = 1;
+inline constexpr std::size_t kMaxChannels = 3;       // sensor, reference, pot
+inline constexpr std::size_t kMaxBlockScans = 4096;  // per published raw block
+
+struct ChannelMap {
+  std::string name;  // "sensor", "reference", "pot" (the raw_block_t contract)
+  int ai = -1;       // device analog input
+};
+
+struct DaqConfig {
+  // [device]
+  std::string device_kind = "usb6008";  // usb6008 | usb6009 | usb1208ls | sim:<scenario>
+  std::string serial;                   // pick this device when several are attached
+  // [acquisition]
+  double scan_rate_hz = 2000.0;         // device scan rate (all channels once per scan)
+  int decimate = 10;                    // average this many scans into one published scan
+  int block_scans = 1;                  // published scans per raw block
+  ni::Terminal terminal = ni::Terminal::kRse;
+  double range_v = 10.0;                // +- input range [V]
+  int transfers_in_flight = 4;          // libusb bulk-IN transfers kept submitted
+  int transfer_bytes = 0;               // bytes per transfer, 0 = auto (~4 ms of data)
+  std::uint32_t segment_scans = 0;      // scans per finite segment, 0 = as many as allowed
+  ni::ByteOrder sample_byte_order = ni::ByteOrder::kBig;  // USB-6008 only (see protocol [9])
+  bool sample_byte_order_auto = true;   // USB-6008: tell the byte order from the data ("auto")
+  bool mcc_single_reads = false;        // USB-1208LS: one AIn per channel per scan (else AInScan)
+  int command_timeout_ms = 1000;        // per command round trip
+  int data_timeout_ms = 2000;           // a data transfer with nothing for this long is an error
+  // [channels] analog input per role; -1 = not wired
+  int sensor_ai = 0;
+  int reference_ai = 1;
+  int pot_ai = 2;
+  // [lcm]
+  std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0";
+  std::string sensor_id;                // suffix of the channels: POF_RAW_<SENSOR_ID>
+  int queue_blocks = 256;               // publisher queue depth [blocks]
+  // [daemon]
+  int retry_ms = 500;                   // wait between attempts to open the device
+  double status_period_s = 1.0;
+
+  /// The wired channels in scan order, named per the raw_block_t contract.
+  [[nodiscard]] std::vector<ChannelMap> channels() const;
+  [[nodiscard]] std::string raw_channel() const;
+  [[nodiscard]] std::string status_channel() const;
+  [[nodiscard]] double published_rate_hz() const { return scan_rate_hz / decimate; }
+};
+
+/// Applies `key.path=value` to `table` (the value is parsed as a TOML value, else taken as a
+/// string). Throws ConfigError on a malformed override.
+void apply_override(toml::table& table, const std::string& assignment);
+
+/// Reads and validates every key of `table`; `source` names it in errors (file name or
+/// "command line"). Unknown keys are errors. Throws pof::ConfigError.
+DaqConfig config_from_table(const toml::table& table, const std::string& source);
+
+/// Parses the file. Throws NoInputError (missing), ConfigError (bad TOML or values).
+toml::table read_config_file(const std::filesystem::path& path);
+
+/// The effective configuration as TOML (for --print-config).
+std::string to_toml(const DaqConfig& cfg);
+
+}  // namespace pof::daq

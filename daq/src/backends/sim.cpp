@@ -1,0 +1,148 @@
+// `sim:<scenario>` backend: scans from a SampleSource, paced by the host clock at the configured
+// scan rate and handed over in the same chunk sizes a USB transfer would carry (~4 ms), so the
+// daemon downstream behaves as with hardware. Used for CPU/latency figures without a spinning
+// emulator (../shared/notes/virtual-usb-device.md, item 6).
+#include <time.h>
+
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+#include "pof/daq/backends/backend.hpp"
+#include "pof/daq/backends/sample_source.hpp"
+#include "pof/daq/stream/config.hpp"
+#include "pof/base/errors.hpp"
+#include "pof/sim/scenario.hpp"
+#include "pof/sim/simulator.hpp"
+#include "pof/lcm/utime.hpp"
+
+namespace pof::daq {
+namespace {
+
+using pof::lcmutil::now_utime;
+
+class SyntheticSource final : public SampleSource {
+ public:
+  SyntheticSource(double rate, bool ref, bool pot) : rate_(rate), ref_(ref), pot_(pot) {}
+  std::size_t next(std::span<float> out) override {
+    const std::size_t n_ch = 1U + (ref_ ? 1U : 0U) + (pot_ ? 1U : 0U);
+    const std::size_t n = out.size() / n_ch;
+    for (std::size_t k = 0; k < n; ++k, ++i_) {
+      const double t = static_cast<double>(i_) / rate_;
+      const double angle = 45.0 - 45.0 * std::cos(2.0 * std::numbers::pi * 0.5 * t);  // 0..90 deg
+      std::size_t c = k * n_ch;
+      out[c++] = static_cast<float>(4.35 - (4.35 - 2.38) * angle / 90.0);
+      if (ref_) out[c++] = 5.0F;
+      if (pot_) out[c++] = static_cast<float>(0.5 + 4.0 * angle / 90.0);
+    }
+    return n;
+  }
+
+ private:
+  double rate_;
+  bool ref_;
+  bool pot_;
+  std::uint64_t i_ = 0;
+};
+
+// The physics simulator (sim/, docs/simulator.md) behind the same interface. The scans are
+// already quantised by the simulated converter; the seed is fixed so that runs repeat.
+class SimulatorSource final : public SampleSource {
+ public:
+  SimulatorSource(const pof::sim::Scenario& sc, double rate, bool ref, bool pot)
+      : sim_(sc, 1, rate), ref_(ref), pot_(pot), scans_(4096) {}
+  std::size_t next(std::span<float> out) override {
+    const std::size_t n_ch = 1U + (ref_ ? 1U : 0U) + (pot_ ? 1U : 0U);
+    const std::size_t want = std::min(out.size() / n_ch, scans_.size());
+    const std::size_t n = sim_.next(std::span(scans_.data(), want));
+    for (std::size_t k = 0; k < n; ++k) {
+      std::size_t c = k * n_ch;
+      out[c++] = static_cast<float>(scans_[k].sensor_v);
+      if (ref_) out[c++] = static_cast<float>(scans_[k].reference_v);
+      if (pot_) out[c++] = static_cast<float>(scans_[k].pot_v);
+    }
+    return n;
+  }
+
+ private:
+  pof::sim::Simulator sim_;
+  bool ref_;
+  bool pot_;
+  std::vector<pof::sim::Scan> scans_;
+};
+
+class SimBackend final : public Backend {
+ public:
+  explicit SimBackend(const DaqConfig& cfg)
+      : cfg_(cfg),
+        scenario_(cfg.device_kind.substr(4)),
+        n_ch_(cfg.channels().size()) {
+    source_ = make_sample_source(scenario_, cfg.scan_rate_hz, cfg.reference_ai >= 0, cfg.pot_ai >= 0);
+    chunk_ = std::max<std::size_t>(1, static_cast<std::size_t>(cfg.scan_rate_hz * 0.004));
+    buf_.assign(chunk_ * n_ch_, 0.0F);
+  }
+  OpenStatus open(std::string&) override { return OpenStatus::kOk; }
+  StreamEnd stream(ScanSink& sink, const std::atomic<bool>& stop, std::string& why) override {
+    timespec t0{};
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    const std::int64_t t_start = now_utime();
+    sink.on_segment_start(t_start, t_start, false);
+    std::uint64_t sent = 0;
+    while (!stop.load(std::memory_order_relaxed)) {
+      // Sleep until the chunk's last scan exists (absolute deadline: no accumulated drift).
+      const double due_s = static_cast<double>(sent + chunk_) / cfg_.scan_rate_hz;
+      timespec due = t0;
+      const auto ns = static_cast<long long>(due_s * 1e9);
+      due.tv_sec += static_cast<time_t>(ns / 1000000000LL);
+      due.tv_nsec += static_cast<long>(ns % 1000000000LL);
+      if (due.tv_nsec >= 1000000000L) {
+        due.tv_nsec -= 1000000000L;
+        ++due.tv_sec;
+      }
+      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &due, nullptr);
+      const std::size_t n = source_->next(buf_);
+      if (n == 0) {
+        why = "scenario '" + scenario_ + "' finished";
+        return StreamEnd::kStopped;
+      }
+      sink.on_scans(buf_.data(), n, now_utime(), 0);
+      sent += n;
+    }
+    return StreamEnd::kStopped;
+  }
+  void close() noexcept override {}
+  [[nodiscard]] DeviceIdentity identity() const override { return {cfg_.device_kind, 0, 0, ""}; }
+  [[nodiscard]] double device_scan_rate_hz() const override { return cfg_.scan_rate_hz; }
+
+ private:
+  DaqConfig cfg_;
+  std::string scenario_;
+  std::size_t n_ch_;
+  std::unique_ptr<SampleSource> source_;
+  std::size_t chunk_;
+  std::vector<float> buf_;
+};
+
+}  // namespace
+
+std::unique_ptr<SampleSource> make_sample_source(const std::string& scenario, double rate,
+                                                 bool has_reference, bool has_pot) {
+  if (scenario == "synthetic") return std::make_unique<SyntheticSource>(rate, has_reference, has_pot);
+  pof::sim::Scenario sc;
+  try {
+    sc = pof::sim::scenario_by_name_or_path(scenario);
+  } catch (const pof::NoInputError& e) {
+    std::string names = "synthetic";
+    for (const auto& n : pof::sim::builtin_scenario_names()) names += ", " + n;
+    throw pof::ConfigError("device.kind: 'sim:" + scenario + "': " + e.what() +
+                               " (built-in: " + names + ", or a scenario file path)");
+  }
+  return std::make_unique<SimulatorSource>(sc, rate, has_reference, has_pot);
+}
+
+std::unique_ptr<Backend> make_sim_backend(const DaqConfig& cfg) {
+  return std::make_unique<SimBackend>(cfg);
+}
+
+}  // namespace pof::daq

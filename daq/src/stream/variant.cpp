@@ -1,0 +1,25 @@
+// The protocol-variant bits a Backend reports (backends/backend.hpp), in words for the status
+// message and the log.
+#include "pof/daq/backends/backend.hpp"
+
+namespace pof::daq {
+
+std::string describe_variant(std::uint32_t bits) {
+  std::string s;
+  auto add = [&](std::uint32_t bit, const char* text) {
+    if ((bits & bit) == 0U) return;
+    if (!s.empty()) s += "; ";
+    s += text;
+  };
+  add(kVariantHeader0000, "reply header 00 00");
+  add(kVariantHeader0001, "reply header 00 01");
+  add(kVariantBigEndian, "samples big-endian");
+  add(kVariantLittleEndian, "samples little-endian");
+  add(kVariantOrderUndecided, "sample byte order undecided (blocks flagged doubtful)");
+  add(kVariantLayoutRecordFirst, "report layout record-first (index at 102)");
+  add(kVariantLayoutDataFirst, "report layout data-first (index at 101)");
+  add(kVariantPaddingSet, "padding bits set in samples");
+  return s;
+}
+
+}  // namespace pof::daq

@@ -1,0 +1,297 @@
+// pof-daqd lifecycle: see daemon.hpp.
+#include "daemon.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <vector>
+
+#include <lcm/lcm-cpp.hpp>
+#include <spdlog/spdlog.h>
+
+#include "pof/daq_status_t.hpp"
+#include "pof/service/sd_notify.hpp"
+#include "pof/base/errors.hpp"
+#include "pof/raw_block_t.hpp"
+#include "pof/lcm/utime.hpp"
+
+namespace pof::daq {
+namespace {
+
+using pof::lcmutil::now_utime;
+
+}  // namespace
+
+const char* state_name(State s) {
+  switch (s) {
+    case State::kStarting: return "starting";
+    case State::kStreaming: return "streaming";
+    case State::kDisconnected: return "disconnected";
+    case State::kFault: return "fault";
+    case State::kStopping: return "stopping";
+  }
+  return "?";
+}
+
+struct Daemon::Lcm {
+  explicit Lcm(const std::string& url) : lcm(url) {}
+  lcm::LCM lcm;
+};
+
+Daemon::Daemon(DaqConfig cfg, std::unique_ptr<Backend> backend)
+    : cfg_(std::move(cfg)),
+      backend_(std::move(backend)),
+      lcm_(std::make_unique<Lcm>(cfg_.lcm_url)),
+      queue_(static_cast<std::size_t>(cfg_.queue_blocks)) {
+  if (!lcm_->lcm.good()) {
+    throw pof::IoError("LCM URL '" + cfg_.lcm_url +
+                           "' does not work (no multicast route? see ./pofkit setup)");
+  }
+}
+
+Daemon::~Daemon() { stop(); }
+
+void Daemon::start() {
+  pub_thread_ = std::thread([this] { publisher_main(); });
+  acq_thread_ = std::thread([this] { acquisition_main(); });
+}
+
+void Daemon::stop() {
+  stop_.store(true);
+  if (acq_thread_.joinable()) acq_thread_.join();
+  publisher_stop_.store(true);
+  wake_.ring();
+  if (pub_thread_.joinable()) pub_thread_.join();
+}
+
+void Daemon::set_state(State s, const std::string& why) {
+  {
+    std::lock_guard lock(state_mu_);
+    if (s == state_ && why == state_text_) return;
+    state_ = s;
+    state_text_ = why;
+    state_events_.emplace_back(s, why);
+  }
+  spdlog::info("state {}: {}", state_name(s), why);
+  wake_.ring();
+}
+
+bool Daemon::sleep_unless_stopped(int ms) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(ms);
+  while (std::chrono::steady_clock::now() < until) {
+    if (stop_.load()) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(std::min(ms, 20)));
+  }
+  return !stop_.load();
+}
+
+void Daemon::acquisition_main() {
+  std::unique_ptr<Acquisition> acq;
+  bool had_session = false;
+  bool lost_session = false;
+  int failures = 0;  // consecutive attempts that ended without a scan: the retry back-off
+  while (!stop_.load()) {
+    set_state(State::kStarting, "opening " + cfg_.device_kind);
+    std::string why;
+    const OpenStatus st = backend_->open(why);
+    if (st != OpenStatus::kOk) {
+      set_state(st == OpenStatus::kAbsent ? State::kDisconnected : State::kFault, why);
+      // An absent device is polled at the plain interval (it is plugged in by a person); a
+      // faulty one backs off so that a device we cannot talk to is not re-initialised in a loop.
+      if (!sleep_unless_stopped(st == OpenStatus::kAbsent ? cfg_.retry_ms : retry_delay_ms(failures++))) break;
+      continue;
+    }
+    if (!acq) {  // first open: the device's real rate is known now
+      acq = std::make_unique<Acquisition>(cfg_, backend_->device_scan_rate_hz(), queue_,
+                                          counters_, wake_);
+      published_rate_hz_.store(acq->published_rate_hz());
+    }
+    {
+      std::lock_guard lock(state_mu_);
+      identity_ = backend_->identity();  // serial read at open (control path)
+    }
+    if (lost_session) counters_.reconnects.fetch_add(1);
+    had_session = true;
+    // `streaming` is published by the publisher once scans arrive (watch_streaming).
+    const std::int64_t scans_before = counters_.scans.load();
+    armed_scans_.store(scans_before);
+    set_state(State::kStarting, "configured " + cfg_.device_kind + ", waiting for scans");
+    const StreamEnd end = backend_->stream(*acq, stop_, why);
+    {
+      std::lock_guard lock(state_mu_);
+      armed_scans_.store(-1);
+    }
+    backend_->close();
+    if (end == StreamEnd::kStopped) {
+      if (!stop_.load()) set_state(State::kStopping, why);  // e.g. a finite simulator scenario
+      break;
+    }
+    lost_session = had_session;
+    if (counters_.scans.load() > scans_before) failures = 0;  // it streamed: start over
+    if (end == StreamEnd::kDisconnected) {
+      set_state(State::kDisconnected, why);
+      if (!sleep_unless_stopped(cfg_.retry_ms)) break;
+    } else {
+      set_state(State::kFault, why);
+      if (!sleep_unless_stopped(retry_delay_ms(failures++))) break;
+    }
+  }
+  backend_->close();
+  if (stop_.load()) set_state(State::kStopping, "stopped on request");
+  acquisition_done_.store(true);
+}
+
+int Daemon::retry_delay_ms(int failures) const {
+  // retry_ms, doubling per consecutive failure, at most 30 s (or retry_ms when that is longer).
+  const std::int64_t cap = std::max<std::int64_t>(cfg_.retry_ms, 30000);
+  std::int64_t d = cfg_.retry_ms;
+  for (int i = 0; i < failures && d < cap; ++i) d *= 2;
+  return static_cast<int>(std::min(d, cap));
+}
+
+void Daemon::watch_streaming() {
+  {
+    // Checked and changed under the lock the acquisition thread holds when it ends a session
+    // (armed_scans_ = -1), so a session that just failed is never reported as streaming.
+    std::lock_guard lock(state_mu_);
+    const std::int64_t armed = armed_scans_.load();
+    if (state_ != State::kStarting || armed < 0 || counters_.scans.load() <= armed) return;
+    state_ = State::kStreaming;
+    state_text_ = "streaming from " + cfg_.device_kind;
+    state_events_.emplace_back(state_, state_text_);
+  }
+  spdlog::info("state {}: {}", state_name(State::kStreaming), "streaming from " + cfg_.device_kind);
+}
+
+std::string Daemon::probe_line() {
+  std::lock_guard lock(state_mu_);
+  char ids[32];
+  std::snprintf(ids, sizeof ids, "%04x:%04x", identity_.vendor_id, identity_.product_id);
+  const std::string variant = describe_variant(counters_.variant.load());
+  return cfg_.device_kind + " " + ids + (identity_.serial.empty() ? "" : " serial " + identity_.serial) +
+         ": " + state_name(state_) + " (" + state_text_ + "); scans " +
+         std::to_string(counters_.scans.load()) + "; usb_errors " + std::to_string(counters_.usb_errors.load()) +
+         "; padding_set " + std::to_string(counters_.padding_set.load()) + "; protocol variant: " +
+         (variant.empty() ? "unknown" : variant);
+}
+
+bool Daemon::variant_known() const {
+  const std::uint32_t v = counters_.variant.load();
+  return counters_.scans.load() > 0 && v != 0 && (v & kVariantOrderUndecided) == 0U;
+}
+
+void Daemon::publisher_main() {
+  const std::vector<ChannelMap> chans = cfg_.channels();
+  const auto n_ch = static_cast<std::int16_t>(chans.size());
+  const std::string raw_channel = cfg_.raw_channel();
+  const std::string status_channel = cfg_.status_channel();
+
+  // Preallocated message and encode buffer: lcm-gen encodes by the count fields, so the volts
+  // rows are sized once to the maximum and n_scans says how many are used (no allocation here).
+  pof::raw_block_t msg;
+  msg.sensor_id = cfg_.sensor_id;
+  msg.n_channels = n_ch;
+  for (const auto& c : chans) {
+    msg.channel_names.push_back(c.name);
+    msg.channel_units.push_back("V");
+  }
+  msg.volts.assign(kMaxBlockScans, std::vector<float>(chans.size(), 0.0F));
+  msg.n_scans = static_cast<std::int32_t>(kMaxBlockScans);
+  std::vector<std::uint8_t> buf(static_cast<std::size_t>(msg.getEncodedSize()));
+  std::int64_t seq = 0;
+  std::int64_t status_seq = 0;
+  const bool simulated = cfg_.device_kind.rfind("sim:", 0) == 0;
+  {
+    std::lock_guard lock(state_mu_);
+    identity_ = backend_->identity();  // before the first open: configured values
+  }
+
+  auto publish_status = [&](State state, const std::string& text) {
+    pof::daq_status_t s;
+    s.utime = now_utime();
+    s.seq = status_seq++;
+    s.sensor_id = cfg_.sensor_id;
+    s.device_kind = cfg_.device_kind;
+    {
+      std::lock_guard lock(state_mu_);
+      s.vendor_id = identity_.vendor_id;
+      s.product_id = identity_.product_id;
+      s.serial = identity_.serial;
+    }
+    s.state = static_cast<std::int8_t>(state);
+    s.state_text = text;
+    const double real_rate = published_rate_hz_.load();
+    s.scan_rate_hz = real_rate > 0 ? real_rate : cfg_.published_rate_hz();
+    s.n_channels = n_ch;
+    s.scans = counters_.scans.load();
+    s.blocks = counters_.blocks.load();
+    s.dropped_scans = counters_.dropped_scans.load();
+    s.usb_errors = counters_.usb_errors.load();
+    s.overruns = counters_.overruns.load();
+    s.reconnects = counters_.reconnects.load();
+    s.protocol_variant = describe_variant(counters_.variant.load());
+    s.padding_set = counters_.padding_set.load();
+    lcm_->lcm.publish(status_channel, &s);
+  };
+
+  const auto period = std::chrono::duration<double>(cfg_.status_period_s);
+  auto next_status = std::chrono::steady_clock::now();
+  // systemd (Type=notify, WatchdogSec): ready once publishing (a disconnected device is a state we
+  // publish, not a failure to start); the watchdog is fed from this loop, which turns at least once
+  // per status period, so a hung publisher gets the daemon restarted.
+  pof::service::ServiceNotifier notifier;
+  notifier.ready("publishing " + raw_channel + " and " + status_channel);
+  std::uint32_t logged_variant = 0;
+  for (;;) {
+    notifier.watchdog_if_due();
+    (void)wake_.wait_until(
+        std::min(next_status, std::chrono::steady_clock::now() + std::chrono::milliseconds(50)));
+    watch_streaming();
+    if (const std::uint32_t v = counters_.variant.load(); v != logged_variant) {
+      logged_variant = v;  // the first user with hardware reads this (docs/hardware-bringup.md)
+      spdlog::info("{}: protocol variant: {}", cfg_.device_kind, describe_variant(v));
+    }
+    while (Block* b = queue_.front()) {
+      msg.utime = b->utime;
+      msg.seq = seq++;
+      msg.first_scan = b->first_scan;
+      msg.scan_rate_hz = published_rate_hz_.load();
+      msg.n_scans = b->n_scans;
+      msg.flags = b->flags | (simulated ? int32_t{pof::raw_block_t::FLAG_SIMULATED} : 0);
+      for (std::int32_t k = 0; k < b->n_scans; ++k) {
+        for (std::size_t c = 0; c < chans.size(); ++c) {
+          msg.volts[static_cast<std::size_t>(k)][c] =
+              b->volts[static_cast<std::size_t>(k) * chans.size() + c];
+        }
+      }
+      queue_.pop();
+      msg.publish_utime = now_utime();
+      const int len = msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
+      if (len > 0) lcm_->lcm.publish(raw_channel, buf.data(), static_cast<unsigned>(len));
+      counters_.blocks.fetch_add(1, std::memory_order_relaxed);
+    }
+    std::deque<std::pair<State, std::string>> events;
+    State state;
+    std::string text;
+    {
+      std::lock_guard lock(state_mu_);
+      events.swap(state_events_);
+      state = state_;
+      text = state_text_;
+    }
+    for (const auto& [st, why] : events) publish_status(st, why);
+    const auto now = std::chrono::steady_clock::now();
+    if (now >= next_status) {
+      if (events.empty()) publish_status(state, text);
+      next_status += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+      if (next_status < now) next_status = now;
+    }
+    if (publisher_stop_.load() && queue_.front() == nullptr) {
+      notifier.stopping("stopping");
+      publish_status(state, text);  // final state (stopping) with the final counters
+      break;
+    }
+  }
+}
+
+}  // namespace pof::daq

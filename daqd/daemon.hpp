@@ -1,0 +1,87 @@
+#pragma once
+// pof-daqd's lifecycle: the acquisition thread (state machine + the one libusb event loop) and
+// the publisher thread (LCM: POF_RAW blocks, POF_DAQ_STATUS at 1 Hz and on every state change).
+#include <atomic>
+#include <deque>
+#include <utility>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "pof/daq/backends/backend.hpp"
+#include "pof/daq/stream/acquisition.hpp"
+#include "pof/daq/stream/config.hpp"
+#include "pof/daq/stream/doorbell.hpp"
+
+namespace pof::daq {
+
+/// Lifecycle (daq_status_t STATE_*). Every wait has a reason and a deadline:
+///   kStarting      opening/configuring, then waiting for the first scans; bounded by
+///                  command_timeout_ms per command and data_timeout_ms for data
+///   kStreaming     scans arrive (set once they do); a transfer silent for data_timeout_ms is an error
+///   kDisconnected  device absent; retry every retry_ms, forever (a service never gives up)
+///   kFault         device present but failing; retry after retry_ms, doubling per consecutive
+///                  failure up to 30 s (reset once a session delivers scans)
+///   kStopping      SIGTERM: cancel transfers, stop the scan, release the device
+enum class State : std::int8_t { kStarting = 0, kStreaming = 1, kDisconnected = 2, kFault = 3, kStopping = 4 };
+const char* state_name(State s);
+
+class Daemon {
+ public:
+  /// Setup: opens LCM (throws pof::IoError when the URL does not work) and allocates the queue.
+  Daemon(DaqConfig cfg, std::unique_ptr<Backend> backend);
+  ~Daemon();
+  Daemon(const Daemon&) = delete;
+  Daemon& operator=(const Daemon&) = delete;
+
+  /// Starts both threads.
+  void start();
+  /// Asks both threads to stop (async-signal-unsafe: call from a normal thread) and joins them.
+  void stop();
+  /// True once the acquisition thread has ended by itself: only a finite source does that (a
+  /// sim:<scenario> whose trajectory is over); hardware backends stream until stop().
+  [[nodiscard]] bool finished() const { return acquisition_done_.load(); }
+  /// One line for `pof-daqd --probe`: device, state and its text, scans, protocol variant.
+  [[nodiscard]] std::string probe_line();
+  /// True once the device has streamed and the protocol variant is fully told (no undecided part).
+  [[nodiscard]] bool variant_known() const;
+  [[nodiscard]] std::int64_t scans() const { return counters_.scans.load(); }
+
+ private:
+  void acquisition_main();
+  void publisher_main();
+  void set_state(State s, const std::string& why);
+  bool sleep_unless_stopped(int ms);
+  /// Wait before re-opening after `failures` consecutive failed attempts (back-off).
+  [[nodiscard]] int retry_delay_ms(int failures) const;
+  /// Publisher thread: `starting` becomes `streaming` once scans of the open session arrive.
+  void watch_streaming();
+
+  DaqConfig cfg_;
+  std::unique_ptr<Backend> backend_;
+  struct Lcm;
+  std::unique_ptr<Lcm> lcm_;
+  SpscQueue<Block> queue_;
+  Counters counters_;
+  Doorbell wake_;
+  std::atomic<bool> stop_{false};
+  std::atomic<bool> publisher_stop_{false};
+  std::atomic<bool> acquisition_done_{false};
+  // The published rate: the device's real scan rate (its clock divisor rounds the configured one)
+  // over the decimation; set by the acquisition thread at the first open.
+  std::atomic<double> published_rate_hz_{0.0};
+  // counters_.scans when the current session was opened; -1 between sessions.
+  std::atomic<std::int64_t> armed_scans_{-1};
+  // State changes, queued so that the publisher sends one status per change even when several
+  // happen between two of its wake-ups (control path: allocation is fine here).
+  std::mutex state_mu_;
+  State state_ = State::kStarting;
+  std::string state_text_ = "starting";
+  std::deque<std::pair<State, std::string>> state_events_;
+  DeviceIdentity identity_;  // of the device opened last (guarded by state_mu_)
+  std::thread acq_thread_;
+  std::thread pub_thread_;
+};
+
+}  // namespace pof::daq

@@ -1,0 +1,173 @@
+// pof-daqd: acquisition daemon. Reads the DAQ (USB-6008/6009 via libusb, USB-1208LS via hidapi, or
+// the simulator), publishes POF_RAW blocks and POF_DAQ_STATUS on LCM. See docs/daq.md.
+//
+// Exit codes (io/include/pof/base/exit_codes.hpp): 0 stopped on SIGTERM/SIGINT, --duration or the end of a finite sim:<scenario>,
+// 2 usage, 66 --config file missing, 74 LCM unusable, 78 bad configuration (names the key).
+// USB errors are never fatal: the daemon reports them and recovers (docs/daq.md, "States").
+#include <signal.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <iostream>
+
+// GCC 12's -Wnull-dereference fires inside CLI11's inlined string splitting (a false positive in
+// a system header that -isystem cannot silence, since the warning comes from the optimiser).
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wnull-dereference"
+#include <CLI/CLI.hpp>
+#pragma GCC diagnostic pop
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include "pof/daq/backends/backend.hpp"
+#include "pof/daq/stream/config.hpp"
+#include "daemon.hpp"
+#include "pof/base/errors.hpp"
+#include "pof/daq/protocol/mcc_usb1208ls.hpp"
+
+namespace {
+
+constexpr const char* kDefaultConfig = "/etc/pof/daq.toml";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace pof;
+  CLI::App app{
+      "pof-daqd: acquisition daemon for the POF knee sensor. Streams raw blocks on POF_RAW and "
+      "its health on POF_DAQ_STATUS (LCM).",
+      "pof-daqd"};
+  app.set_version_flag("--version", POF_VERSION);
+  std::string config_path;
+  std::string device;
+  std::string serial;
+  std::string lcm_url;
+  std::string sensor_id;
+  double rate = 0;
+  int decimate = 0;
+  int block_scans = 0;
+  std::vector<std::string> sets;
+  double duration_s = 0;
+  bool print_config = false;
+  bool probe = false;
+  std::string log_level = "info";
+  app.add_option("-c,--config", config_path,
+                 std::string("TOML configuration (default ") + kDefaultConfig + " when present)");
+  app.add_option("-d,--device", device, "device.kind: usb6008, usb6009, usb1208ls or sim:<scenario>");
+  app.add_option("--serial", serial, "device.serial: the device to use when several are attached");
+  app.add_option("-r,--rate", rate, "acquisition.scan_rate_hz");
+  app.add_option("--decimate", decimate, "acquisition.decimate");
+  app.add_option("--block-scans", block_scans, "acquisition.block_scans");
+  app.add_option("--lcm-url", lcm_url, "lcm.url");
+  app.add_option("--sensor-id", sensor_id, "lcm.sensor_id (channel suffix)");
+  app.add_option("-s,--set", sets, "override any key: section.key=value (repeatable)");
+  app.add_option("--duration", duration_s, "stop after this many seconds (tests, benchmarks)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_flag("--print-config", print_config, "print the effective configuration and exit");
+  app.add_flag("--probe", probe,
+               "hardware bring-up: stream until the device's protocol variant is told (or --duration, "
+               "default 5 s), print one line (state, scans, variant) on stdout; exit 0 if it "
+               "streamed, 74 if not (docs/hardware-bringup.md)");
+  app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}));
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // usage errors exit 2 (brief), whatever CLI11's code
+  }
+
+  auto logger = spdlog::stderr_color_mt("pof-daqd");
+  spdlog::set_default_logger(logger);
+  spdlog::set_level(spdlog::level::from_str(log_level));
+
+  try {
+    toml::table table;
+    std::string source = "defaults";
+    if (!config_path.empty()) {
+      table = daq::read_config_file(config_path);
+      source = config_path;
+    } else if (std::filesystem::exists(kDefaultConfig)) {
+      table = daq::read_config_file(kDefaultConfig);
+      source = kDefaultConfig;
+    } else {
+      table.insert("schema_version", daq::kSchemaVersion);
+    }
+    auto set = [&](const std::string& key, const std::string& value) {
+      daq::apply_override(table, key + "=" + value);
+    };
+    if (!device.empty()) set("device.kind", "\"" + device + "\"");
+    if (!serial.empty()) set("device.serial", "\"" + serial + "\"");
+    if (rate > 0) set("acquisition.scan_rate_hz", std::to_string(rate));
+    if (decimate > 0) set("acquisition.decimate", std::to_string(decimate));
+    if (block_scans > 0) set("acquisition.block_scans", std::to_string(block_scans));
+    if (!lcm_url.empty()) set("lcm.url", "\"" + lcm_url + "\"");
+    if (!sensor_id.empty()) set("lcm.sensor_id", "\"" + sensor_id + "\"");
+    for (const auto& s : sets) daq::apply_override(table, s);
+    if (!sets.empty() || !device.empty() || rate > 0 || decimate > 0 || block_scans > 0 ||
+        !lcm_url.empty() || !sensor_id.empty() || !serial.empty()) {
+      source += " + command line";
+    }
+    const daq::DaqConfig cfg = daq::config_from_table(table, source);
+    if (print_config) {
+      std::cout << daq::to_toml(cfg);
+      return pof::kExitOk;
+    }
+
+    // Signals are taken synchronously by this thread (sigtimedwait), never in a handler, and
+    // blocked before any thread starts so that the workers inherit the mask.
+    sigset_t sigs;
+    sigemptyset(&sigs);
+    sigaddset(&sigs, SIGTERM);
+    sigaddset(&sigs, SIGINT);
+    pthread_sigmask(SIG_BLOCK, &sigs, nullptr);
+
+    if (cfg.device_kind == "usb1208ls" && !cfg.mcc_single_reads &&
+        daq::mcc::queue_length(cfg.channels().size()) != cfg.channels().size()) {
+      spdlog::warn("usb1208ls: its channel queue holds 1, 2, 4 or 8 inputs: scanning {} for the {} "
+                   "channels, the extra input's samples are dropped (docs/daq.md)",
+                   daq::mcc::queue_length(cfg.channels().size()), cfg.channels().size());
+    }
+    daq::Daemon daemon(cfg, daq::make_backend(cfg));
+    spdlog::info("{} at {} scans/s x {} channels, publishing {} and {} on {}", cfg.device_kind,
+                 cfg.scan_rate_hz, cfg.channels().size(), cfg.raw_channel(), cfg.status_channel(),
+                 cfg.lcm_url);
+    daemon.start();
+    if (probe && duration_s <= 0) duration_s = 5.0;
+    const auto t0 = std::chrono::steady_clock::now();
+    for (;;) {
+      timespec ts{0, 200'000'000};
+      const int sig = sigtimedwait(&sigs, nullptr, &ts);
+      if (sig == SIGTERM || sig == SIGINT) {
+        spdlog::info("signal {}: stopping", sig);
+        break;
+      }
+      if (duration_s > 0 &&
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >= duration_s) {
+        break;
+      }
+      if (probe && daemon.variant_known()) break;
+      if (daemon.finished()) {  // a finite simulated session is over: publish the final status, exit 0
+        spdlog::info("source finished: stopping");
+        break;
+      }
+    }
+    if (probe) {
+      const std::string line = daemon.probe_line();  // before stop(): the state the device reached
+      const bool streamed = daemon.scans() > 0;
+      daemon.stop();
+      std::printf("pof-daqd probe: %s\n", line.c_str());
+      std::fflush(stdout);
+      return streamed ? pof::kExitOk : pof::kExitIoErr;
+    }
+    daemon.stop();
+    return pof::kExitOk;
+  } catch (const pof::Error& e) {
+    std::fprintf(stderr, "pof-daqd: error: %s\n", e.what());
+    return e.code();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "pof-daqd: error: %s\n", e.what());
+    return pof::kExitIoErr;
+  }
+}

@@ -1,5 +1,5 @@
 # Generates the LCM message types at build time (lcm-gen 1.3.1 has no CMake helpers; see
-# ../shared/notes/lcm.md). Nothing generated is committed.
+# docs/lcm.md). Nothing generated is committed.
 #
 #   pof_lcm_types(TARGET <name> PACKAGE <pkg> SOURCES <a.lcm> ...)
 #

@@ -1,4 +1,4 @@
-# One warnings policy for every target of the project (issue 2).
+# One warnings policy for every target of the project.
 # POF_WERROR turns warnings into errors; `.ci/run` and `./pofkit test` set it.
 option(POF_WERROR "Treat compiler warnings as errors" OFF)
 

@@ -5,7 +5,7 @@
 #
 # Why not /usr/bin/lcm-spy: LCM 1.3.1's launcher passes -Xincgc, which Java 17 refuses
 # ("Unrecognized option: -Xincgc", upstream lcm-proj/lcm#331), and it cannot be given our types
-# jar. This starts the same class directly (../shared/notes/lcm.md). Needs a display (over SSH:
+# jar. This starts the same class directly (docs/lcm.md). Needs a display (over SSH:
 # ssh -X, or `pof spy` for a terminal view) and Debian's libjchart2d-java.
 # The types jar: $POF_LCMTYPES_JAR, else the build tree (build/share/java) or the install tree
 # (<prefix>/share/java) next to this script.

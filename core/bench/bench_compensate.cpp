@@ -1,4 +1,4 @@
-// Per-scan cost of the online compensation (issue 3), against a baseline measured in the same run:
+// Per-scan cost of the online compensation, against a baseline measured in the same run:
 // the bare quasi-static line f5 on the normalised voltage (what an uncompensated sensor costs).
 // Input: the paper-like calibration protocol from tests/support (200 Hz, USB-6008 noise and
 // quantisation), replayed scan by scan; items/s = scans/s.

@@ -1,4 +1,4 @@
-// bench_gap: the blind benchmark of issue 7 and the speed of `pof gap`.
+// bench_gap: the blind benchmark of `pof gap` (docs/gap.md) and the speed of `pof gap`.
 //
 //   bench_gap [--blind N] [--seed S] [--out DIR] [--keep] [--benchmark_* flags]
 //

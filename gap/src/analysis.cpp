@@ -1,4 +1,4 @@
-// The gap workflow of issue 7: baseline fit, candidate effects, time-blocked cross-validation,
+// The gap workflow (docs/gap.md): baseline fit, candidate effects, time-blocked cross-validation,
 // acceptance rule, iteration. Method and rule: docs/gap.md.
 #include <algorithm>
 #include <atomic>
@@ -36,7 +36,7 @@ struct Blocks {
 };
 
 // K contiguous blocks. Each boundary is moved to the nearest hold scan so no movement (and so no
-// cycle) is cut in two: issue 7 asks for "time-blocked splits, whole cycles, never random samples".
+// cycle) is cut in two: the folds are time blocks of whole cycles, never random samples (docs/gap.md).
 Blocks make_blocks(const Kinematics& k, int folds) {
   const Index n = k.w.size();
   const auto nf = static_cast<Index>(folds);
@@ -480,7 +480,7 @@ double full_rss(const Context& cx, const State& st) {
   return cross_validate({g}).full_rss;
 }
 
-// "Add it and refit" (issue 7, step 4): once an effect joins, the nonlinear parameters of the terms
+// "Add it and refit" (docs/gap.md, step 4): once an effect joins, the nonlinear parameters of the terms
 // already accepted are re-chosen on all the data with the others fixed (one coordinate pass), so a
 // creep time constant fitted while a delay was still missing does not stay biased.
 void refit_thetas(const Context& cx, State& st) {

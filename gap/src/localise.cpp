@@ -1,4 +1,4 @@
-// Localising a residual (issue 7, step 2): phase, angle, velocity, time, spectrum, cross-correlation.
+// Localising a residual (docs/gap.md, step 2): phase, angle, velocity, time, spectrum, cross-correlation.
 #include "pof/gap/localise.hpp"
 
 #include <algorithm>

@@ -44,7 +44,7 @@ Signals make_signals(const io::Recording& rec) {
   if (!(s.dt > 0)) throw pof::DataError(src + ": column t_s is not increasing");
   for (Index i = 1; i < n; ++i) {
     const double d = rec.t_s(i) - rec.t_s(i - 1);
-    // "at any constant rate" (issue 7): tolerate timestamp jitter, not gaps or reordering.
+    // Recordings come at any constant rate: tolerate timestamp jitter, not gaps or reordering.
     if (!(d > 0.5 * s.dt && d < 1.5 * s.dt))
       throw pof::DataError(src + ": data row " + std::to_string(i + 1) + ": t_s step " + std::to_string(d) +
                           " s, expected a constant rate with period " + std::to_string(s.dt) + " s");

@@ -1,4 +1,4 @@
-// bench_sim: cost of simulating data (issue 4: "one hour at 200 Hz takes well under a second per
+// bench_sim: cost of simulating data (target: "one hour at 200 Hz takes well under a second per
 // minute of data"). Each case simulates one hour of a scenario in a loop (the trajectory restarts)
 // and reports seconds of CPU (this thread) per minute of data and ns per scan. The baseline, measured in the same
 // run, is the knee trajectory alone (Trajectory::step, no sensor, light or DAQ): the difference is

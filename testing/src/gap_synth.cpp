@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "pof/core/model.hpp"
+#include "pof/core/paper_protocol.hpp"
 #include "pof/base/errors.hpp"
 
 namespace pof::gap {
@@ -56,7 +57,7 @@ io::Recording synthesise(const SynthConfig& cfg, std::uint64_t seed) {
   const double step = cfg.short_protocol ? 15.0 : 5.0;
   for (double a = step; a <= 90.0 + 1e-9; a += step) { k.move_to(a, 0.2); k.hold(10); }
   for (double a = 90.0 - step; a >= -1e-9; a -= step) { k.move_to(a, 0.2); k.hold(10); }
-  const std::vector<double> full{0.0209, 0.0273, 0.0419, 0.0561, 0.0898, 0.1047, 0.1726, 0.3415, 0.4304};
+  const std::vector<double> full(core::kTable1Velocities.begin(), core::kTable1Velocities.end());
   const std::vector<double> fast{0.0898, 0.1726, 0.3415, 0.4304};
   for (double w : cfg.short_protocol ? fast : full)
     for (int c = 0; c < cfg.cycles_per_velocity; ++c) { k.move_to(90, w); k.hold(3); k.move_to(0, w); k.hold(3); }

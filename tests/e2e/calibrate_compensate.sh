@@ -1,4 +1,4 @@
-# pof calibrate / pof compensate end to end (issue 3) on recordings generated from the model
+# pof calibrate / pof compensate end to end on recordings generated from the model
 # (tests/support/gen_recording): outputs, formats, exit codes 65 (with the line) / 66 / 78 (with
 # the key), no overwrite of good files by a failed run, quiet in pipes.
 source "$(dirname "$0")/lib.sh"

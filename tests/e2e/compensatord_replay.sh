@@ -1,4 +1,4 @@
-# The running system over real LCM (udpm on loopback), issue 6: a simulated session is played by
+# The running system over real LCM (udpm on loopback): a simulated session is played by
 # stock lcm-logplayer into pof-compensatord, `pof record` records what it publishes, and then:
 #   - every scan produced one angle, in sequence (no gaps), and per-cycle statistics arrived;
 #   - the live daemon's angles equal `pof compensate` on the same log, bit for bit (float);

@@ -2,7 +2,7 @@
 # Each script: `source "$(dirname "$0")/daq_lib.sh"`.
 source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"
 
-# Skip (77) only when umockdev is genuinely absent (../shared/notes/virtual-usb-device.md).
+# Skip (77) only when umockdev is genuinely absent (docs/virtual-usb.md).
 command -v umockdev-wrapper >/dev/null 2>&1 || { echo "SKIP: umockdev-wrapper not installed"; exit 77; }
 [ -x "$BIN_DIR/pof-vdaq" ] || { echo "SKIP: pof-vdaq not built (libumockdev-dev absent)"; exit 77; }
 

@@ -1,4 +1,4 @@
-# `pof gap` end to end (issue 7): a simulated session with hidden creep (pof sim, scenario written
+# `pof gap` end to end: a simulated session with hidden creep (pof sim, scenario written
 # here) analysed from the CSV file alone; the outputs, the quiet pipe, and the exit codes.
 source "$(dirname "$0")/lib.sh"
 

@@ -1,5 +1,5 @@
 # pof record loses nothing in a burst where stock lcm-logger, listening to the same traffic in the
-# same run, loses messages (../shared/notes/lcm.md). Publishes raw_block_t with seq 0..N-1 over
+# same run, loses messages (docs/lcm.md). Publishes raw_block_t with seq 0..N-1 over
 # udpm ttl=0 on a private port, then counts what each log holds.
 #   RATE (msg/s) and COUNT can be overridden for BENCHMARKS.md runs.
 source "$(dirname "$0")/lib.sh"

@@ -1,4 +1,4 @@
-# The whole system on the virtual USB-6008 (issue 6, "End-to-end"): separate processes over udpm on
+# The whole system on the virtual USB-6008: separate processes over udpm on
 # loopback, as deployed:
 #
 #   virtual USB-6008 (umockdev; its analog inputs see the simulated knee)  -> pof-daqd (real libusb)

@@ -1,4 +1,4 @@
-# Several sensors on one LCM bus (issue 6): two full pipelines side by side, LEFT_KNEE and
+# Several sensors on one LCM bus: two full pipelines side by side, LEFT_KNEE and
 # RIGHT_KNEE, each pof-daqd (sim backend) -> pof-compensatord with its own sensor id, one
 # `pof record` for both. No crosstalk: each compensator sees only its own stream (no lost or
 # rejected blocks), publishes one angle per scan of its own sensor, on its own suffixed channels,

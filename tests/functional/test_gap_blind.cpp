@@ -1,4 +1,4 @@
-// The blind test of issue 7 on the physics simulator: a hidden draw (none, one or two effects with
+// The blind test of `pof gap` (docs/gap.md) on the physics simulator: a hidden draw (none, one or two effects with
 // random magnitudes, per seed), a CSV file written by the harness, `pof gap`'s analysis of that file
 // alone, and only then the comparison. Short sessions (~5 min of data) keep each case to seconds;
 // the 50-recording statistics are bench_gap's (BENCHMARKS.md).

@@ -1,4 +1,4 @@
-// Every message type of package `pof` survives encode -> memq:// -> decode unchanged (issue 2).
+// Every message type of package `pof` survives encode -> memq:// -> decode unchanged.
 // memq:// is LCM's in-process transport: a real publish/subscribe, no network, no mocking.
 #include <gtest/gtest.h>
 
@@ -212,7 +212,7 @@ TEST(LcmTypesRoundTrip, CompensatorStatus) {
 }
 
 // A message of one type sent on a channel subscribed with another type must not decode: the
-// 8-byte fingerprint at the front of every message guards against it (../shared/notes/lcm.md).
+// 8-byte fingerprint at the front of every message guards against it (docs/lcm.md).
 TEST(LcmTypesRoundTrip, FingerprintRejectsWrongType) {
   pof::angle_t a{};
   const int n = a.getEncodedSize();

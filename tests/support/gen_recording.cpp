@@ -62,7 +62,7 @@ int main(int argc, char** argv) {
     p.angle_lo = 10;
     p.angle_hi = 80;
     p.cycles_per_velocity = 3;
-    p.velocities_rad_s = {0.05, 0.10, 0.16, 0.21, 0.26};
+    p.velocities_rad_s = {pof::core::kTable3Velocities.begin(), pof::core::kTable3Velocities.end()};
     p.seed = 2;
   }
   const auto g = pof::testing::paper_recording(p);

@@ -18,6 +18,7 @@
 #include <Eigen/Core>
 
 #include "pof/core/model.hpp"
+#include "pof/core/paper_protocol.hpp"
 
 namespace pof::testing {
 
@@ -37,7 +38,7 @@ struct Usb6008 {
 
 struct ProtocolSettings {
   double rate_hz = 200;
-  std::vector<double> velocities_rad_s = {0.0209, 0.0273, 0.0419, 0.0561, 0.0898, 0.1047, 0.1726, 0.3415, 0.4304};
+  std::vector<double> velocities_rad_s = {pof::core::kTable1Velocities.begin(), pof::core::kTable1Velocities.end()};
   int cycles_per_velocity = 1;
   double angle_lo = 0, angle_hi = 90;
   bool quasi_static = true;

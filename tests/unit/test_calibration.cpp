@@ -1,4 +1,4 @@
-// Round trip of the calibration (issue 3): a recording generated from eqs. (11)/(12) themselves,
+// Round trip of the calibration: a recording generated from eqs. (11)/(12) themselves,
 // acquired with USB-6008 noise and 12-bit quantisation, must calibrate back to combined equations
 // that agree with (11)/(12) within 0.3 deg over 10-80 deg and the calibrated velocity range.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// step() and reset() must not allocate (issue 3: the daemon runs them per scan). Counted with a
+// step() and reset() must not allocate (the daemon runs them per scan). Counted with a
 // replaced global operator new, armed only around the calls under test.
 // GCC inlines gtest's `delete` of a `new`ed test object into our free() and misreports it.
 #pragma GCC diagnostic ignored "-Wmismatched-new-delete"

@@ -6,6 +6,7 @@
 
 #include "pof/core/fit.hpp"
 #include "pof/core/normalise.hpp"
+#include "pof/core/paper_protocol.hpp"
 #include "pof/core/potentiometer.hpp"
 
 using namespace pof::core;
@@ -40,8 +41,8 @@ TEST(Fit, LineDegenerateInputsGiveNoFit) {
 }
 
 TEST(Fit, ExponentialRecoversF1OfThePaper) {
-  Eigen::VectorXd w(9), h(9);
-  w << 0.0209, 0.0273, 0.0419, 0.0561, 0.0898, 0.1047, 0.1726, 0.3415, 0.4304;
+  const Eigen::VectorXd w = Eigen::Map<const Eigen::VectorXd>(pof::core::kTable1Velocities.data(), 9);
+  Eigen::VectorXd h(9);
   for (int i = 0; i < 9; ++i) h(i) = 2.641 * std::exp(-3.494 * w(i));
   const ExpFit f = fit_exponential(w, h);
   EXPECT_TRUE(f.converged);

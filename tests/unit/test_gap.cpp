@@ -1,4 +1,4 @@
-// `pof gap` candidates on fixed seeds (issue 7: "Unit tests cover each candidate on a fixed seed").
+// `pof gap` candidates on fixed seeds : each candidate on a fixed seed.
 // Each test hides one effect in a short synthetic calibration session (pof::gap::synthesise) and
 // checks that the first accepted step names it, recovers its physical parameter, and at least
 // halves the held-out gap; a recording with no hidden effect must give no step.

@@ -1,4 +1,4 @@
-// The streaming contract of the simulator (issue 4/5): next() must not allocate, because the DAQ
+// The streaming contract of the simulator: next() must not allocate, because the DAQ
 // virtual devices call it on their real-time path at up to 48 kS/s. Global operator new is counted.
 // GCC 12 sees the replaced operator delete (std::free) inlined into std::allocator and warns of a
 // new/free mismatch; the replacement new below does use malloc, so the pair is consistent.

@@ -1,4 +1,4 @@
-// usbdevfs emulation on umockdev: see usbdevfs_device.hpp and ../shared/notes/virtual-usb-device.md.
+// usbdevfs emulation on umockdev: see usbdevfs_device.hpp and docs/virtual-usb.md.
 #include "usbdevfs_device.hpp"
 
 // <sys/ioctl.h> before <linux/usbdevice_fs.h> (note, item 4).

@@ -1,5 +1,5 @@
 #pragma once
-// A virtual USB device behind the real libusb, on umockdev (../shared/notes/virtual-usb-device.md):
+// A virtual USB device behind the real libusb, on umockdev (docs/virtual-usb.md):
 // the testbed holds a sysfs record and a device node whose usbdevfs ioctls land in on_ioctl(), on
 // the testbed's own thread. This class keeps the URB bookkeeping (submit, reap, discard, unplug)
 // and leaves the protocol to a DeviceModel.

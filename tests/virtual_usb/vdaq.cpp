@@ -635,7 +635,7 @@ int main(int argc, char** argv) {
       r["device_hellos"] = ni->hellos;
       r["device_last_command"] = ni->last_command;
       r["device_interfaces_claimed_at_exit"] = dev->claimed();
-      // SIGTERM must stop the scan and release the device (issue 5), unless it never answered.
+      // SIGTERM must stop the scan and release the device, unless it never answered.
       if (!no.silent && ni->hellos > 0 && ni->last_command != "session 0D") {
         failures.push_back("the last command was '" + ni->last_command + "', not the stop sequence's 0D/00");
       }

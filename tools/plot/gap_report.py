@@ -21,7 +21,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-HOLD = 0.01  # rad/s, issue 7's hold threshold
+HOLD = 0.01  # rad/s, the gap workflow's hold threshold, docs/gap.md
 
 
 def moving_rms(y, n):

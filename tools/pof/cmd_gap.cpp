@@ -1,4 +1,4 @@
-// `pof gap <recording> --out DIR` (issue 7): where the baseline model and the recording disagree,
+// `pof gap <recording> --out DIR`: where the baseline model and the recording disagree,
 // which physical effect is missing, and how much adding it closes the gap. Method: docs/gap.md.
 #include <spawn.h>
 #include <sys/wait.h>

@@ -1,7 +1,7 @@
 // `sim:<scenario>` backend: scans from a SampleSource, paced by the host clock at the configured
 // scan rate and handed over in the same chunk sizes a USB transfer would carry (~4 ms), so the
 // daemon downstream behaves as with hardware. Used for CPU/latency figures without a spinning
-// emulator (../shared/notes/virtual-usb-device.md, item 6).
+// emulator (docs/virtual-usb.md, item 5).
 #include <time.h>
 
 #include <chrono>

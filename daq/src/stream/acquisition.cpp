@@ -23,7 +23,7 @@ void Acquisition::on_segment_start(std::int64_t earliest_us, std::int64_t latest
   const std::int64_t host_us = latest_us;
   if (started_ && !continuous) {
     // Scans were lost (unplug, error recovery): publish what we have, then advance the index by
-    // the time that passed, so the gap shows in first_scan (issue 5) and is flagged.
+    // the time that passed, so the gap shows in first_scan and is flagged.
     flush_block();
     // A partial decimation window from before the gap is dropped with the lost scans.
     const std::int64_t window_start = device_index_ - in_window_;

@@ -1,7 +1,7 @@
 #pragma once
 // Typed setup-time errors. Each carries the exit code the CLI maps it to, so the message is written
 // once, where the problem is found (naming the file, line, key or device), and main() only prints it.
-// Never thrown on the streaming path (see ../shared/notes/style.md, "Errors").
+// Never thrown on the streaming path (docs/architecture.md, "Errors").
 #include <stdexcept>
 #include <string>
 #include <string_view>

@@ -2,7 +2,7 @@
 // What the kernel knows about this process's UDP sockets: the receive buffer it really granted and
 // the datagrams it dropped because that buffer was full. LCM 1.3.1 hides its udpm socket and counts
 // nothing, so the only honest "LCM drops" figure on the receive side comes from the kernel:
-// /proc/self/fd -> socket inode -> the `drops` column of /proc/net/udp (../shared/notes/lcm.md:
+// /proc/self/fd -> socket inode -> the `drops` column of /proc/net/udp (docs/lcm.md:
 // the default buffer loses messages from ~50k msg/s).
 #include <cstdint>
 #include <vector>

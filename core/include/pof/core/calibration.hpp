@@ -21,6 +21,7 @@
 #include "pof/core/dynamic_model.hpp"
 #include "pof/core/fit.hpp"
 #include "pof/core/model.hpp"
+#include "pof/core/paper_protocol.hpp"
 #include "pof/core/segmentation.hpp"
 
 namespace pof::core {
@@ -36,7 +37,7 @@ struct Calibration {
   ModelKind active = ModelKind::kPaper;
   double reference_level_v = 1.0;      // reference voltage at calibration time [V]
   double angle_min_deg = 0, angle_max_deg = 90;
-  double velocity_min_rad_s = 0.0209, velocity_max_rad_s = 0.4304;  // table 1
+  double velocity_min_rad_s = kTable1Velocities.front(), velocity_max_rad_s = kTable1Velocities.back();
 };
 
 struct CalibrationSettings {

@@ -1,5 +1,5 @@
 #pragma once
-// `pof gap` (issue 7): where do the baseline simulator (the paper's model, eqs. 11/12 inverted, f5
+// `pof gap`: where do the baseline simulator (the paper's model, eqs. 11/12 inverted, f5
 // in holds) and a recording disagree, which physical effect is missing, and how much of the gap
 // does adding it close. See docs/gap.md for the method and the acceptance rule.
 #include <functional>
@@ -14,7 +14,7 @@
 
 namespace pof::gap {
 
-/// The candidate effects, with the exact identifiers of issue 7.
+/// The candidate effects, with the identifiers docs/gap.md lists.
 inline const std::vector<std::string>& candidate_names() {
   static const std::vector<std::string> names{
       "static_nonlinearity", "drift", "creep", "rate_dependent_hysteresis", "acceleration_dependence",

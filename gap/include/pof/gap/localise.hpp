@@ -1,6 +1,6 @@
 #pragma once
 // Localising a residual: by movement phase, angle, velocity, time, frequency and by
-// cross-correlation with the inputs at lags (issue 7, step 2).
+// cross-correlation with the inputs at lags (docs/gap.md, step 2).
 #include <string>
 
 #include <Eigen/Core>

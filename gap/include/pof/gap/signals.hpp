@@ -12,7 +12,7 @@
 
 namespace pof::gap {
 
-/// |w| below this is a hold (issue 7: "while it holds, the quasi-static line f5").
+/// |w| below this is a hold: while the knee holds, the quasi-static line f5 alone applies.
 inline constexpr double kHoldSpeedRadS = 0.01;
 
 /// The recording, normalised. v = sensor_v * reference_level_v / reference_v (brief, contracts),

@@ -1,7 +1,7 @@
 #pragma once
 // LCM log recordings: pof::raw_block_t messages on POF_RAW (lcmtypes/raw_block_t.lcm), blocks of
 // `block_scans` scans with channels "sensor", "reference", "pot" [V], "angle_ref" [deg] and
-// optionally "angle_true" [deg] (the contract of ../shared brief). Times are a fixed epoch plus the
+// optionally "angle_true" [deg] (the recording contract every reader accepts, README "Conventions"). Times are a fixed epoch plus the
 // scan time, so the file is byte-for-byte deterministic; the log event timestamp is the block's
 // publish_utime (the time of its last scan). Readable by lcm-logplayer. Written atomically.
 #include <cstdint>

@@ -1,6 +1,6 @@
 #pragma once
 // JSON reports: every figure of a calibration fit, and the table-3 statistics of a compensation run
-// (keys fixed by issue 3: {"cycles": [{"cycle", "velocity_rad_s", "rmse_comp_deg",
+// (keys other tools rely on: {"cycles": [{"cycle", "velocity_rad_s", "rmse_comp_deg",
 // "rmse_uncomp_deg", "hysteresis_comp_pct", "hysteresis_uncomp_pct", "max_error_deg"}],
 // "overall": {same keys but cycle}}; extra keys are additions, never renames).
 #include <vector>

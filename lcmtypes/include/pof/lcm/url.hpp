@@ -3,7 +3,7 @@
 //
 // URL: the --lcm-url option, else $LCM_DEFAULT_URL (deploy/config/pof.env sets it), else udpm on
 // the host only (ttl=0). A udpm:// URL without recv_buf_size gets one: LCM's default kernel buffer
-// drops silently from ~50k msg/s (../shared/notes/lcm.md); hosts need the sysctl in
+// drops silently from ~50k msg/s (docs/lcm.md); hosts need the sysctl in
 // deploy/sysctl.d for the kernel to grant it.
 #include <cstdlib>
 #include <string>

@@ -1,6 +1,6 @@
 #pragma once
 // Recognising pofkit's own LCM messages in raw bytes: a message starts with its type's 8-byte
-// big-endian fingerprint (../shared/notes/lcm.md "Log format"), and every POF stream carries `seq`
+// big-endian fingerprint (docs/lcm.md, "Log format"), and every POF stream carries `seq`
 // (lcmtypes/*.lcm). Used by `pof record --check` (per-channel sequence gaps) and `pof spy`.
 #include <cstddef>
 #include <cstdint>

@@ -3,7 +3,7 @@
 //
 // Why not lcm-logger: it keeps LCM's default 30-message subscription queue and writes to disk in
 // the thread that calls handle(), so at 20k-100k msg/s it drops messages silently
-// (../shared/notes/lcm.md). Here:
+// (docs/lcm.md). Here:
 //   - the UDP receive buffer is enlarged through the URL (recv_buf_size) and what the kernel really
 //     granted is checked (net.core.rmem_max caps it; deploy/sysctl.d/60-pof-lcm.conf raises that);
 //   - the subscription queue capacity is raised (setQueueCapacity);

@@ -1,5 +1,5 @@
 #pragma once
-// The effect vocabulary of the model-gap workflow (issue 7) mapped onto scenario switches, so a
+// The effect vocabulary of the model-gap workflow (docs/gap.md) mapped onto scenario switches, so a
 // test harness can hide an effect by name: `*effect_switch(s, "creep") = true;` then set its
 // parameters in the named section (scenario.hpp).
 #include <array>

@@ -2,7 +2,7 @@
 // A simulation scenario: plain settings, loaded from TOML (sim/scenarios/*.toml, schema_version 1)
 // or filled in code (the `pof gap` test harness switches effects on and off here). Every effect has
 // its own `enabled` switch and parameters; docs/simulator.md gives the physics and the units.
-// Section names of the effects the model-gap workflow (issue 7) hides use its identifiers:
+// Section names of the effects the model-gap workflow (docs/gap.md) hides use its identifiers:
 //   sensor.static_nonlinearity, sensor.drift, sensor.creep, sensor.rate_dependent_hysteresis,
 //   sensor.acceleration_dependence, daq.time_delay, knee.backlash, light.source_power_coupling,
 //   daq.periodic_interference  (see effects.hpp).
@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "pof/core/model.hpp"
+#include "pof/core/paper_protocol.hpp"
 
 namespace pof::sim {
 
@@ -87,7 +88,7 @@ enum class MemoryHysteresisFamily : int {
 
 struct SensorSettings {
   pof::core::ModelCoefficients model = pof::core::paper_coefficients();
-  double hold_threshold_rad_s = 0.01;  // |w| below this is a hold (issue 7's baseline rule)
+  double hold_threshold_rad_s = 0.01;  // |w| below this is a hold (the gap workflow's baseline rule, docs/gap.md)
   struct Hysteresis { bool enabled = true; double scale = 1.0; } hysteresis;  // the paper's f1-f4
   struct StaticNonlinearity { bool enabled = false; double bow_v = 0.02, s_v = 0; } static_nonlinearity;
   struct RateDependentHysteresis { bool enabled = false; double amplitude_v = 0.02, velocity_scale_rad_s = 0.1; } rate_dependent_hysteresis;
@@ -188,11 +189,9 @@ Scenario scenario_by_name_or_path(const std::string& name_or_path);
 /// Re-checks a scenario built in code; throws ConfigError naming the field.
 void validate(const Scenario& s);
 
-/// Table 1 velocities [rad/s] (test 5 printed as 0.898, 0.0898 meant; ../shared/notes/method.md).
-inline constexpr std::array<double, 9> kTable1Velocities{0.0209, 0.0273, 0.0419, 0.0561, 0.0898,
-                                                          0.1047, 0.1726, 0.3415, 0.4304};
-/// Table 3 validation velocities [rad/s] (3 cycles each, 10-80 deg).
-inline constexpr std::array<double, 5> kTable3Velocities{0.05, 0.10, 0.16, 0.21, 0.26};
+/// The paper's table-1 and table-3 velocities (defined in pof/core/paper_protocol.hpp).
+using core::kTable1Velocities;
+using core::kTable3Velocities;
 
 std::string_view to_string(Channel c);
 

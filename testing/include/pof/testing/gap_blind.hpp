@@ -1,6 +1,6 @@
 #pragma once
-// The blind test harness of issue 7: draw an effect (or none, or two) and its magnitude at random,
-// generate a recording with the physics simulator (pof_sim, issue 4), write it to a CSV file, run
+// The blind test harness of `pof gap` (docs/gap.md): draw an effect (or none, or two) and its magnitude at random,
+// generate a recording with the physics simulator (pof_sim), write it to a CSV file, run
 // the gap workflow on that file alone, and only then compare with what was hidden.
 #include <cstdint>
 #include <filesystem>

@@ -2,7 +2,7 @@
 // Synthetic recordings with hidden effects, for the unit tests and the blind benchmark: the
 // calibration protocol (quasi-static steps, constant-velocity cycles at table-1 velocities) run
 // through the paper model (model_voltage), with each issue-7 effect injected in its physical form.
-// This is the test generator until the pof_sim simulator (issue 4) is available to the harness.
+// This is the test generator for the unit tests that must not depend on the simulator.
 #include <cstdint>
 #include <map>
 #include <random>

@@ -1,6 +1,6 @@
 #pragma once
 // Reconstructs the host time of every scan from its index and the nominal rate, anchored to the
-// host clock and corrected for drift (issue 5: never the arrival time of the USB packet).
+// host clock and corrected for drift (never the arrival time of the USB packet).
 //
 // Model: t(i) = anchor_us + (i - anchor_index) * period_us * (1 - drift), one anchor per device
 // segment (the scan clock restarts at every finite-scan start, ni_usb600x.hpp [10]).

@@ -24,38 +24,14 @@
 #include "pof/core/normalise.hpp"
 #include "pof/core/offline.hpp"
 #include "pof/sim/scenario.hpp"
-#include "pof/sim/simulator.hpp"
+#include "pof/testing/gap_blind.hpp"
 
 namespace {
 
 using pof::sim::Scenario;
 using pof::sim::SensorSettings;
 
-struct Rec {
-  Eigen::VectorXd t, sensor, reference, angle_ref, angle_true;
-};
-
-Rec simulate(const Scenario& sc, std::uint64_t seed) {
-  pof::sim::Simulator sim(sc, seed, 0);
-  std::vector<pof::sim::Scan> all, chunk(4096);
-  for (std::size_t n; (n = sim.next(chunk)) > 0;) all.insert(all.end(), chunk.begin(), chunk.begin() + static_cast<std::ptrdiff_t>(n));
-  Rec r;
-  const auto n = static_cast<Eigen::Index>(all.size());
-  r.t.resize(n);
-  r.sensor.resize(n);
-  r.reference.resize(n);
-  r.angle_ref.resize(n);
-  r.angle_true.resize(n);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const auto& s = all[static_cast<std::size_t>(i)];
-    r.t(i) = s.t_s;
-    r.sensor(i) = s.sensor_v;
-    r.reference(i) = s.reference_v;
-    r.angle_ref(i) = s.angle_ref_deg;
-    r.angle_true(i) = s.angle_true_deg;
-  }
-  return r;
-}
+using pof::gap::blind::simulate;  // the simulator run to its end into a Recording (testing/)
 
 struct Fibre {
   const char* name;
@@ -122,13 +98,13 @@ int main(int argc, char** argv) {
   for (const Fibre& f : fibres()) {
     Scenario cs = pof::sim::builtin_scenario("fibre_calibration");
     cs.sensor = f.sensor;
-    const Rec cal = simulate(cs, ++seed);
-    const auto pr = pof::core::calibrate(cal.t, cal.sensor, cal.reference, cal.angle_ref);
+    const pof::io::Recording cal = simulate(cs, ++seed);
+    const auto pr = pof::core::calibrate(cal.t_s, cal.sensor_v, cal.reference_v, cal.angle_ref_deg);
     pof::core::ReferenceGuard g;
     g.level_v = pr.cal.reference_level_v;
-    const Eigen::VectorXd v = pof::core::normalise(cal.sensor, cal.reference, g);
-    const auto dyn = pof::core::fit_dynamic(cal.t, v, cal.angle_ref);
-    const auto cmp = pof::core::compare_held_out(cal.t, cal.sensor, cal.reference, cal.angle_ref, dyn);
+    const Eigen::VectorXd v = pof::core::normalise(cal.sensor_v, cal.reference_v, g);
+    const auto dyn = pof::core::fit_dynamic(cal.t_s, v, cal.angle_ref_deg);
+    const auto cmp = pof::core::compare_held_out(cal.t_s, cal.sensor_v, cal.reference_v, cal.angle_ref_deg, dyn);
     pof::core::Calibration paper = pr.cal, dynamic = pr.cal;
     dynamic.dynamic = dyn.model;
     dynamic.active = pof::core::ModelKind::kDynamic;
@@ -137,12 +113,12 @@ int main(int argc, char** argv) {
     for (const char* test : tests) {
       Scenario ts = pof::sim::builtin_scenario(test);
       ts.sensor = f.sensor;
-      const Rec r = simulate(ts, ++seed);
-      const auto rp = pof::core::compensate_recording(r.t, r.sensor, r.reference, Eigen::VectorXd(), paper);
-      const auto rd = pof::core::compensate_recording(r.t, r.sensor, r.reference, Eigen::VectorXd(), dynamic);
-      const Errors eu = errors(rp.angle_uncomp_deg, r.angle_true), ep = errors(rp.angle_deg, r.angle_true),
-                   ed = errors(rd.angle_deg, r.angle_true);
-      std::printf("%-3s %-15s %8ld | %6.3f / %6.3f  %6.3f / %6.3f  %6.3f / %6.3f  |\n", f.name, test, static_cast<long>(r.t.size()),
+      const pof::io::Recording r = simulate(ts, ++seed);
+      const auto rp = pof::core::compensate_recording(r.t_s, r.sensor_v, r.reference_v, Eigen::VectorXd(), paper);
+      const auto rd = pof::core::compensate_recording(r.t_s, r.sensor_v, r.reference_v, Eigen::VectorXd(), dynamic);
+      const Errors eu = errors(rp.angle_uncomp_deg, r.angle_true_deg), ep = errors(rp.angle_deg, r.angle_true_deg),
+                   ed = errors(rd.angle_deg, r.angle_true_deg);
+      std::printf("%-3s %-15s %8ld | %6.3f / %6.3f  %6.3f / %6.3f  %6.3f / %6.3f  |\n", f.name, test, static_cast<long>(r.t_s.size()),
                   eu.rmse, eu.p99, ep.rmse, ep.p99, ed.rmse, ed.p99);
       auto append = [](Eigen::VectorXd& to, const Eigen::VectorXd& x) {
         Eigen::VectorXd y(to.size() + x.size());
@@ -152,7 +128,7 @@ int main(int argc, char** argv) {
       append(all_p, rp.angle_deg);
       append(all_d, rd.angle_deg);
       append(all_u, rp.angle_uncomp_deg);
-      append(all_t, r.angle_true);
+      append(all_t, r.angle_true_deg);
     }
     const Errors eu = errors(all_u, all_t), ep = errors(all_p, all_t), ed = errors(all_d, all_t);
     std::printf("%-3s %-15s %8ld | %6.3f / %6.3f  %6.3f / %6.3f  %6.3f / %6.3f  | %s (%.3f / %.3f deg)\n", f.name, "all three",
@@ -169,21 +145,21 @@ int main(int argc, char** argv) {
     Scenario cs = pof::sim::builtin_scenario("fibre_calibration");
     cs.loop = true;
     cs.duration_s = minutes * 60;
-    const Rec cal = simulate(cs, 7);
+    const pof::io::Recording cal = simulate(cs, 7);
     const auto t0 = std::chrono::steady_clock::now();
-    const auto pr = pof::core::calibrate(cal.t, cal.sensor, cal.reference, cal.angle_ref);
+    const auto pr = pof::core::calibrate(cal.t_s, cal.sensor_v, cal.reference_v, cal.angle_ref_deg);
     const auto t1 = std::chrono::steady_clock::now();
     pof::core::ReferenceGuard g;
     g.level_v = pr.cal.reference_level_v;
-    const Eigen::VectorXd v = pof::core::normalise(cal.sensor, cal.reference, g);
-    const auto dyn = pof::core::fit_dynamic(cal.t, v, cal.angle_ref);
+    const Eigen::VectorXd v = pof::core::normalise(cal.sensor_v, cal.reference_v, g);
+    const auto dyn = pof::core::fit_dynamic(cal.t_s, v, cal.angle_ref_deg);
     const auto t2 = std::chrono::steady_clock::now();
-    const auto cmp = pof::core::compare_held_out(cal.t, cal.sensor, cal.reference, cal.angle_ref, dyn);
+    const auto cmp = pof::core::compare_held_out(cal.t_s, cal.sensor_v, cal.reference_v, cal.angle_ref_deg, dyn);
     const auto t3 = std::chrono::steady_clock::now();
     auto s = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
     std::printf("calibration of %.0f min at 200 Hz (%ld scans): paper fit %.2f s, dynamic fit %.2f s (%zu structures), "
                 "held-out comparison %.2f s, total %.2f s (wall clock)\n",
-                minutes, static_cast<long>(cal.t.size()), s(t0, t1), s(t1, t2), dyn.candidates.size(), s(t2, t3), s(t0, t3));
+                minutes, static_cast<long>(cal.t_s.size()), s(t0, t1), s(t1, t2), dyn.candidates.size(), s(t2, t3), s(t0, t3));
     (void)cmp;
   }
   return 0;

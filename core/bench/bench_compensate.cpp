@@ -4,7 +4,7 @@
 // quantisation), replayed scan by scan; items/s = scans/s.
 #include <benchmark/benchmark.h>
 
-#include "paper_protocol.hpp"
+#include "pof/testing/paper_protocol.hpp"
 #include "pof/core/compensator.hpp"
 #include "pof/core/dynamic_fit.hpp"
 #include "pof/core/normalise.hpp"

@@ -18,7 +18,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <pof/raw_block_t.hpp>
 
-#include "paper_protocol.hpp"
+#include "pof/testing/paper_protocol.hpp"
 #include "pof/core/calibration.hpp"
 #include "pof/core/offline.hpp"
 #include "pof/io/atomic_file.hpp"

@@ -10,7 +10,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <pof/raw_block_t.hpp>
 
-#include "paper_protocol.hpp"
+#include "pof/testing/paper_protocol.hpp"
 
 namespace {
 

@@ -5,7 +5,7 @@
 
 #include <cmath>
 
-#include "paper_protocol.hpp"
+#include "pof/testing/paper_protocol.hpp"
 #include "pof/core/calibration.hpp"
 
 using pof::core::Direction;

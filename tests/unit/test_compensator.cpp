@@ -8,7 +8,7 @@
 #include <numeric>
 #include <random>
 
-#include "paper_protocol.hpp"
+#include "pof/testing/paper_protocol.hpp"
 #include "pof/core/compensator.hpp"
 #include "pof/core/offline.hpp"
 

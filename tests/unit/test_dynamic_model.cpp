@@ -6,7 +6,7 @@
 #include <cmath>
 #include <random>
 
-#include "paper_protocol.hpp"
+#include "pof/testing/paper_protocol.hpp"
 #include "pof/core/compensator.hpp"
 #include "pof/core/dynamic_fit.hpp"
 #include "pof/core/dynamic_model.hpp"

@@ -7,7 +7,7 @@
 #include <numbers>
 #include <random>
 
-#include "paper_protocol.hpp"
+#include "pof/testing/paper_protocol.hpp"
 #include "pof/core/segmentation.hpp"
 
 using pof::core::Direction;

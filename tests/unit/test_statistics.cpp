@@ -4,7 +4,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "paper_protocol.hpp"
+#include "pof/testing/paper_protocol.hpp"
 #include "pof/core/calibration.hpp"
 #include "pof/core/statistics.hpp"
 

@@ -2,7 +2,6 @@
 // scan rate and handed over in the same chunk sizes a USB transfer would carry (~4 ms), so the
 // daemon downstream behaves as with hardware. Used for CPU/latency figures without a spinning
 // emulator (docs/virtual-usb.md, item 5).
-#include <time.h>
 
 #include <chrono>
 #include <cmath>
@@ -10,6 +9,7 @@
 #include <vector>
 
 #include "pof/daq/backends/backend.hpp"
+#include "pof/daq/backends/pacing.hpp"
 #include "pof/daq/backends/sample_source.hpp"
 #include "pof/daq/stream/config.hpp"
 #include "pof/base/errors.hpp"
@@ -84,23 +84,13 @@ class SimBackend final : public Backend {
   }
   OpenStatus open(std::string&) override { return OpenStatus::kOk; }
   StreamEnd stream(ScanSink& sink, const std::atomic<bool>& stop, std::string& why) override {
-    timespec t0{};
-    clock_gettime(CLOCK_MONOTONIC, &t0);
+    const timespec t0 = monotonic_now();
     const std::int64_t t_start = now_utime();
     sink.on_segment_start(t_start, t_start, false);
     std::uint64_t sent = 0;
     while (!stop.load(std::memory_order_relaxed)) {
       // Sleep until the chunk's last scan exists (absolute deadline: no accumulated drift).
-      const double due_s = static_cast<double>(sent + chunk_) / cfg_.scan_rate_hz;
-      timespec due = t0;
-      const auto ns = static_cast<long long>(due_s * 1e9);
-      due.tv_sec += static_cast<time_t>(ns / 1000000000LL);
-      due.tv_nsec += static_cast<long>(ns % 1000000000LL);
-      if (due.tv_nsec >= 1000000000L) {
-        due.tv_nsec -= 1000000000L;
-        ++due.tv_sec;
-      }
-      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &due, nullptr);
+      sleep_until(t0, static_cast<double>(sent + chunk_) / cfg_.scan_rate_hz);
       const std::size_t n = source_->next(buf_);
       if (n == 0) {
         why = "scenario '" + scenario_ + "' finished";

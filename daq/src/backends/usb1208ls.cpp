@@ -10,7 +10,6 @@
 // are scanned and their samples dropped here.
 // hidapi is synchronous: the acquisition thread polls with a 1 ms pause between empty answers.
 #include <hidapi/hidapi.h>
-#include <time.h>
 
 #include <algorithm>
 #include <array>
@@ -20,6 +19,7 @@
 #include <vector>
 
 #include "pof/daq/backends/backend.hpp"
+#include "pof/daq/backends/pacing.hpp"
 #include "pof/daq/stream/config.hpp"
 #include "pof/raw_block_t.hpp"
 #include "pof/daq/protocol/mcc_usb1208ls.hpp"
@@ -163,21 +163,12 @@ class Usb1208lsBackend final : public Backend {
   // Single AIn reads [3][5], one per channel per scan, paced by the host clock (absolute
   // deadlines, so the rate does not drift). For slow rates and for checking a channel.
   StreamEnd stream_single(ScanSink& sink, const std::atomic<bool>& stop, std::string& why) {
-    timespec t0{};
-    clock_gettime(CLOCK_MONOTONIC, &t0);
+    const timespec t0 = monotonic_now();
     const std::int64_t start = now_utime();
     sink.on_segment_start(start, start, false);
     const bool differential = cfg_.terminal == ni::Terminal::kDifferential;
     for (std::uint64_t k = 0; !stop.load(std::memory_order_relaxed); ++k) {
-      const auto ns = static_cast<long long>(static_cast<double>(k + 1) / rate_hz_ * 1e9);
-      timespec due = t0;
-      due.tv_sec += static_cast<time_t>(ns / 1000000000LL);
-      due.tv_nsec += static_cast<long>(ns % 1000000000LL);
-      if (due.tv_nsec >= 1000000000L) {
-        due.tv_nsec -= 1000000000L;
-        ++due.tv_sec;
-      }
-      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &due, nullptr);
+      sleep_until(t0, static_cast<double>(k + 1) / rate_hz_);
       std::int32_t flags = 0;
       for (std::size_t c = 0; c < n_ch_; ++c) {
         if (!write(mcc::ain_report(ai_[c], gain_), why)) {

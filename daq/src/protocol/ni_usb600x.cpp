@@ -24,6 +24,18 @@ std::uint16_t get_be16(const std::uint8_t* p) {
   return static_cast<std::uint16_t>((p[0] << 8) | p[1]);
 }
 
+// The 8 header bytes every frame shares [3]: 00 hh, total length, length - 4, 01 (the opcode
+// follows at byte 7).
+Frame frame_with_header(std::size_t len, std::uint8_t hh) {
+  Frame f;
+  f.size = len;
+  f.bytes[1] = hh;
+  put_be16(&f.bytes[2], static_cast<std::uint16_t>(len));
+  put_be16(&f.bytes[4], static_cast<std::uint16_t>(len - 4));
+  f.bytes[6] = 0x01;
+  return f;
+}
+
 }  // namespace
 
 Frame make_frame(Cmd cmd, std::span<const std::uint8_t> params, std::uint8_t hh) {
@@ -31,12 +43,7 @@ Frame make_frame(Cmd cmd, std::span<const std::uint8_t> params, std::uint8_t hh)
   std::size_t len = kHeaderBytes + params.size();
   len = (len + 3U) & ~std::size_t{3};  // [3] padded to 4 bytes
   if (len > kMaxPacket) throw std::length_error("NI frame longer than one 64-byte packet");
-  Frame f;
-  f.size = len;
-  f.bytes[1] = hh;
-  put_be16(&f.bytes[2], static_cast<std::uint16_t>(len));
-  put_be16(&f.bytes[4], static_cast<std::uint16_t>(len - 4));
-  f.bytes[6] = 0x01;
+  Frame f = frame_with_header(len, hh);
   f.bytes[7] = oc.op;
   f.bytes[8] = cmd == Cmd::kHello ? 0x00 : 0x02;  // [3] hello has 00 here
   f.bytes[9] = oc.group;
@@ -67,13 +74,7 @@ const Opcode* find_opcode(std::uint8_t op, std::uint8_t group) {
 }
 
 Frame make_reply(Cmd cmd, std::uint8_t hh) {
-  const std::size_t len = opcode(cmd).reply_bytes;
-  Frame f;
-  f.size = len;
-  f.bytes[1] = hh;
-  put_be16(&f.bytes[2], static_cast<std::uint16_t>(len));
-  put_be16(&f.bytes[4], static_cast<std::uint16_t>(len - 4));
-  f.bytes[6] = 0x01;
+  Frame f = frame_with_header(opcode(cmd).reply_bytes, hh);
   f.bytes[11] = 0x02;  // [4]
   return f;
 }

@@ -47,7 +47,7 @@ std::string utc_now() {
 
 // The calibration-file layout of `pof calibrate` (docs/calibration.md, schema_version 1), so
 // `pof compensate --cal model.toml` reads the refitted model; the accepted effects go in [gap],
-// which that loader does not read (docs/gap.md).
+// which that loader (strict about every other key) skips by name (docs/gap.md).
 std::string model_toml(const Result& r, const std::string& source) {
   const json& m = r.model;
   std::ostringstream o;

@@ -2,6 +2,7 @@
 // a local value that is returned only when complete: a bad file never half-loads.
 #include "pof/io/calibration_file.hpp"
 
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -9,13 +10,13 @@
 #include <fstream>
 #include <optional>
 #include <sstream>
+#include <string_view>
 #include <vector>
 
-#include <toml++/toml.h>
-
-#include "pof/io/atomic_file.hpp"
 #include "pof/base/errors.hpp"
 #include "pof/base/text_file.hpp"
+#include "pof/base/toml_reader.hpp"
+#include "pof/io/atomic_file.hpp"
 
 namespace pof::io {
 
@@ -53,173 +54,82 @@ std::string quoted(const std::string& s) {
   return out + "\"";
 }
 
-const char* type_name(toml::node_type t) {
-  switch (t) {
-    case toml::node_type::table: return "a table";
-    case toml::node_type::array: return "an array";
-    case toml::node_type::string: return "a string";
-    case toml::node_type::integer: return "an integer";
-    case toml::node_type::floating_point: return "a float";
-    case toml::node_type::boolean: return "a boolean";
-    default: return "a date/time";
-  }
-}
-
-// A TOML float or integer as a double (finiteness is the caller's check: the messages differ).
-std::optional<double> numeric(const toml::node& n) {
-  if (const auto* f = n.as_floating_point()) return f->get();
-  if (const auto* i = n.as_integer()) return static_cast<double>(i->get());
-  return std::nullopt;
-}
-
-class Keys {
- public:
-  Keys(const toml::table& t, std::string name) : t_(t), name_(std::move(name)) {}
-
-  [[noreturn]] void fail(const std::string& key, const std::string& what) const {
-    throw ConfigError(name_ + ": key '" + key + "': " + what);
-  }
-  toml::node_view<const toml::node> node(const std::string& key) const {
-    auto n = t_.at_path(key);
-    if (!n) fail(key, "missing");
-    return n;
-  }
-  double number(const std::string& key) const {
-    const auto n = node(key);
-    const std::optional<double> v = numeric(*n.node());
-    if (!v) fail(key, std::string("expected a number, got ") + type_name(n.type()));
-    if (!std::isfinite(*v)) fail(key, "expected a finite number, got " + num(*v));
-    return *v;
-  }
-  double positive(const std::string& key) const {
-    const double v = number(key);
-    if (!(v > 0)) fail(key, "expected a number > 0, got " + num(v));
-    return v;
-  }
-  std::int64_t integer(const std::string& key) const {
-    const auto n = node(key);
-    if (const auto* i = n.as_integer()) return i->get();
-    fail(key, std::string("expected an integer, got ") + type_name(n.type()));
-  }
-  std::string string(const std::string& key, bool required = true) const {
-    auto n = t_.at_path(key);
-    if (!n) {
-      if (required) fail(key, "missing");
-      return {};
-    }
-    if (const auto* s = n.as_string()) return s->get();
-    fail(key, std::string("expected a string, got ") + type_name(n.type()));
-  }
-
- private:
-  const toml::table& t_;
-  std::string name_;
-};
-
-toml::table parse_toml(const std::string& text, const std::string& name) {
-  try {
-    return toml::parse(text, name);
-  } catch (const toml::parse_error& e) {
-    const auto& b = e.source().begin;
-    throw ConfigError(name + ":" + std::to_string(b.line) + ":" + std::to_string(b.column) + ": TOML syntax: " +
-                      bound_quotes(e.description()));
-  }
-}
-
-std::vector<double> numbers(const Keys& k, const toml::table& t, const std::string& key, std::size_t max) {
-  auto n = t.at_path(key);
-  if (!n) k.fail(key, "missing");
-  const auto* arr = n.as_array();
-  if (!arr) k.fail(key, std::string("expected an array of numbers, got ") + type_name(n.type()));
-  if (arr->size() > max) k.fail(key, "expected at most " + std::to_string(max) + " numbers, got " + std::to_string(arr->size()));
-  std::vector<double> out;
-  for (std::size_t i = 0; i < arr->size(); ++i) {
-    const std::optional<double> v = numeric((*arr)[i]);
-    if (!v) k.fail(key + "[" + std::to_string(i) + "]", "expected a number");
-    if (!std::isfinite(*v)) k.fail(key + "[" + std::to_string(i) + "]", "expected a finite number");
-    out.push_back(*v);
-  }
-  return out;
-}
-
 std::string number_list(const double* v, int n) {
   std::string s = "[";
   for (int i = 0; i < n; ++i) s += (i ? ", " : "") + num(v[i]);
   return s + "]";
 }
 
+// A required array of at most `max` finite numbers, each satisfying `each`.
+std::vector<double> numbers(TomlSection& s, std::string_view key, std::size_t max, const TomlCheck<double>& each = {}) {
+  const TomlArray a = s.array(key);
+  if (a.size() > max) a.fail("expected at most " + std::to_string(max) + " numbers, got " + std::to_string(a.size()));
+  return a.values<double>(each);
+}
+
 // [dynamic]: every key checked, array lengths consistent, then the model's own validity rule
 // (one weight sign, positive thresholds and time constants) reported on the key it concerns.
-pof::core::DynamicModel read_dynamic(const Keys& k, const toml::table& t) {
+pof::core::DynamicModel read_dynamic(TomlSection& d) {
   using pof::core::kMaxDegree;
   using pof::core::kMaxOperators;
   using pof::core::kMaxPronyTerms;
   pof::core::DynamicModel m;
-  const std::int64_t degree = k.integer("dynamic.degree");
-  if (degree < 1 || degree > kMaxDegree) k.fail("dynamic.degree", "expected 1.." + std::to_string(kMaxDegree) + ", got " + std::to_string(degree));
-  m.degree = static_cast<int>(degree);
-  m.angle_centre_deg = k.number("dynamic.angle_centre_deg");
-  m.angle_scale_deg = k.positive("dynamic.angle_scale_deg");
-  m.angle_min_deg = k.number("dynamic.angle_min_deg");
-  m.angle_max_deg = k.number("dynamic.angle_max_deg");
-  if (!(m.angle_max_deg > m.angle_min_deg)) k.fail("dynamic.angle_max_deg", "must exceed dynamic.angle_min_deg");
-  const auto poly = numbers(k, t, "dynamic.poly", kMaxDegree + 1);
-  if (poly.size() != static_cast<std::size_t>(degree + 1))
-    k.fail("dynamic.poly", "expected degree + 1 = " + std::to_string(degree + 1) + " coefficients, got " + std::to_string(poly.size()));
+  m.degree = d.get<int>("degree", toml_check::integer_in(1, kMaxDegree));
+  m.angle_centre_deg = d.get<double>("angle_centre_deg");
+  m.angle_scale_deg = d.get<double>("angle_scale_deg", toml_check::positive());
+  m.angle_min_deg = d.get<double>("angle_min_deg");
+  m.angle_max_deg = d.get<double>("angle_max_deg");
+  if (!(m.angle_max_deg > m.angle_min_deg)) d.fail("angle_max_deg", "must exceed dynamic.angle_min_deg");
+  const auto poly = numbers(d, "poly", kMaxDegree + 1);
+  if (poly.size() != static_cast<std::size_t>(m.degree + 1))
+    d.fail("poly", "expected degree + 1 = " + std::to_string(m.degree + 1) + " coefficients, got " + std::to_string(poly.size()));
   std::copy(poly.begin(), poly.end(), m.poly.begin());
-  const auto r = numbers(k, t, "dynamic.thresholds_deg", kMaxOperators);
-  const auto c = numbers(k, t, "dynamic.weights_v_per_deg", kMaxOperators);
-  if (r.size() != c.size()) k.fail("dynamic.weights_v_per_deg", "expected one weight per threshold (" + std::to_string(r.size()) + ")");
+  const auto r = numbers(d, "thresholds_deg", kMaxOperators,
+                         [](double v) { return v > 0 ? std::string{} : std::string("a threshold > 0 deg"); });
+  const auto c = numbers(d, "weights_v_per_deg", kMaxOperators);
+  if (r.size() != c.size()) d.fail("weights_v_per_deg", "expected one weight per threshold (" + std::to_string(r.size()) + ")");
   m.n_operators = static_cast<int>(r.size());
-  for (std::size_t i = 0; i < r.size(); ++i) {
-    if (!(r[i] > 0)) k.fail("dynamic.thresholds_deg[" + std::to_string(i) + "]", "expected a threshold > 0 deg");
-    m.threshold_deg[i] = r[i];
-    m.weight_v_per_deg[i] = c[i];
-  }
-  m.rate_gain_s_per_rad = k.number("dynamic.rate_gain_s_per_rad");
-  m.speed_filter_s = k.positive("dynamic.speed_filter_s");
-  m.speed_limit_rad_s = k.positive("dynamic.speed_limit_rad_s");
-  const auto tau = numbers(k, t, "dynamic.prony_tau_s", kMaxPronyTerms);
-  const auto g = numbers(k, t, "dynamic.prony_gain_v_per_deg", kMaxPronyTerms);
-  if (tau.size() != g.size()) k.fail("dynamic.prony_gain_v_per_deg", "expected one gain per time constant (" + std::to_string(tau.size()) + ")");
+  std::copy(r.begin(), r.end(), m.threshold_deg.begin());
+  std::copy(c.begin(), c.end(), m.weight_v_per_deg.begin());
+  m.rate_gain_s_per_rad = d.get<double>("rate_gain_s_per_rad");
+  m.speed_filter_s = d.get<double>("speed_filter_s", toml_check::positive());
+  m.speed_limit_rad_s = d.get<double>("speed_limit_rad_s", toml_check::positive());
+  const auto tau = numbers(d, "prony_tau_s", kMaxPronyTerms,
+                           [](double v) { return v > 0 ? std::string{} : std::string("a time constant > 0 s"); });
+  const auto g = numbers(d, "prony_gain_v_per_deg", kMaxPronyTerms);
+  if (tau.size() != g.size()) d.fail("prony_gain_v_per_deg", "expected one gain per time constant (" + std::to_string(tau.size()) + ")");
   m.n_prony = static_cast<int>(tau.size());
-  for (std::size_t j = 0; j < tau.size(); ++j) {
-    if (!(tau[j] > 0)) k.fail("dynamic.prony_tau_s[" + std::to_string(j) + "]", "expected a time constant > 0 s");
-    m.prony_tau_s[j] = tau[j];
-    m.prony_gain_v_per_deg[j] = g[j];
-  }
+  std::copy(tau.begin(), tau.end(), m.prony_tau_s.begin());
+  std::copy(g.begin(), g.end(), m.prony_gain_v_per_deg.begin());
   // Files written before the bend lag existed have neither key: no lag.
-  if (t.at_path("dynamic.bend_lag_s")) m.bend_lag_s = k.number("dynamic.bend_lag_s");
-  if (t.at_path("dynamic.lag_window_s")) m.lag_window_s = k.positive("dynamic.lag_window_s");
-  if (const char* why = m.invalid_reason(); *why != '\0') k.fail("dynamic", why);
+  m.bend_lag_s = d.get_or("bend_lag_s", m.bend_lag_s);
+  m.lag_window_s = d.get_or("lag_window_s", m.lag_window_s, toml_check::positive());
+  if (const char* why = m.invalid_reason(); *why != '\0') d.fail(why);
   return m;
 }
 
-pof::core::PotentiometerCalibration read_potentiometer(const Keys& k, const toml::table& t) {
+pof::core::PotentiometerCalibration read_potentiometer(TomlSection& s) {
   pof::core::PotentiometerCalibration p;
-  p.deg_per_volt = k.number("potentiometer.deg_per_volt");
-  if (p.deg_per_volt == 0) k.fail("potentiometer.deg_per_volt", "must not be 0");
-  p.zero_v = k.number("potentiometer.zero_v");
-  if (auto offs = t.at_path("potentiometer.offsets")) {
-    const auto* arr = offs.as_array();
-    if (!arr) k.fail("potentiometer.offsets", std::string("expected an array of [angle_deg, correction_deg], got ") + type_name(offs.type()));
-    for (std::size_t i = 0; i < arr->size(); ++i) {
-      const std::string key = "potentiometer.offsets[" + std::to_string(i) + "]";
-      const auto* pair = (*arr)[i].as_array();
-      if (!pair || pair->size() != 2) k.fail(key, "expected [angle_deg, correction_deg]");
-      double v[2];
-      for (std::size_t j = 0; j < 2; ++j) {
-        const std::optional<double> x = numeric((*pair)[j]);
-        if (!x) k.fail(key, "expected two numbers");
-        if (!std::isfinite(*x)) k.fail(key, "expected finite numbers");
-        v[j] = *x;
-      }
-      if (!p.offsets.empty() && !(v[0] > p.offsets.back().first)) k.fail(key, "angles must increase");
-      p.offsets.emplace_back(v[0], v[1]);
+  p.deg_per_volt = s.get<double>("deg_per_volt", toml_check::non_zero());
+  p.zero_v = s.get<double>("zero_v");
+  if (const std::optional<TomlArray> offsets = s.find_array("offsets")) {
+    for (std::size_t i = 0; i < offsets->size(); ++i) {
+      const TomlArray pair = offsets->array(i);
+      if (pair.size() != 2) offsets->fail(i, "expected [angle_deg, correction_deg]");
+      const double angle = pair.get<double>(0), correction = pair.get<double>(1);
+      if (!p.offsets.empty() && !(angle > p.offsets.back().first)) offsets->fail(i, "angles must increase");
+      p.offsets.emplace_back(angle, correction);
     }
   }
   return p;
 }
+
+// The top-level keys of a calibration file other than [potentiometer] (parse_calibration reads
+// them): a calibration file is also a potentiometer file (--pot-cal), and load_potentiometer
+// leaves these to the calibration loader.
+constexpr std::array<std::string_view, 12> kCalibrationOnlyKeys{
+    "sensor_id", "date", "source_recording", "reference_level_v", "active_model", "model",
+    "range", "fit_quality", "equations", "dynamic", "held_out", "gap"};
 
 }  // namespace
 
@@ -342,79 +252,92 @@ void save_calibration(const CalibrationFile& f, const std::string& path) { write
 
 CalibrationFile parse_calibration(const std::string& text, const std::string& name) {
   const toml::table t = parse_toml(text, name);
-  const Keys k(t, name);
-  const std::int64_t version = k.integer("schema_version");
-  if (version != 1 && version != kCalibrationSchemaVersion)
-    k.fail("schema_version", "expected 1 or " + std::to_string(kCalibrationSchemaVersion) + ", got " + std::to_string(version));
+  TomlSection root(t, name);
+  const int version = root.schema_version({1, kCalibrationSchemaVersion});
   CalibrationFile f;
-  f.sensor_id = k.string("sensor_id");
-  f.date = k.string("date");
-  f.source_recording = k.string("source_recording");
-  f.cal.reference_level_v = k.positive("reference_level_v");
+  f.sensor_id = root.get<std::string>("sensor_id");
+  f.date = root.get<std::string>("date");
+  f.source_recording = root.get<std::string>("source_recording");
+  f.cal.reference_level_v = root.get<double>("reference_level_v", toml_check::positive());
   auto& m = f.cal.model;
-  m.c1 = k.positive("model.c1");
-  m.c2 = k.number("model.c2");
-  m.c9 = k.positive("model.c9");  // the light falls as the knee bends: f5 has a negative slope
-  m.c10 = k.number("model.c10");
-  f.cal.angle_min_deg = k.number("range.angle_min_deg");
-  f.cal.angle_max_deg = k.number("range.angle_max_deg");
-  if (f.cal.angle_min_deg < -30 || f.cal.angle_min_deg > 150) k.fail("range.angle_min_deg", "outside -30..150 deg");
-  if (f.cal.angle_max_deg < -30 || f.cal.angle_max_deg > 150) k.fail("range.angle_max_deg", "outside -30..150 deg");
+  TomlSection model = root.section("model");
+  m.c1 = model.get<double>("c1", toml_check::positive());
+  m.c2 = model.get<double>("c2");
+  m.c9 = model.get<double>("c9", toml_check::positive());  // the light falls as the knee bends: f5 has a negative slope
+  m.c10 = model.get<double>("c10");
+  TomlSection range = root.section("range");
+  const auto knee_angle = toml_check::number_in(-30, 150);
+  f.cal.angle_min_deg = range.get<double>("angle_min_deg", knee_angle);
+  f.cal.angle_max_deg = range.get<double>("angle_max_deg", knee_angle);
   if (!(f.cal.angle_max_deg > f.cal.angle_min_deg))
-    k.fail("range.angle_max_deg", "must exceed range.angle_min_deg (" + num(f.cal.angle_min_deg) + ")");
-  f.cal.velocity_min_rad_s = k.positive("range.velocity_min_rad_s");
-  f.cal.velocity_max_rad_s = k.positive("range.velocity_max_rad_s");
+    range.fail("angle_max_deg", "must exceed range.angle_min_deg (" + num(f.cal.angle_min_deg) + ")");
+  f.cal.velocity_min_rad_s = range.get<double>("velocity_min_rad_s", toml_check::positive());
+  f.cal.velocity_max_rad_s = range.get<double>("velocity_max_rad_s", toml_check::positive());
   if (!(f.cal.velocity_max_rad_s > f.cal.velocity_min_rad_s))
-    k.fail("range.velocity_max_rad_s", "must exceed range.velocity_min_rad_s (" + num(f.cal.velocity_min_rad_s) + ")");
-  if (f.cal.velocity_max_rad_s > 50) k.fail("range.velocity_max_rad_s", "above 50 rad/s is not a knee");
+    range.fail("velocity_max_rad_s", "must exceed range.velocity_min_rad_s (" + num(f.cal.velocity_min_rad_s) + ")");
+  if (f.cal.velocity_max_rad_s > 50) range.fail("velocity_max_rad_s", "above 50 rad/s is not a knee");
+  range.finish();
   const double h_lo = pof::core::hysteresis_pct(m, f.cal.velocity_max_rad_s);
   const double h_hi = pof::core::hysteresis_pct(m, f.cal.velocity_min_rad_s);
-  for (int d = 0; d < 2; ++d) {
-    const std::string p = d == 0 ? "model.flexion." : "model.extension.";
-    auto& x = d == 0 ? m.flexion : m.extension;
-    x.c3 = k.number(p + "c3");
-    x.c4 = k.number(p + "c4");
-    x.c5 = k.number(p + "c5");
-    x.c6 = k.number(p + "c6");
-    x.c7 = k.number(p + "c7");
-    x.c8 = k.number(p + "c8");
+  for (const char* direction : {"flexion", "extension"}) {
+    TomlSection s = model.section(direction);
+    auto& x = std::string_view(direction) == "flexion" ? m.flexion : m.extension;
+    x.c3 = s.get<double>("c3");
+    x.c4 = s.get<double>("c4");
+    x.c5 = s.get<double>("c5");
+    x.c6 = s.get<double>("c6");
+    x.c7 = s.get<double>("c7");
+    x.c8 = s.get<double>("c8");
     // f3 must keep the voltage's orientation over the calibrated hysteresis (a > 0) and f4 must
     // not collapse it (c7 > 0): otherwise eq. (11)/(12) cannot be inverted.
     for (const double h : {h_lo, h_hi})
-      if (!(x.c3 * h + x.c4 > 0)) k.fail(p + "c4", "f2 gives a = c3 h + c4 <= 0 at h = " + num(h) + " % (impossible gain)");
-    if (!(x.c7 > 0)) k.fail(p + "c7", "expected > 0, got " + num(x.c7));
+      if (!(x.c3 * h + x.c4 > 0)) s.fail("c4", "f2 gives a = c3 h + c4 <= 0 at h = " + num(h) + " % (impossible gain)");
+    if (!(x.c7 > 0)) s.fail("c7", "expected > 0, got " + num(x.c7));
+    s.finish();
   }
-  f.quality.sensitivity_v_per_deg = k.number("fit_quality.sensitivity_v_per_deg");
-  f.quality.linearity_r2 = k.number("fit_quality.linearity_r2");
-  if (f.quality.linearity_r2 > 1) k.fail("fit_quality.linearity_r2", "R^2 above 1");
-  f.quality.f1_r2 = k.number("fit_quality.f1_r2");
-  f.quality.f1_rmse_pct = k.number("fit_quality.f1_rmse_pct");
-  f.quality.f4_flexion_r2 = k.number("fit_quality.f4_flexion_r2");
-  f.quality.f4_extension_r2 = k.number("fit_quality.f4_extension_r2");
-  f.quality.n_holds = k.integer("fit_quality.n_holds");
-  f.quality.n_velocity_tests = k.integer("fit_quality.n_velocity_tests");
-  f.equation_flexion = k.string("equations.flexion", false);
-  f.equation_extension = k.string("equations.extension", false);
-  if (t.contains("potentiometer")) f.potentiometer = read_potentiometer(k, t);
+  model.finish();
+  TomlSection q = root.section("fit_quality");
+  f.quality.sensitivity_v_per_deg = q.get<double>("sensitivity_v_per_deg");
+  f.quality.linearity_r2 = q.get<double>("linearity_r2");
+  if (f.quality.linearity_r2 > 1) q.fail("linearity_r2", "R^2 above 1");
+  f.quality.f1_r2 = q.get<double>("f1_r2");
+  f.quality.f1_rmse_pct = q.get<double>("f1_rmse_pct");
+  f.quality.f4_flexion_r2 = q.get<double>("f4_flexion_r2");
+  f.quality.f4_extension_r2 = q.get<double>("f4_extension_r2");
+  f.quality.n_holds = q.get<std::int64_t>("n_holds");
+  f.quality.n_velocity_tests = q.get<std::int64_t>("n_velocity_tests");
+  q.finish();
+  root.with_section("equations", [&](TomlSection& e) {
+    f.equation_flexion = e.get_or<std::string>("flexion", "");
+    f.equation_extension = e.get_or<std::string>("extension", "");
+  });
+  root.with_section("potentiometer", [&](TomlSection& p) { f.potentiometer = read_potentiometer(p); });
   if (version >= 2) {
     // Version 1 files hold the paper model only and keep it active.
-    if (t.contains("dynamic")) f.cal.dynamic = read_dynamic(k, t);
-    const std::string active = k.string("active_model");
+    root.with_section("dynamic", [&](TomlSection& d) { f.cal.dynamic = read_dynamic(d); });
+    const std::string active = root.get<std::string>("active_model");
     const auto kind = model_kind_of(active);
-    if (!kind) k.fail("active_model", "expected \"paper\" or \"dynamic\", got \"" + excerpt(active) + "\"");
+    if (!kind) root.fail("active_model", "expected \"paper\" or \"dynamic\", got \"" + excerpt(active) + "\"");
     f.cal.active = *kind;
     if (f.cal.active == pof::core::ModelKind::kDynamic && !f.cal.dynamic)
-      k.fail("active_model", "is \"dynamic\" but the file has no [dynamic] section");
-    if (t.contains("held_out")) {
+      root.fail("active_model", "is \"dynamic\" but the file has no [dynamic] section");
+    root.with_section("held_out", [&](TomlSection& s) {
       HeldOutSummary h;
-      h.paper_rmse_deg = k.number("held_out.paper_rmse_deg");
-      h.paper_p99_deg = k.number("held_out.paper_p99_deg");
-      h.dynamic_rmse_deg = k.number("held_out.dynamic_rmse_deg");
-      h.dynamic_p99_deg = k.number("held_out.dynamic_p99_deg");
-      h.folds = k.integer("held_out.folds");
+      h.paper_rmse_deg = s.get<double>("paper_rmse_deg");
+      h.paper_p99_deg = s.get<double>("paper_p99_deg");
+      h.dynamic_rmse_deg = s.get<double>("dynamic_rmse_deg");
+      h.dynamic_p99_deg = s.get<double>("dynamic_p99_deg");
+      h.folds = s.get<std::int64_t>("folds");
       f.held_out = h;
-    }
+    });
+  } else {
+    for (const char* key : {"active_model", "dynamic", "held_out"})
+      if (root.has(key)) root.fail(key, "is a schema_version 2 key, but the file says schema_version = 1");
   }
+  // `pof gap` writes its accepted effect terms in [gap] of its model.toml (docs/gap.md); the
+  // compensator does not apply them (yet), so the section is skipped, on purpose and by name.
+  root.ignore("gap");
+  root.finish();
   return f;
 }
 
@@ -436,10 +359,17 @@ CalibrationFile load_calibration(const std::string& path, const std::string& mod
 }
 
 pof::core::PotentiometerCalibration load_potentiometer(const std::string& path) {
-  const toml::table t = parse_toml(read_text_file(path, "TOML file with a [potentiometer] section"), path);
-  const Keys k(t, path);
-  if (!t.contains("potentiometer")) k.fail("potentiometer", "missing (expected a [potentiometer] table with deg_per_volt, zero_v)");
-  return read_potentiometer(k, t);
+  const toml::table t = read_toml_file(path, "TOML file with a [potentiometer] section");
+  TomlSection root(t, path);
+  // A potentiometer file of its own need not say its version; a calibration file does.
+  if (root.has("schema_version")) (void)root.schema_version({1, kCalibrationSchemaVersion});
+  std::optional<TomlSection> section = root.find_section("potentiometer");
+  for (const std::string_view key : kCalibrationOnlyKeys) root.ignore(key);
+  root.finish();
+  if (!section) root.fail("potentiometer", "missing (expected a [potentiometer] table with deg_per_volt, zero_v)");
+  const pof::core::PotentiometerCalibration p = read_potentiometer(*section);
+  section->finish();
+  return p;
 }
 
 }  // namespace pof::io

@@ -137,6 +137,9 @@ grep -q "key 'range.velocity_max_rad_s'" <<<"$err" || fail "impossible range not
 sed 's/^schema_version = 2/schema_version = 7/' cal.toml >schema.toml
 expect_exit 78 "$POF" compensate val.csv --cal schema.toml
 grep -q "key 'schema_version': expected 1 or 2, got 7" <<<"$err" || fail "schema version: $err"
+sed 's/^c9 = \(.*\)/c9 = \1\nc9x = 1.0/' cal.toml >unknown_key.toml
+expect_exit 78 "$POF" compensate val.csv --cal unknown_key.toml
+grep -q "unknown_key.toml:[0-9]*: unknown key 'c9x' in \[model\] (did you mean 'c9'?)" <<<"$err" || fail "unknown key not refused: $err"
 printf 'schema_version = 1\n[model\nc1 = 2\n' >syntax.toml
 expect_exit 78 "$POF" compensate val.csv --cal syntax.toml
 grep -q "syntax.toml:2:" <<<"$err" || fail "TOML syntax error without line: $err"

@@ -22,7 +22,10 @@ bad() {  # bad <toml snippet appended> <text the error must contain>
   expect_exit 78 "$d" --config "$WORK_DIR/bad.toml" --print-config
   grep -q -- "$2" <<<"$err" || fail "error for '$1' does not mention '$2': $err"
 }
-bad '[extra]'                                        "unknown key 'extra'"
+bad '[extra]'                                        "bad.toml:$(($(wc -l <"$SOURCE_DIR/deploy/config/daq.toml") + 1)): unknown key 'extra' at the top level"
+# A typo on the command line is refused as in the file, with the key it was meant to be.
+expect_exit 78 "$d" --config "$WORK_DIR/daq.toml" -s acquisition.decimat=5 --print-config
+grep -q "unknown key 'decimat' in \[acquisition\] (did you mean 'decimate'?)" <<<"$err" || fail "$err"
 expect_exit 78 "$d" --config "$WORK_DIR/daq.toml" -s acquisition.scan_rate_hz=20000 --print-config
 grep -q "acquisition.scan_rate_hz" <<<"$err" || fail "$err"
 expect_exit 78 "$d" --config "$WORK_DIR/daq.toml" -s channels.reference=0 --print-config

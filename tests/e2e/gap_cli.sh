@@ -43,6 +43,8 @@ assert j["final_gap_deg"] <= 0.5 * j["baseline_gap_deg"], (j["baseline_gap_deg"]
 PY
 grep -q '^schema_version = 1' report/model.toml || fail "model.toml has no schema_version"
 grep -Eq "effect = ['\"]creep['\"]" report/model.toml || fail "model.toml lacks the creep term"
+# pof compensate loads it: the refitted model, with [gap] skipped by name (docs/gap.md).
+expect_exit 0 "$BIN_DIR/pof" compensate creep.csv --cal report/model.toml --csv compensated.csv
 
 # Exit codes and messages of the brief.
 expect_exit 2 "$BIN_DIR/pof" gap creep.csv

@@ -55,7 +55,7 @@ grep -q "bad.toml:5: key 'sensor.creep.terms\[0\].tau_s'" <<<"$out$err" || fail 
 cmp -s paper.csv before.csv || fail "a failed run changed the existing output"
 printf 'schema_version = 1\n[daq]\nscan_rate = 200\n[[trajectory]]\nkind = "hold"\n' > typo.toml
 expect_exit 78 "$POF" sim typo.toml -o x.csv
-grep -q "key 'daq.scan_rate': unknown key" <<<"$out$err" || fail "typo not named: $out$err"
+grep -q "typo.toml:3: unknown key 'scan_rate' in \[daq\] (did you mean 'scan_rate_hz'?)" <<<"$out$err" || fail "typo not named: $out$err"
 [ ! -e x.csv ] || fail "output written for a bad scenario"
 
 # Missing scenario: 66; bad output name or options: 2.

@@ -1,6 +1,7 @@
 // Recording readers (CSV, LCM log), the calibration TOML and atomic writes, on temporary files.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -553,6 +554,96 @@ TEST(CalibrationFile, Version1FilesLoadWithThePaperModelAndCompensateBitIdentica
       ASSERT_EQ(a.angle_deg(i), b.angle_deg(i)) << i;
     }
   }
+}
+
+namespace {
+
+// `text` with `line` inserted after the first line that starts with `after`; `at` is set to the
+// inserted line's number (1-based), as the reader's messages count.
+std::string insert_after(const std::string& text, const std::string& after, const std::string& line, int& at) {
+  std::istringstream in(text);
+  std::string out;
+  int n = 0;
+  at = 0;
+  for (std::string l; std::getline(in, l);) {
+    out += l + "\n";
+    ++n;
+    if (at == 0 && l.rfind(after, 0) == 0) {
+      out += line + "\n";
+      at = ++n;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+// Every section refuses a key it does not read, at its line, with the nearest known key: a typo
+// must not leave the model on a default (docs/calibration.md).
+TEST(CalibrationFile, UnknownKeysAreRefusedAtTheirLineWithASuggestion) {
+  auto f = with_dynamic_model();
+  f.potentiometer = pof::core::PotentiometerCalibration{18.0, 0.1, {{0, 0.5}, {90, -0.5}}};
+  const std::string text = pof::io::to_toml(f);
+  ASSERT_EQ(error_of([&] { pof::io::parse_calibration(text, "cal.toml"); }), "(no error)");
+  auto unknown = [&](const std::string& after, const std::string& line) {
+    int at = 0;
+    const std::string bad = insert_after(text, after, line, at);
+    EXPECT_GT(at, 0) << after;
+    return std::make_pair(error_of([&] { pof::io::parse_calibration(bad, "cal.toml"); }), at);
+  };
+  auto [e, at] = unknown("c10 = ", "c9x = 1.0");
+  EXPECT_EQ(e, "cal.toml:" + std::to_string(at) + ": unknown key 'c9x' in [model] (did you mean 'c9'?)");
+  std::tie(e, at) = unknown("prony_tau_s", "prony_tau = [1.0]");
+  EXPECT_EQ(e, "cal.toml:" + std::to_string(at) + ": unknown key 'prony_tau' in [dynamic] (did you mean 'prony_tau_s'?)");
+  std::tie(e, at) = unknown("zero_v", "zero = 0.1");
+  EXPECT_EQ(e, "cal.toml:" + std::to_string(at) + ": unknown key 'zero' in [potentiometer] (did you mean 'zero_v'?)");
+  std::tie(e, at) = unknown("sensor_id", "sensor = \"L\"");
+  EXPECT_EQ(e, "cal.toml:" + std::to_string(at) + ": unknown key 'sensor' at the top level (did you mean 'sensor_id'?)");
+  std::tie(e, at) = unknown("c8 = ", "c88 = 1.0");
+  EXPECT_EQ(e, "cal.toml:" + std::to_string(at) + ": unknown key 'c88' in [model.flexion] (did you mean 'c8'?)");
+  std::tie(e, at) = unknown("folds", "fold = 5");
+  EXPECT_EQ(e, "cal.toml:" + std::to_string(at) + ": unknown key 'fold' in [held_out] (did you mean 'folds'?)");
+  // Value errors carry the line too.
+  std::tie(e, at) = unknown("c10 = ", "c1 = -2.0");  // a second c1: a TOML error, at its line
+  EXPECT_EQ(e.rfind("cal.toml:" + std::to_string(at) + ": TOML syntax error", 0), 0u) << e;
+  const std::string neg = replace_line(text, "c1 = ", "c1 = -2.0");
+  const auto c1_at = neg.find("\nc1 = ");
+  const long c1_line = std::count(neg.begin(), neg.begin() + static_cast<std::ptrdiff_t>(c1_at) + 1, '\n') + 1;
+  EXPECT_EQ(error_of([&] { pof::io::parse_calibration(neg, "cal.toml"); }).rfind("cal.toml:" + std::to_string(c1_line) + ": key 'model.c1': expected a number > 0, got -2", 0), 0u);
+}
+
+// What other programs write into a calibration-file layout: `pof gap`'s [gap] section is skipped
+// by name; schema_version 2 keys in a version 1 file are refused, not ignored.
+TEST(CalibrationFile, TheGapSectionIsSkippedAndVersion2KeysNeedVersion2) {
+  const std::string v2 = pof::io::to_toml(pof::io::make_calibration_file(fitted(), "S", "cal.csv", "2026-11-21T00:00:00Z"));
+  std::string v1 = replace_line(replace_line(v2, "schema_version", "schema_version = 1"), "active_model", "");
+  const std::string gap = "\n[gap]\nkappa = 1.02\n[[gap.terms]]\neffect = \"creep\"\ncoefficients_v = [0.1]\n[gap.terms.parameters]\ntau_s = 4.0\n";
+  const auto g = pof::io::parse_calibration(v1 + gap, "model.toml");
+  EXPECT_EQ(g.cal.model.c9, fitted().cal.model.c9);
+  EXPECT_EQ(pof::io::to_toml(pof::io::parse_calibration(pof::io::to_toml(g), "again")), pof::io::to_toml(g));
+  EXPECT_NE(error_of([&] { pof::io::parse_calibration(replace_line(v1, "schema_version", "schema_version = 1\nactive_model = \"paper\""), "old.toml"); })
+                .find("key 'active_model': is a schema_version 2 key, but the file says schema_version = 1"),
+            std::string::npos);
+}
+
+TEST(PotentiometerFile, ReadsItsSectionStrictlyAlsoFromACalibrationFile) {
+  TempDir d;
+  const auto own = d.file("pot.toml", "schema_version = 1\n[potentiometer]\ndeg_per_volt = 22.5\nzero_v = 0.5\n");
+  EXPECT_EQ(pof::io::load_potentiometer(own).deg_per_volt, 22.5);
+  EXPECT_EQ(pof::io::load_potentiometer(d.file("bare.toml", "[potentiometer]\ndeg_per_volt = 18.0\nzero_v = 0.0\n")).deg_per_volt, 18.0);
+  // A whole calibration file (every section of it) serves as --pot-cal.
+  auto f = with_dynamic_model();
+  f.potentiometer = pof::core::PotentiometerCalibration{18.0, 0.1, {{0, 0.5}, {90, -0.5}}};
+  EXPECT_EQ(pof::io::load_potentiometer(d.file("cal.toml", pof::io::to_toml(f))).offsets.size(), 2u);
+  const auto typo = d.file("typo.toml", "schema_version = 1\n[potentiometer]\ndeg_per_volt = 22.5\nzero_v = 0.5\nzero_volts = 3\n");
+  EXPECT_EQ(error_of([&] { pof::io::load_potentiometer(typo); }), typo + ":5: unknown key 'zero_volts' in [potentiometer] (did you mean 'zero_v'?)");
+  const auto misnamed = d.file("misnamed.toml", "[potentiometr]\ndeg_per_volt = 22.5\nzero_v = 0.5\n");
+  EXPECT_EQ(error_of([&] { pof::io::load_potentiometer(misnamed); }),
+            misnamed + ":1: unknown key 'potentiometr' at the top level (did you mean 'potentiometer'?)");
+  const auto stray = d.file("stray.toml", "zero_v = 0.5\n[potentiometer]\ndeg_per_volt = 22.5\nzero_v = 0.5\n");
+  EXPECT_EQ(error_of([&] { pof::io::load_potentiometer(stray); }), stray + ":1: unknown key 'zero_v' at the top level");
+  const auto version = d.file("v9.toml", "schema_version = 9\n[potentiometer]\ndeg_per_volt = 22.5\nzero_v = 0.5\n");
+  EXPECT_EQ(error_of([&] { pof::io::load_potentiometer(version); }), version + ":1: key 'schema_version': expected 1 or 2, got 9");
 }
 
 TEST(AtomicWrite, ReplacesWholeFilesAndLeavesNothingOnFailure) {

@@ -157,9 +157,39 @@ TEST(DaqConfig, EveryErrorNamesItsKey) {
   EXPECT_NE(config_error("schema_version = 1\n[channels]\npot = 0").find("channels.pot"), std::string::npos);
   EXPECT_NE(config_error("schema_version = 1\n[lcm]\nsensor_id = 'left knee'").find("lcm.sensor_id"), std::string::npos);
   EXPECT_NE(config_error("schema_version = 1\n[lcm]\nurl = 3").find("lcm.url"), std::string::npos);
-  EXPECT_NE(config_error("schema_version = 1\n[daemon]\nretry = 3").find("daemon.retry"), std::string::npos);
+  EXPECT_NE(config_error("schema_version = 1\n[daemon]\nretry = 3").find("t.toml:3: unknown key 'retry' in [daemon] (did you mean 'retry_ms'?)"), std::string::npos);
   EXPECT_NE(config_error("schema_version = 1\n[acquisition]\nsegment_scans = 1001").find("acquisition.segment_scans"), std::string::npos);
   EXPECT_NE(config_error("schema_version = 1\ndevice = 3").find("'device'"), std::string::npos);
+}
+
+// Lines, unknown keys with a suggestion, and the command line's values (no line: the source says
+// "command line"), as every pofkit TOML file reports them (base/include/pof/base/toml_reader.hpp).
+TEST(DaqConfig, ErrorsNameTheLineAndSuggestTheKnownKey) {
+  EXPECT_EQ(config_error("schema_version = 1\n[acquisition]\nscan_rate_hz = 'fast'"),
+            "t.toml:3: key 'acquisition.scan_rate_hz': expected a number, got a string 'fast'");
+  EXPECT_EQ(config_error("schema_version = 1\n[channels]\npot = 0"),
+            "t.toml:3: key 'channels.pot': expected an input not used by channels.sensor, got 0");
+  EXPECT_EQ(config_error("schema_version = 1\n\n[acquisition]\ndecimate_by = 3"),
+            "t.toml:4: unknown key 'decimate_by' in [acquisition] (did you mean 'decimate'?)");
+  EXPECT_EQ(config_error("schema_version = 1\n[lcm]\nurl = 'memq://'\n[aquisition]\ndecimate = 3"),
+            "t.toml:4: unknown key 'aquisition' at the top level (did you mean 'acquisition'?)");
+  toml::table t = toml::parse("schema_version = 1\n[acquisition]\ndecimate = 10\n");
+  pof::daq::apply_override(t, "acquisition.decimate=0");
+  std::string e;
+  try {
+    (void)pof::daq::config_from_table(t, "t.toml + command line");
+  } catch (const pof::ConfigError& x) {
+    e = x.what();
+  }
+  EXPECT_EQ(e, "t.toml + command line: key 'acquisition.decimate': expected an integer in [1, 10000], got 0");
+  pof::daq::apply_override(t, "acquisition.decimate=5");
+  pof::daq::apply_override(t, "acquisition.decimat=5");
+  try {
+    (void)pof::daq::config_from_table(t, "t.toml + command line");
+  } catch (const pof::ConfigError& x) {
+    e = x.what();
+  }
+  EXPECT_EQ(e, "t.toml + command line: unknown key 'decimat' in [acquisition] (did you mean 'decimate'?)");
 }
 
 // --- Doorbell (core/doorbell.hpp): the acquisition -> publisher wake-up -------------------------

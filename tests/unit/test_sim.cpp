@@ -138,14 +138,16 @@ TEST(SimScenario, ByNameOrPath) {
 TEST(SimScenario, ErrorsNameFileLineAndKey) {
   EXPECT_EQ(config_error(kMinimal), "(no error)");
   std::string e = config_error(kMinimal + "[sensor.creep]\nenabled = true\ntua_s = 3\n");
-  EXPECT_NE(e.find("t.toml:7"), std::string::npos) << e;
-  EXPECT_NE(e.find("'sensor.creep.tua_s'"), std::string::npos) << e;
-  EXPECT_NE(e.find("unknown key"), std::string::npos) << e;
+  EXPECT_NE(e.find("t.toml:7: unknown key 'tua_s' in [sensor.creep]"), std::string::npos) << e;
+  e = config_error(kMinimal + "[daq]\nscan_rate = 200\n");
+  EXPECT_EQ(e, "t.toml:6: unknown key 'scan_rate' in [daq] (did you mean 'scan_rate_hz'?)");
+  e = config_error("schema_version = 1\nnmae = \"x\"\n[[trajectory]]\nkind = \"hold\"\n");
+  EXPECT_EQ(e, "t.toml:2: unknown key 'nmae' at the top level (did you mean 'name'?)");
   e = config_error(kMinimal + "[sensor.creep]\nterms = [ { tau_s = -1, gain_v_per_deg = 0.001 } ]\n");
   EXPECT_NE(e.find("'sensor.creep.terms[0].tau_s'"), std::string::npos) << e;
   EXPECT_NE(e.find("> 0"), std::string::npos) << e;
   e = config_error(kMinimal + "[daq]\nrange_v = \"five\"\n");
-  EXPECT_NE(e.find("'daq.range_v': expected a number, got 'five'"), std::string::npos) << e;
+  EXPECT_NE(e.find("t.toml:6: key 'daq.range_v': expected a number, got a string 'five'"), std::string::npos) << e;
   e = config_error(kMinimal + "[daq]\nterminal = \"rse\"\nrange_v = 5\n");
   EXPECT_NE(e.find("'daq.range_v'"), std::string::npos) << e;
   e = config_error(kMinimal + "[daq]\ndevice = \"usb6010\"\n");

@@ -22,8 +22,10 @@
 //   [equations]        flexion, extension (eq. (11)/(12) as text; informational, not read back)
 //   [potentiometer]    deg_per_volt, zero_v, offsets = [[angle_deg, correction_deg], ...] (optional)
 //
-// Loading validates every key (missing, wrong type, NaN/inf, impossible range) and names it in
-// the ConfigError (exit 78); nothing is returned unless everything is valid.
+// Loading validates every key (missing, wrong type, NaN/inf, impossible range) and names it with
+// the file and line in the ConfigError (exit 78); a key it does not read is refused with the
+// nearest known one (pof/base/toml_reader.hpp), except [gap] (`pof gap`'s model.toml, docs/gap.md),
+// skipped by name. Nothing is returned unless everything is valid.
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -85,8 +87,9 @@ CalibrationFile load_calibration(const std::string& path);
 /// Parses TOML text; `name` is used in messages. Throws ConfigError.
 CalibrationFile parse_calibration(const std::string& text, const std::string& name);
 
-/// The [potentiometer] section of a TOML file (a calibration file or a separate one).
-/// Throws NoInputError, ConfigError.
+/// The [potentiometer] section of a TOML file (a calibration file or a separate one; the optional
+/// schema_version must be 1 or 2). Unknown keys are refused, the calibration's own keys left to
+/// load_calibration. Throws NoInputError, ConfigError.
 pof::core::PotentiometerCalibration load_potentiometer(const std::string& path);
 
 }  // namespace pof::io

@@ -63,11 +63,14 @@ struct DaqConfig {
 /// string). Throws ConfigError on a malformed override.
 void apply_override(toml::table& table, const std::string& assignment);
 
-/// Reads and validates every key of `table`; `source` names it in errors (file name or
-/// "command line"). Unknown keys are errors. Throws pof::ConfigError.
+/// Reads and validates every key of `table` (pof::TomlSection, pof/base/toml_reader.hpp);
+/// `source` names it in errors where a value has no line of the file (a command-line override:
+/// "daq.toml + command line"). Unknown keys are errors, with the nearest known key. Throws
+/// pof::ConfigError.
 DaqConfig config_from_table(const toml::table& table, const std::string& source);
 
-/// Parses the file. Throws NoInputError (missing), ConfigError (bad TOML or values).
+/// Parses the file (at most pof::kMaxTextFileBytes). Throws NoInputError (missing), ConfigError
+/// (bad TOML, "<file>:<line>: TOML syntax error: ...").
 toml::table read_config_file(const std::filesystem::path& path);
 
 /// The effective configuration as TOML (for --print-config).

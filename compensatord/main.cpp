@@ -6,16 +6,15 @@
 // One thread: pof::bus::Receiver delivers blocks into the pipeline and the same loop publishes.
 // Whatever arrives on the bus, the loop keeps turning: undecodable messages, malformed datagrams
 // and duplicated or replayed blocks are counted in the status and logged rate-limited
-// (docs/deployment.md, "Threat model"). Signals only set flags (SIGTERM/SIGINT stop, SIGHUP reloads
-// the calibration between blocks: a bad file keeps the old calibration, is counted and named in the
-// status). Under systemd (Type=notify) the loop sends READY once subscribed and feeds the watchdog
-// only while it keeps turning.
+// (docs/deployment.md, "Threat model"). The loop takes signals itself (pof::service::SignalWaiter)
+// once per turn, at least every 100 ms: SIGTERM/SIGINT stop, SIGHUP reloads the calibration between
+// blocks (a bad file keeps the old calibration, is counted and named in the status). Under systemd
+// (Type=notify) the loop sends READY once subscribed and feeds the watchdog only while it keeps
+// turning. Exit codes: pof::service::run_main (docs/deployment.md, "Exit codes and signals").
 #include <unistd.h>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
-#include <csignal>
 #include <cstdio>
 #include <limits>
 #include <optional>
@@ -32,23 +31,17 @@
 #include "pof/io/calibration_file.hpp"
 #include "pof/base/errors.hpp"
 #include "pof/lcm/url.hpp"
+#include "pof/service/run_main.hpp"
 #include "pof/service/sd_notify.hpp"
+#include "pof/service/signals.hpp"
 #include "pof/lcm/utime.hpp"
 
 namespace {
 
 using pof::lcmutil::now_utime;
 
-std::atomic<bool> g_stop{false};
-
 std::int64_t clamp_count(std::uint64_t n) {
   return static_cast<std::int64_t>(std::min<std::uint64_t>(n, std::numeric_limits<std::int64_t>::max()));
-}
-std::atomic<bool> g_reload{false};
-
-extern "C" void on_signal(int sig) {
-  if (sig == SIGHUP) g_reload = true;
-  else g_stop = true;
 }
 
 class LcmSink final : public pof::compensatord::Sink {
@@ -79,6 +72,9 @@ struct Options {
 };
 
 int run(const Options& o) {
+  // Before liblcm or anything else may start a thread, so that every thread inherits the mask.
+  const pof::service::SignalWaiter signals;
+
   pof::compensatord::PipelineSettings ps;
   ps.sensor_id = o.sensor_id;
   ps.output_rate_hz = o.output_rate_hz;
@@ -116,10 +112,6 @@ int run(const Options& o) {
   rx.on_error([&](const pof::bus::ReceiveError& e) { errors.note(e.channel, e.describe(), now_utime()); });
   std::uint64_t malformed_seen = 0, incomplete_seen = 0;
 
-  std::signal(SIGTERM, on_signal);
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGHUP, on_signal);
-
   pof::service::ServiceNotifier notifier;
   notifier.ready("compensating " + raw_ch + " with " + o.cal);
   spdlog::info("{} -> {} on {} (calibration {}, output {})", raw_ch, pof::lcmutil::channel("POF_ANGLE", o.sensor_id),
@@ -129,10 +121,15 @@ int run(const Options& o) {
   auto next_status = std::chrono::steady_clock::now();
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                                               std::chrono::duration<double>(o.duration_s));
-  while (!g_stop && (o.duration_s <= 0 || std::chrono::steady_clock::now() < deadline)) {
+  while (o.duration_s <= 0 || std::chrono::steady_clock::now() < deadline) {
     if (rx.handle(100) < 0) ::usleep(100'000);  // a socket error: do not spin; counters and status go on
 
-    if (g_reload.exchange(false)) {
+    const int sig = signals.wait(std::chrono::nanoseconds::zero());  // the 100 ms above bound the latency
+    if (pof::service::SignalWaiter::is_stop(sig)) {
+      spdlog::info("signal {}: stopping", sig);
+      break;
+    }
+    if (sig == SIGHUP) {
       try {
         pipeline.replace_calibration(pof::io::load_calibration(o.cal, o.model), o.cal);
         spdlog::info("reloaded calibration {}", o.cal);
@@ -206,27 +203,12 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   app.add_option("--queue-capacity", o.queue_capacity, "LCM subscription queue [messages] (transports other than udpm://)")
       ->check(CLI::Range(1, 1000000))->capture_default_str();
-  try {
-    app.parse(argc, argv);
+  return pof::service::run_main("pof-compensatord", app, argc, argv, [&] {
     if (o.velocity_source != "sensor" && o.velocity_source != "reference")
       throw CLI::ValidationError("--velocity-source", "expected 'sensor' or 'reference', got '" + o.velocity_source + "'");
     if (o.reversal_window_s > o.velocity_window_s)
       throw CLI::ValidationError("--reversal-window", "must not exceed --velocity-window (" +
                                  std::to_string(o.velocity_window_s) + " s)");
-  } catch (const CLI::ParseError& e) {
-    const int rc = app.exit(e);
-    return rc == 0 ? 0 : pof::kExitUsage;
-  }
-  try {
     return run(o);
-  } catch (const pof::Error& e) {
-    spdlog::error("{}", e.what());
-    return e.code();
-  } catch (const std::invalid_argument& e) {
-    spdlog::error("{}", e.what());
-    return pof::kExitConfig;
-  } catch (const std::exception& e) {
-    spdlog::error("{}", e.what());
-    return pof::kExitIoErr;
-  }
+  });
 }

@@ -3,27 +3,17 @@
 // (uaccess) and to group pof, the group the pof-daqd units run as (deploy/systemd, created by
 // deploy/sysusers.d/pof.conf), never to everyone (no 0666).
 #include <cstdio>
-#include <cstring>
 
+#include <CLI/CLI.hpp>
+
+#include "pof/base/exit_codes.hpp"
 #include "pof/daq/device_ids.hpp"
+#include "pof/service/run_main.hpp"
 
 namespace {
 constexpr const char* kGroup = "pof";
 
-constexpr const char* kUsage =
-    "Usage: pof-gen-udev-rules\n"
-    "Prints the udev rules that give the DAQ devices pofkit supports (daq/include/pof/daq/device_ids.hpp) to the\n"
-    "seat's logged-in user and to group pof (the pof-daqd service), as deploy/udev/60-pof-daq.rules.\n"
-    "Options: -h, --help  this text\n";
-}  // namespace
-
-int main(int argc, char** argv) {
-  if (argc > 1) {
-    const bool help = std::strcmp(argv[1], "-h") == 0 || std::strcmp(argv[1], "--help") == 0;
-    std::fputs(kUsage, help ? stdout : stderr);
-    if (!help) std::fprintf(stderr, "pof-gen-udev-rules: unexpected argument '%s'\n", argv[1]);
-    return help ? 0 : 2;
-  }
+int print_rules() {
   std::printf(
       "# Generated from daq/include/pof/daq/device_ids.hpp by pof-gen-udev-rules; do not edit.\n"
       "# Regenerate: cmake --build --preset release --target pof_udev_rules\n"
@@ -45,5 +35,16 @@ int main(int argc, char** argv) {
           d.vendor_id, d.product_id, kGroup);
     }
   }
-  return 0;
+  return pof::kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "Prints the udev rules that give the DAQ devices pofkit supports (daq/include/pof/daq/device_ids.hpp) to "
+      "the seat's logged-in user and to group pof (the pof-daqd service), as deploy/udev/60-pof-daq.rules.",
+      "pof-gen-udev-rules"};
+  app.set_version_flag("--version", POF_VERSION);
+  return pof::service::run_main("pof-gen-udev-rules", app, argc, argv, print_rules);
 }

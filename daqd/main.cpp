@@ -1,14 +1,13 @@
 // pof-daqd: acquisition daemon. Reads the DAQ (USB-6008/6009 via libusb, USB-1208LS via hidapi, or
 // the simulator), publishes POF_RAW blocks and POF_DAQ_STATUS on LCM. See docs/daq.md.
 //
-// Exit codes (io/include/pof/base/exit_codes.hpp): 0 stopped on SIGTERM/SIGINT, --duration or the end of a finite sim:<scenario>,
-// 2 usage, 66 --config file missing, 74 LCM unusable, 78 bad configuration (names the key).
+// Exit codes (pof/base/exit_codes.hpp, mapped by pof::service::run_main): 0 stopped on
+// SIGTERM/SIGINT, --duration or the end of a finite sim:<scenario>, 2 usage, 66 --config file
+// missing, 74 LCM unusable, 78 bad configuration (names the key). SIGHUP is logged and changes
+// nothing: the configuration is read once (restart to apply a new one).
 // USB errors are never fatal: the daemon reports them and recovers (docs/daq.md, "States").
-#include <signal.h>
-
-#include <cerrno>
+#include <chrono>
 #include <cstdio>
-#include <ctime>
 #include <filesystem>
 #include <iostream>
 
@@ -26,6 +25,8 @@
 #include "daemon.hpp"
 #include "pof/base/errors.hpp"
 #include "pof/daq/protocol/mcc_usb1208ls.hpp"
+#include "pof/service/run_main.hpp"
+#include "pof/service/signals.hpp"
 
 namespace {
 
@@ -72,17 +73,11 @@ int main(int argc, char** argv) {
                "streamed, 74 if not (docs/hardware-bringup.md)");
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}));
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : 2;  // usage errors exit 2 (brief), whatever CLI11's code
-  }
+  return service::run_main("pof-daqd", app, argc, argv, [&]() -> int {
+    auto logger = spdlog::stderr_color_mt("pof-daqd");
+    spdlog::set_default_logger(logger);
+    spdlog::set_level(spdlog::level::from_str(log_level));
 
-  auto logger = spdlog::stderr_color_mt("pof-daqd");
-  spdlog::set_default_logger(logger);
-  spdlog::set_level(spdlog::level::from_str(log_level));
-
-  try {
     toml::table table;
     std::string source = "defaults";
     if (!config_path.empty()) {
@@ -115,13 +110,8 @@ int main(int argc, char** argv) {
       return pof::kExitOk;
     }
 
-    // Signals are taken synchronously by this thread (sigtimedwait), never in a handler, and
-    // blocked before any thread starts so that the workers inherit the mask.
-    sigset_t sigs;
-    sigemptyset(&sigs);
-    sigaddset(&sigs, SIGTERM);
-    sigaddset(&sigs, SIGINT);
-    pthread_sigmask(SIG_BLOCK, &sigs, nullptr);
+    // Before the backend and the daemon start their threads, so that they inherit the mask.
+    const service::SignalWaiter signals;
 
     if (cfg.device_kind == "usb1208ls" && !cfg.mcc_single_reads &&
         daq::mcc::queue_length(cfg.channels().size()) != cfg.channels().size()) {
@@ -137,12 +127,13 @@ int main(int argc, char** argv) {
     if (probe && duration_s <= 0) duration_s = 5.0;
     const auto t0 = std::chrono::steady_clock::now();
     for (;;) {
-      timespec ts{0, 200'000'000};
-      const int sig = sigtimedwait(&sigs, nullptr, &ts);
-      if (sig == SIGTERM || sig == SIGINT) {
+      const int sig = signals.wait(std::chrono::milliseconds(200));
+      if (service::SignalWaiter::is_stop(sig)) {
         spdlog::info("signal {}: stopping", sig);
         break;
       }
+      if (sig == SIGHUP)
+        spdlog::info("SIGHUP ignored: pof-daqd reads its configuration once (restart to apply a new one)");
       if (duration_s > 0 &&
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >= duration_s) {
         break;
@@ -163,11 +154,5 @@ int main(int argc, char** argv) {
     }
     daemon.stop();
     return pof::kExitOk;
-  } catch (const pof::Error& e) {
-    std::fprintf(stderr, "pof-daqd: error: %s\n", e.what());
-    return e.code();
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "pof-daqd: error: %s\n", e.what());
-    return pof::kExitIoErr;
-  }
+  });
 }

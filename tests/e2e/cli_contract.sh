@@ -1,4 +1,5 @@
-# The CLI contract of the brief: --help everywhere, exit 2 on usage errors.
+# The command-line contract: --help everywhere, exit 2 on usage errors, the same exit code for
+# the same kind of error in every binary, and the daemons' signals.
 source "$(dirname "$0")/lib.sh"
 
 expect_exit 0 "$BIN_DIR/pof" --help
@@ -18,4 +19,46 @@ for b in pof-daqd pof-compensatord; do
   expect_exit 0 "$BIN_DIR/$b" --help
   expect_exit 2 "$BIN_DIR/$b" --no-such-flag
 done
+
+# One table maps exceptions to exit codes in every binary (pof::service::run_main): the same kind of
+# bad configuration gives both daemons the same code, 78, and the line "<program>: error: <what>".
+# A value the command line's own check accepts but the configuration rejects: pof-daqd's config
+# check (ConfigError) and the compensator's constructor (std::invalid_argument: 78 in
+# pof-compensatord but 74 in `pof` before run_main).
+"$BIN_DIR/pof" sim paper -o cal.csv --seed 11 2>/dev/null
+"$BIN_DIR/pof" calibrate cal.csv -o cal.toml >/dev/null 2>&1 || fail "pof calibrate failed"
+expect_exit 78 "$BIN_DIR/pof-daqd" --config /dev/null -s schema_version=1 --device sim:synthetic --rate 1e9 --duration 0.1
+grep -q "^pof-daqd: error: .*acquisition.scan_rate_hz" <<<"$err" || fail "pof-daqd --rate 1e9: $err"
+expect_exit 78 "$BIN_DIR/pof-compensatord" --cal cal.toml --velocity-window 6000 --duration 0.1
+grep -q "^pof-compensatord: error: .*velocity window" <<<"$err" || fail "pof-compensatord --velocity-window 6000: $err"
+# The same rejection in `pof compensate` (a 10 MHz recording: 0.5 s is 5e6 scans, beyond the
+# compensator's bound): 78 too.
+{ echo "t_s,sensor_v,reference_v,angle_ref_deg"
+  for i in $(seq 0 199); do printf '%d.0e-7,2.0,4.0,%d.0\n' "$i" "$i"; done; } >fast.csv
+expect_exit 78 "$BIN_DIR/pof" compensate fast.csv --cal cal.toml --velocity-window 0.5
+grep -q "^pof: error: .*velocity window" <<<"$err" || fail "pof compensate on a 10 MHz recording: $err"
+# A bad value in the file each daemon reads.
+printf 'schema_version = 1\n[acquisition]\nscan_rate_hz = -5\n' >bad_daq.toml
+expect_exit 78 "$BIN_DIR/pof-daqd" --config bad_daq.toml --device sim:synthetic --duration 0.1
+grep -q "^pof-daqd: error: bad_daq.toml.*acquisition.scan_rate_hz" <<<"$err" || fail "pof-daqd bad_daq.toml: $err"
+sed 's/^reference_level_v = .*/reference_level_v = -5/' cal.toml >bad_cal.toml
+cmp -s cal.toml bad_cal.toml && fail "cal.toml has no reference_level_v line to spoil"
+expect_exit 78 "$BIN_DIR/pof-compensatord" --cal bad_cal.toml --duration 0.1
+grep -q "^pof-compensatord: error: bad_cal.toml.*reference_level_v" <<<"$err" || fail "pof-compensatord bad_cal.toml: $err"
+
+# Signals (pof::service::SignalWaiter): SIGHUP does not stop pof-daqd (it has nothing to reload and
+# says so), SIGTERM stops it with exit 0. The log line is written after the signals are blocked.
+PORT=$((20000 + RANDOM % 30000))
+"$BIN_DIR/pof-daqd" --config /dev/null -s schema_version=1 --device sim:synthetic \
+  --lcm-url "udpm://239.255.76.67:$PORT?ttl=0" 2>daqd.log &
+daqd=$!
+trap 'kill "$daqd" 2>/dev/null || true' EXIT
+for _ in $(seq 200); do grep -q "publishing POF_RAW" daqd.log && break; kill -0 "$daqd" || break; sleep 0.05; done
+grep -q "publishing POF_RAW" daqd.log || fail "pof-daqd did not start: $(cat daqd.log)"
+kill -HUP "$daqd"
+for _ in $(seq 200); do grep -q "SIGHUP ignored" daqd.log && break; kill -0 "$daqd" || break; sleep 0.05; done
+kill -TERM "$daqd" 2>/dev/null || true
+rc=0; wait "$daqd" || rc=$?
+[ "$rc" -eq 0 ] || fail "pof-daqd exited $rc after SIGHUP then SIGTERM (129 = killed by SIGHUP): $(cat daqd.log)"
+grep -q "SIGHUP ignored" daqd.log || fail "pof-daqd did not report the SIGHUP: $(cat daqd.log)"
 echo "ok"

@@ -1,9 +1,7 @@
 // `pof record`: lossless LCM session recording (pof/recorder/session.hpp says why lcm-logger is not
 // enough), plus `--check` and `--repair` for logs cut short by SIGKILL or power loss.
-#include <pthread.h>
 #include <signal.h>
 
-#include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <iostream>
@@ -20,6 +18,7 @@
 #include "pof/recorder/pof_messages.hpp"
 #include "pof/recorder/session.hpp"
 #include "pof/service/sd_notify.hpp"
+#include "pof/service/signals.hpp"
 
 namespace pof::cli {
 namespace {
@@ -137,14 +136,9 @@ void run_record(const RecordArgs& a) {
       {"lcm", std::to_string(LCM_MAJOR_VERSION) + "." + std::to_string(LCM_MINOR_VERSION) + "." +
                   std::to_string(LCM_MICRO_VERSION)}};
 
-  // Signals are taken synchronously by this thread (sigtimedwait); block them before the session
-  // threads start so they inherit the mask. EFBIG must come back as an error, not kill us.
-  sigset_t set;
-  sigemptyset(&set);
-  sigaddset(&set, SIGINT);
-  sigaddset(&set, SIGTERM);
-  sigaddset(&set, SIGHUP);
-  pthread_sigmask(SIG_BLOCK, &set, nullptr);
+  // Signals are taken by this thread's loop; blocked before the session threads start so they
+  // inherit the mask. EFBIG must come back as an error, not kill us.
+  const service::SignalWaiter signals;
   ::signal(SIGXFSZ, SIG_IGN);
   ::signal(SIGPIPE, SIG_IGN);
 
@@ -161,10 +155,9 @@ void run_record(const RecordArgs& a) {
   auto last_status = t0;
   uint64_t last_writer = session.writer_heartbeat();
   uint64_t last_lcm = session.lcm_heartbeat();
-  const timespec tick{0, 100'000'000};
   for (;;) {
-    const int sig = sigtimedwait(&set, nullptr, &tick);
-    if (sig == SIGINT || sig == SIGTERM) break;
+    const int sig = signals.wait(std::chrono::milliseconds(100));
+    if (service::SignalWaiter::is_stop(sig)) break;
     if (sig == SIGHUP) {
       // Nothing to reload: the session's options are fixed. Acknowledge so it is not mistaken.
       spdlog::info("SIGHUP ignored: pof record has nothing to reload");

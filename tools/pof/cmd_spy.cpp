@@ -1,11 +1,10 @@
 // `pof spy`: a terminal live view of the LCM bus (plain ANSI, works over SSH, no Java). The model
 // and renderer are pof_spy (spy/); this file is the loop: one thread poll()s the receiver's fd
-// (pof::bus::Receiver: bounded, total, counts malformed datagrams), stdin and a signalfd, so there
-// is no locking and 'q' or SIGINT quit at once.
+// (pof::bus::Receiver: bounded, total, counts malformed datagrams), stdin and the signal waiter's
+// signalfd, so there is no locking and 'q', SIGINT or SIGTERM quit at once; so does SIGHUP (the
+// terminal hung up), which restores the terminal on the way out like the others.
 #include <poll.h>
-#include <signal.h>
 #include <sys/ioctl.h>
-#include <sys/signalfd.h>
 #include <termios.h>
 #include <unistd.h>
 
@@ -22,6 +21,7 @@
 #include "pof/base/errors.hpp"
 #include "pof/lcm/url.hpp"
 #include "pof/lcm/utime.hpp"
+#include "pof/service/signals.hpp"
 #include "pof/spy/monitor.hpp"
 
 namespace pof::cli {
@@ -72,6 +72,7 @@ int terminal_width() {
 }
 
 void run_spy(const SpyArgs& a) {
+  service::SignalWaiter signals;  // before liblcm may start a thread: every thread inherits the mask
   const std::string url = lcmutil::resolve_url(a.url);
   lcm::LCM lcm(url);
   if (!lcm.good()) throw pof::ConfigError("LCM URL '" + url + "': cannot open (is there a multicast route? see docs/deployment.md)");
@@ -85,13 +86,7 @@ void run_spy(const SpyArgs& a) {
   const uint16_t port = bus::lcm_url_port(url.c_str());
   const uint64_t drops0 = port != 0 ? bus::udp_drops(port) : 0;
 
-  sigset_t set;
-  sigemptyset(&set);
-  sigaddset(&set, SIGINT);
-  sigaddset(&set, SIGTERM);
-  pthread_sigmask(SIG_BLOCK, &set, nullptr);
-  const int sfd = ::signalfd(-1, &set, SFD_CLOEXEC);
-  if (sfd < 0) throw pof::IoError("signalfd failed");
+  const int sfd = signals.fd();
 
   const bool snapshot = a.once || a.duration_s > 0;
   // A snapshot collects for --duration (default 1 s for --once) and prints plain text once.
@@ -140,7 +135,7 @@ void run_spy(const SpyArgs& a) {
         if (rx.handle(0) <= 0) break;
       } while (std::chrono::steady_clock::now() < next_frame);
     }
-    if ((fds[1].revents & POLLIN) != 0) quit = true;
+    if ((fds[1].revents & POLLIN) != 0 && signals.wait(std::chrono::nanoseconds::zero()) != 0) quit = true;
     if (nfds == 3 && (fds[2].revents & POLLIN) != 0) {
       char c = 0;
       if (::read(STDIN_FILENO, &c, 1) == 1 && (c == 'q' || c == 'Q' || c == 3)) quit = true;
@@ -148,7 +143,6 @@ void run_spy(const SpyArgs& a) {
   }
   if (snapshot) draw(false);
   term.reset();
-  ::close(sfd);
 }
 
 }  // namespace

@@ -1,7 +1,7 @@
 #pragma once
 // The `pof` CLI: one executable, one file per subcommand (cmd_<name>.cpp). Each file defines one
-// add_<name>() that registers its subcommand on the app; main.cpp calls them all and maps
-// pof::Error to the exit codes of pof/base/exit_codes.hpp.
+// add_<name>() that registers its subcommand on the app; main.cpp calls them all and runs the parse
+// through pof::service::run_main, which maps what a subcommand throws to its exit code.
 #include <CLI/CLI.hpp>
 
 namespace pof::cli {

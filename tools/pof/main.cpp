@@ -1,13 +1,11 @@
 // pof: the command-line front end of pofkit. Subcommands live in cmd_*.cpp (see commands.hpp).
-#include <cstdio>
-#include <exception>
-
 #include <CLI/CLI.hpp>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include "commands.hpp"
-#include "pof/base/errors.hpp"
+#include "pof/base/exit_codes.hpp"
+#include "pof/service/run_main.hpp"
 
 int main(int argc, char** argv) {
   // Diagnostics go to stderr: stdout carries results (tables, CSV, `pof record --check`,
@@ -26,18 +24,7 @@ int main(int argc, char** argv) {
   pof::cli::add_spy(app);
   pof::cli::add_export(app);
 
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    // CLI11 prints help/usage itself; its usage errors are exit 2 like every other pofkit tool.
-    const int rc = app.exit(e);
-    return rc == 0 ? 0 : pof::kExitUsage;
-  } catch (const pof::Error& e) {
-    spdlog::error("{}", e.what());
-    return e.code();
-  } catch (const std::exception& e) {
-    spdlog::error("{}", e.what());
-    return pof::kExitIoErr;
-  }
-  return 0;
+  // The subcommands run inside the parse (their callbacks), so their exceptions go through
+  // run_main's table too.
+  return pof::service::run_main("pof", app, argc, argv, [] { return pof::kExitOk; });
 }

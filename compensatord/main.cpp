@@ -27,11 +27,12 @@
 #include <spdlog/spdlog.h>
 
 #include "pipeline.hpp"
+#include "pof/bus/channels.hpp"
 #include "pof/bus/error_log.hpp"
 #include "pof/bus/receiver.hpp"
+#include "pof/bus/url.hpp"
 #include "pof/io/calibration_file.hpp"
 #include "pof/base/errors.hpp"
-#include "pof/lcm/url.hpp"
 #include "pof/service/sd_notify.hpp"
 #include "pof/lcm/utime.hpp"
 
@@ -91,12 +92,14 @@ int run(const Options& o) {
 
   pof::compensatord::Pipeline pipeline(pof::io::load_calibration(o.cal, o.model), o.cal, ps, pot);
 
-  const std::string url = pof::lcmutil::resolve_url(o.lcm_url);
+  const std::string url = pof::bus::resolve_url(o.lcm_url);
   lcm::LCM lc(url);
   if (!lc.good()) throw pof::ConfigError("LCM URL '" + url + "': cannot open (is there a multicast route? see docs/deployment.md)");
-  const std::string raw_ch = pof::lcmutil::channel("POF_RAW", o.sensor_id);
-  LcmSink sink(lc, pof::lcmutil::channel("POF_ANGLE", o.sensor_id), pof::lcmutil::channel("POF_STATS", o.sensor_id));
-  const std::string status_ch = pof::lcmutil::channel("POF_COMPENSATOR_STATUS", o.sensor_id);
+  using pof::bus::Stream;
+  const std::string raw_ch = pof::bus::channel(Stream::kRaw, o.sensor_id);
+  const std::string angle_ch = pof::bus::channel(Stream::kAngle, o.sensor_id);
+  LcmSink sink(lc, angle_ch, pof::bus::channel(Stream::kStats, o.sensor_id));
+  const std::string status_ch = pof::bus::channel(Stream::kCompensatorStatus, o.sensor_id);
 
   // The stream counts as quiet after kQuiet without blocks: the cycle in progress is closed then
   // (pof-daqd stopped or the cable is out), so a session's last cycle reaches POF_STATS.
@@ -122,7 +125,7 @@ int run(const Options& o) {
 
   pof::service::ServiceNotifier notifier;
   notifier.ready("compensating " + raw_ch + " with " + o.cal);
-  spdlog::info("{} -> {} on {} (calibration {}, output {})", raw_ch, pof::lcmutil::channel("POF_ANGLE", o.sensor_id),
+  spdlog::info("{} -> {} on {} (calibration {}, output {})", raw_ch, angle_ch,
                url, o.cal, o.output_rate_hz > 0 ? std::to_string(o.output_rate_hz) + " Hz" : std::string("every scan"));
 
   std::int64_t status_seq = 0;

@@ -39,7 +39,7 @@ TEST(SpyMonitor, RatesCountsAndGaps) {
   EXPECT_EQ(c.seq.gaps, 1u);
   EXPECT_EQ(c.seq.missing, 3u);
   EXPECT_NEAR(c.rate_hz, 100.0, 1.0);
-  EXPECT_EQ(c.type, pof::recorder::PofType::kAngle);
+  EXPECT_EQ(c.type, pof::bus::MessageType::kAngle);
 }
 
 TEST(SpyMonitor, RendersDecodedValuesOfOurTypesAndFingerprintsOfOthers) {

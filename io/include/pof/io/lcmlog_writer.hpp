@@ -1,7 +1,7 @@
 #pragma once
 // LCM log recordings: pof::raw_block_t messages on POF_RAW (lcmtypes/raw_block_t.lcm), blocks of
 // `block_scans` scans with channels "sensor", "reference", "pot" [V], "angle_ref" [deg] and
-// optionally "angle_true" [deg] (the contract of ../shared brief). Times are a fixed epoch plus the
+// optionally "angle_true" [deg]. Times are a fixed epoch plus the
 // scan time, so the file is byte-for-byte deterministic; the log event timestamp is the block's
 // publish_utime (the time of its last scan). Readable by lcm-logplayer. Written atomically.
 #include <cstdint>
@@ -9,6 +9,7 @@
 #include <memory>
 #include <string>
 
+#include "pof/bus/channels.hpp"
 #include "pof/io/atomic_file.hpp"
 #include "pof/io/recording.hpp"
 #include "pof/io/recording_row.hpp"
@@ -19,7 +20,7 @@ namespace pof::io {
 inline constexpr std::int64_t kDefaultEpochUtime = 1506816000LL * 1000000LL;
 
 struct LcmLogOptions {
-  std::string channel = "POF_RAW";
+  std::string channel = bus::channel(bus::Stream::kRaw);
   std::string sensor_id;               // raw_block_t.sensor_id
   double scan_rate_hz = 200;           // raw_block_t.scan_rate_hz
   int block_scans = 20;                // scans per message (100 ms at 200 Hz)

@@ -29,7 +29,8 @@ const char* state_name(State s);
 
 class Daemon {
  public:
-  /// Setup: opens LCM (throws pof::IoError when the URL does not work) and allocates the queue.
+  /// Setup: opens LCM on cfg.lcm_url (as pof::bus::resolve_url() gave it; throws pof::IoError
+  /// when the URL does not work) and allocates the queue.
   Daemon(DaqConfig cfg, std::unique_ptr<Backend> backend);
   ~Daemon();
   Daemon(const Daemon&) = delete;

@@ -26,6 +26,7 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "lcm_sink.hpp"
 #include "pipeline.hpp"
 #include "pof/bus/channels.hpp"
 #include "pof/bus/error_log.hpp"
@@ -51,19 +52,6 @@ extern "C" void on_signal(int sig) {
   if (sig == SIGHUP) g_reload = true;
   else g_stop = true;
 }
-
-class LcmSink final : public pof::compensatord::Sink {
- public:
-  LcmSink(lcm::LCM& lc, std::string angle_ch, std::string stats_ch)
-      : lc_(lc), angle_ch_(std::move(angle_ch)), stats_ch_(std::move(stats_ch)) {}
-  void angle(const pof::angle_t& m) override { publish_failures_ += lc_.publish(angle_ch_, &m) != 0; }
-  void cycle(const pof::cycle_stats_t& m) override { publish_failures_ += lc_.publish(stats_ch_, &m) != 0; }
-  std::int64_t publish_failures_ = 0;
-
- private:
-  lcm::LCM& lc_;
-  std::string angle_ch_, stats_ch_;
-};
 
 struct Options {
   std::string cal;
@@ -98,8 +86,10 @@ int run(const Options& o) {
   using pof::bus::Stream;
   const std::string raw_ch = pof::bus::channel(Stream::kRaw, o.sensor_id);
   const std::string angle_ch = pof::bus::channel(Stream::kAngle, o.sensor_id);
-  LcmSink sink(lc, angle_ch, pof::bus::channel(Stream::kStats, o.sensor_id));
-  const std::string status_ch = pof::bus::channel(Stream::kCompensatorStatus, o.sensor_id);
+  // Bad input and refused publishes are logged: the first of each kind in full, then a count every 10 s.
+  pof::bus::ErrorLog errors([](const std::string& line) { spdlog::warn("{}", line); });
+  pof::compensatord::LcmSink sink(lc, angle_ch, pof::bus::channel(Stream::kStats, o.sensor_id), errors);
+  const pof::compensatord::LcmSink::Out status_out(pof::bus::channel(Stream::kCompensatorStatus, o.sensor_id));
 
   // The stream counts as quiet after kQuiet without blocks: the cycle in progress is closed then
   // (pof-daqd stopped or the cable is out), so a session's last cycle reaches POF_STATS.
@@ -114,8 +104,6 @@ int run(const Options& o) {
     last_block = std::chrono::steady_clock::now();
     quiet = false;
   });
-  // Bad input is logged: the first of each kind in full, then a count every 10 s.
-  pof::bus::ErrorLog errors([](const std::string& line) { spdlog::warn("{}", line); });
   rx.on_error([&](const pof::bus::ReceiveError& e) { errors.note(e.channel, e.describe(), now_utime()); });
   std::uint64_t malformed_seen = 0, incomplete_seen = 0;
 
@@ -165,7 +153,7 @@ int run(const Options& o) {
       malformed_seen = rs.malformed_datagrams;
       incomplete_seen = rs.incomplete_messages;
       errors.tick(now_utime());
-      lc.publish(status_ch, &st);
+      if (!sink.sent(lc.publish(status_out.channel, &st), status_out)) pipeline.note_publish_failure();  // in the next status
       next_status = now + std::chrono::seconds(1);
     }
     notifier.watchdog_if_due();
@@ -175,9 +163,9 @@ int run(const Options& o) {
   const pof::compensator_status_t fin = pipeline.status(0);
   const pof::bus::ReceiverStats rs = rx.stats();
   spdlog::info("stopped: {} blocks, {} scans, {} lost scans, {} angles, {} cycles; {} duplicate blocks, {} decode "
-               "errors, {} malformed datagrams, {} incomplete messages",
+               "errors, {} malformed datagrams, {} incomplete messages; {} publish failures",
                fin.blocks, fin.scans, fin.lost_scans, fin.angles, fin.cycles, fin.duplicate_blocks, rs.decode_errors,
-               rs.malformed_datagrams, rs.incomplete_messages);
+               rs.malformed_datagrams, rs.incomplete_messages, fin.publish_failures);
   return 0;
 }
 

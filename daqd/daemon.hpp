@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "pof/daq/backends/backend.hpp"
+#include "pof/daq_status_t.hpp"
 #include "pof/daq/stream/acquisition.hpp"
 #include "pof/daq/stream/config.hpp"
 #include "pof/daq/stream/doorbell.hpp"
@@ -48,6 +49,10 @@ class Daemon {
   /// True once the device has streamed and the protocol variant is fully told (no undecided part).
   [[nodiscard]] bool variant_known() const;
   [[nodiscard]] std::int64_t scans() const { return counters_.scans.load(); }
+  /// Raw blocks and statuses LCM refused to publish so far.
+  [[nodiscard]] std::int64_t publish_failures() const { return counters_.publish_failures.load(); }
+  /// The daq_status_t published for `state` now (seq is the publisher's): counters, identity, rate.
+  [[nodiscard]] pof::daq_status_t status(State state, const std::string& text);
 
  private:
   void acquisition_main();

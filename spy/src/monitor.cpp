@@ -235,10 +235,11 @@ std::string render(const Monitor& m, const RenderOptions& o) {
                d.state_text.c_str(), d.device_kind.c_str(), d.sensor_id.empty() ? "-" : d.sensor_id.c_str(),
                static_cast<unsigned>(d.vendor_id), static_cast<unsigned>(d.product_id), d.serial.c_str(), d.scan_rate_hz,
                d.n_channels);
-      s += fmt("   scans %lld  blocks %lld  dropped_scans %lld  usb_errors %lld  overruns %lld  reconnects %lld\n",
+      s += fmt("   scans %lld  blocks %lld  dropped_scans %lld  usb_errors %lld  overruns %lld  reconnects %lld"
+               "  publish_failures %lld\n",
                static_cast<long long>(d.scans), static_cast<long long>(d.blocks), static_cast<long long>(d.dropped_scans),
                static_cast<long long>(d.usb_errors), static_cast<long long>(d.overruns),
-               static_cast<long long>(d.reconnects));
+               static_cast<long long>(d.reconnects), static_cast<long long>(d.publish_failures));
     }
     if (c.compensator) {  // pof-compensatord's health: what it lost, rejected or flagged
       const auto& d = *c.compensator;
@@ -253,9 +254,9 @@ std::string render(const Monitor& m, const RenderOptions& o) {
       s += fmt("   angles %lld  cycles %lld  reloads %d  reload failures %d%s%s\n", static_cast<long long>(d.angles),
                static_cast<long long>(d.cycles), d.reloads, d.reload_failures,
                d.last_error.empty() ? "" : "  last error: ", d.last_error.c_str());
-      s += fmt("   decode_errors %lld  malformed_datagrams %lld  duplicate_blocks %lld\n",
+      s += fmt("   decode_errors %lld  malformed_datagrams %lld  duplicate_blocks %lld  publish_failures %lld\n",
                static_cast<long long>(d.decode_errors), static_cast<long long>(d.malformed_datagrams),
-               static_cast<long long>(d.duplicate_blocks));
+               static_cast<long long>(d.duplicate_blocks), static_cast<long long>(d.publish_failures));
     }
   }
   if (m.channels().empty()) s += "(no messages yet)\n";

@@ -110,12 +110,13 @@ void run(const ExportOptions& o) {
           break;
         case bus::MessageType::kDaqStatus:
           out << "utime,seq,sensor_id,device_kind,vendor_id,product_id,serial,state,state_text,scan_rate_hz,"
-                 "n_channels,scans,blocks,dropped_scans,usb_errors,overruns,reconnects,protocol_variant,padding_set\n";
+                 "n_channels,scans,blocks,dropped_scans,usb_errors,overruns,reconnects,protocol_variant,padding_set,"
+                 "publish_failures\n";
           break;
         case bus::MessageType::kCompensatorStatus:
           out << "utime,seq,sensor_id,calibration_path,calibration_sensor_id,calibration_date,blocks,scans,"
                  "lost_blocks,lost_scans,rejected_blocks,fault_scans,angles,cycles,reloads,reload_failures,"
-                 "last_error,decode_errors,malformed_datagrams,duplicate_blocks\n";
+                 "last_error,decode_errors,malformed_datagrams,duplicate_blocks,publish_failures\n";
           break;
         case bus::MessageType::kRawBlock:
         case bus::MessageType::kUnknown:
@@ -150,7 +151,7 @@ void run(const ExportOptions& o) {
           << ',' << m.product_id << ',' << text(m.serial) << ',' << state_name(m.state) << ','
           << text(m.state_text) << ',' << num(m.scan_rate_hz) << ',' << m.n_channels << ',' << m.scans << ','
           << m.blocks << ',' << m.dropped_scans << ',' << m.usb_errors << ',' << m.overruns << ',' << m.reconnects
-          << ',' << text(m.protocol_variant) << ',' << m.padding_set << '\n';
+          << ',' << text(m.protocol_variant) << ',' << m.padding_set << ',' << m.publish_failures << '\n';
       ++rows;
     } else if (t == bus::MessageType::kCompensatorStatus) {
       pof::compensator_status_t m{};
@@ -160,7 +161,7 @@ void run(const ExportOptions& o) {
           << ',' << m.lost_blocks << ',' << m.lost_scans << ',' << m.rejected_blocks << ',' << m.fault_scans << ','
           << m.angles << ',' << m.cycles << ',' << m.reloads << ',' << m.reload_failures << ','
           << text(m.last_error) << ',' << m.decode_errors << ',' << m.malformed_datagrams << ','
-          << m.duplicate_blocks << '\n';
+          << m.duplicate_blocks << ',' << m.publish_failures << '\n';
       ++rows;
     } else {
       pof::raw_block_t m{};

@@ -25,12 +25,14 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "lcm_sink.hpp"
 #include "pipeline.hpp"
+#include "pof/bus/channels.hpp"
 #include "pof/bus/error_log.hpp"
 #include "pof/bus/receiver.hpp"
+#include "pof/bus/url.hpp"
 #include "pof/io/calibration_file.hpp"
 #include "pof/base/errors.hpp"
-#include "pof/lcm/url.hpp"
 #include "pof/service/run_main.hpp"
 #include "pof/service/sd_notify.hpp"
 #include "pof/service/signals.hpp"
@@ -43,19 +45,6 @@ using pof::lcmutil::now_utime;
 std::int64_t clamp_count(std::uint64_t n) {
   return static_cast<std::int64_t>(std::min<std::uint64_t>(n, std::numeric_limits<std::int64_t>::max()));
 }
-
-class LcmSink final : public pof::compensatord::Sink {
- public:
-  LcmSink(lcm::LCM& lc, std::string angle_ch, std::string stats_ch)
-      : lc_(lc), angle_ch_(std::move(angle_ch)), stats_ch_(std::move(stats_ch)) {}
-  void angle(const pof::angle_t& m) override { publish_failures_ += lc_.publish(angle_ch_, &m) != 0; }
-  void cycle(const pof::cycle_stats_t& m) override { publish_failures_ += lc_.publish(stats_ch_, &m) != 0; }
-  std::int64_t publish_failures_ = 0;
-
- private:
-  lcm::LCM& lc_;
-  std::string angle_ch_, stats_ch_;
-};
 
 struct Options {
   std::string cal;
@@ -87,12 +76,16 @@ int run(const Options& o) {
 
   pof::compensatord::Pipeline pipeline(pof::io::load_calibration(o.cal, o.model), o.cal, ps, pot);
 
-  const std::string url = pof::lcmutil::resolve_url(o.lcm_url);
+  const std::string url = pof::bus::resolve_url(o.lcm_url);
   lcm::LCM lc(url);
   if (!lc.good()) throw pof::ConfigError("LCM URL '" + url + "': cannot open (is there a multicast route? see docs/deployment.md)");
-  const std::string raw_ch = pof::lcmutil::channel("POF_RAW", o.sensor_id);
-  LcmSink sink(lc, pof::lcmutil::channel("POF_ANGLE", o.sensor_id), pof::lcmutil::channel("POF_STATS", o.sensor_id));
-  const std::string status_ch = pof::lcmutil::channel("POF_COMPENSATOR_STATUS", o.sensor_id);
+  using pof::bus::Stream;
+  const std::string raw_ch = pof::bus::channel(Stream::kRaw, o.sensor_id);
+  const std::string angle_ch = pof::bus::channel(Stream::kAngle, o.sensor_id);
+  // Bad input and refused publishes are logged: the first of each kind in full, then a count every 10 s.
+  pof::bus::ErrorLog errors([](const std::string& line) { spdlog::warn("{}", line); });
+  pof::compensatord::LcmSink sink(lc, angle_ch, pof::bus::channel(Stream::kStats, o.sensor_id), errors);
+  const pof::compensatord::LcmSink::Out status_out(pof::bus::channel(Stream::kCompensatorStatus, o.sensor_id));
 
   // The stream counts as quiet after kQuiet without blocks: the cycle in progress is closed then
   // (pof-daqd stopped or the cable is out), so a session's last cycle reaches POF_STATS.
@@ -107,14 +100,12 @@ int run(const Options& o) {
     last_block = std::chrono::steady_clock::now();
     quiet = false;
   });
-  // Bad input is logged: the first of each kind in full, then a count every 10 s.
-  pof::bus::ErrorLog errors([](const std::string& line) { spdlog::warn("{}", line); });
   rx.on_error([&](const pof::bus::ReceiveError& e) { errors.note(e.channel, e.describe(), now_utime()); });
   std::uint64_t malformed_seen = 0, incomplete_seen = 0;
 
   pof::service::ServiceNotifier notifier;
   notifier.ready("compensating " + raw_ch + " with " + o.cal);
-  spdlog::info("{} -> {} on {} (calibration {}, output {})", raw_ch, pof::lcmutil::channel("POF_ANGLE", o.sensor_id),
+  spdlog::info("{} -> {} on {} (calibration {}, output {})", raw_ch, angle_ch,
                url, o.cal, o.output_rate_hz > 0 ? std::to_string(o.output_rate_hz) + " Hz" : std::string("every scan"));
 
   std::int64_t status_seq = 0;
@@ -159,7 +150,7 @@ int run(const Options& o) {
       malformed_seen = rs.malformed_datagrams;
       incomplete_seen = rs.incomplete_messages;
       errors.tick(now_utime());
-      lc.publish(status_ch, &st);
+      if (!sink.sent(lc.publish(status_out.channel, &st), status_out)) pipeline.note_publish_failure();  // in the next status
       next_status = now + std::chrono::seconds(1);
     }
     notifier.watchdog_if_due();
@@ -169,9 +160,9 @@ int run(const Options& o) {
   const pof::compensator_status_t fin = pipeline.status(0);
   const pof::bus::ReceiverStats rs = rx.stats();
   spdlog::info("stopped: {} blocks, {} scans, {} lost scans, {} angles, {} cycles; {} duplicate blocks, {} decode "
-               "errors, {} malformed datagrams, {} incomplete messages",
+               "errors, {} malformed datagrams, {} incomplete messages; {} publish failures",
                fin.blocks, fin.scans, fin.lost_scans, fin.angles, fin.cycles, fin.duplicate_blocks, rs.decode_errors,
-               rs.malformed_datagrams, rs.incomplete_messages);
+               rs.malformed_datagrams, rs.incomplete_messages, fin.publish_failures);
   return 0;
 }
 

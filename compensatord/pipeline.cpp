@@ -65,6 +65,8 @@ void Pipeline::note_reload_failure(const std::string& why) {
   counters_.last_error = why;
 }
 
+void Pipeline::note_publish_failure() noexcept { sat_add(counters_.publish_failures, 1); }
+
 void Pipeline::ensure_compensator(double scan_rate_hz) {
   if (comp_ && scan_rate_hz == rate_) return;
   core::CompensatorSettings cs = s_.compensator;
@@ -231,14 +233,14 @@ void Pipeline::emit_cycle(Sink& sink) {
   m.max_error_deg = float(c.max_error_deg);
   m.n_samples = std::int32_t(c.n_samples);
   sat_add(counters_.cycles, 1);
-  sink.cycle(m);
+  if (!sink.cycle(m)) note_publish_failure();
 }
 
 void Pipeline::emit_angle(std::int64_t publish_utime, Sink& sink) {
   pending_.publish_utime = publish_utime;
   pending_.seq = angle_seq_++;
   sat_add(counters_.angles, 1);
-  sink.angle(pending_);
+  if (!sink.angle(pending_)) note_publish_failure();
 }
 
 pof::compensator_status_t Pipeline::status(std::int64_t now_utime) const {

@@ -36,12 +36,14 @@ struct PipelineSettings {
   core::StatisticsSettings statistics;
 };
 
-/// Receives what the pipeline produces (the daemon publishes; tests collect).
+/// Receives what the pipeline produces (the daemon publishes; tests collect). Each returns false
+/// when the message could not be published (LCM refused it): the pipeline counts it in
+/// compensator_status_t.publish_failures. Must not throw.
 class Sink {
  public:
   virtual ~Sink() = default;
-  virtual void angle(const pof::angle_t& msg) = 0;
-  virtual void cycle(const pof::cycle_stats_t& msg) = 0;
+  virtual bool angle(const pof::angle_t& msg) = 0;
+  virtual bool cycle(const pof::cycle_stats_t& msg) = 0;
 };
 
 class Pipeline {
@@ -73,6 +75,9 @@ class Pipeline {
   /// Swaps in a new calibration between blocks (SIGHUP). The velocity history restarts.
   void replace_calibration(io::CalibrationFile cal, std::string cal_path);
   void note_reload_failure(const std::string& why);
+  /// A message the daemon failed to publish outside the pipeline (its status), counted with the
+  /// angles and cycles the Sink refused in publish_failures.
+  void note_publish_failure() noexcept;
 
   [[nodiscard]] pof::compensator_status_t status(std::int64_t now_utime) const;
 

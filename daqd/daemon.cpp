@@ -9,6 +9,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <spdlog/spdlog.h>
 
+#include "pof/bus/error_log.hpp"
 #include "pof/daq_status_t.hpp"
 #include "pof/service/sd_notify.hpp"
 #include "pof/base/errors.hpp"
@@ -180,6 +181,34 @@ bool Daemon::variant_known() const {
   return counters_.scans.load() > 0 && v != 0 && (v & kVariantOrderUndecided) == 0U;
 }
 
+pof::daq_status_t Daemon::status(State state, const std::string& text) {
+  pof::daq_status_t s;
+  s.utime = now_utime();
+  s.sensor_id = cfg_.sensor_id;
+  s.device_kind = cfg_.device_kind;
+  {
+    std::lock_guard lock(state_mu_);
+    s.vendor_id = identity_.vendor_id;
+    s.product_id = identity_.product_id;
+    s.serial = identity_.serial;
+  }
+  s.state = static_cast<std::int8_t>(state);
+  s.state_text = text;
+  const double real_rate = published_rate_hz_.load();
+  s.scan_rate_hz = real_rate > 0 ? real_rate : cfg_.published_rate_hz();
+  s.n_channels = static_cast<std::int16_t>(cfg_.channels().size());
+  s.scans = counters_.scans.load();
+  s.blocks = counters_.blocks.load();
+  s.dropped_scans = counters_.dropped_scans.load();
+  s.usb_errors = counters_.usb_errors.load();
+  s.overruns = counters_.overruns.load();
+  s.reconnects = counters_.reconnects.load();
+  s.protocol_variant = describe_variant(counters_.variant.load());
+  s.padding_set = counters_.padding_set.load();
+  s.publish_failures = counters_.publish_failures.load();
+  return s;
+}
+
 void Daemon::publisher_main() {
   const std::vector<ChannelMap> chans = cfg_.channels();
   const auto n_ch = static_cast<std::int16_t>(chans.size());
@@ -206,32 +235,23 @@ void Daemon::publisher_main() {
     identity_ = backend_->identity();  // before the first open: configured values
   }
 
+  // A message LCM refuses is counted (published in the next status; its seq is skipped) and
+  // logged: the first per channel in full, then a count every 10 s. The lines are made here.
+  pof::bus::ErrorLog errors([](const std::string& line) { spdlog::warn("{}", line); });
+  const auto refusal = [&](const std::string& channel, const char* type) {
+    return "LCM refused to publish a " + std::string(type) + " on " + channel + " (" + cfg_.lcm_url +
+           "; counted in publish_failures)";
+  };
+  const std::string raw_refused = refusal(raw_channel, "raw_block_t");
+  const std::string status_refused = refusal(status_channel, "daq_status_t");
+  auto refused = [&](const std::string& channel, const std::string& line) {
+    counters_.publish_failures.fetch_add(1, std::memory_order_relaxed);
+    errors.note(channel, line, now_utime());
+  };
   auto publish_status = [&](State state, const std::string& text) {
-    pof::daq_status_t s;
-    s.utime = now_utime();
+    pof::daq_status_t s = status(state, text);
     s.seq = status_seq++;
-    s.sensor_id = cfg_.sensor_id;
-    s.device_kind = cfg_.device_kind;
-    {
-      std::lock_guard lock(state_mu_);
-      s.vendor_id = identity_.vendor_id;
-      s.product_id = identity_.product_id;
-      s.serial = identity_.serial;
-    }
-    s.state = static_cast<std::int8_t>(state);
-    s.state_text = text;
-    const double real_rate = published_rate_hz_.load();
-    s.scan_rate_hz = real_rate > 0 ? real_rate : cfg_.published_rate_hz();
-    s.n_channels = n_ch;
-    s.scans = counters_.scans.load();
-    s.blocks = counters_.blocks.load();
-    s.dropped_scans = counters_.dropped_scans.load();
-    s.usb_errors = counters_.usb_errors.load();
-    s.overruns = counters_.overruns.load();
-    s.reconnects = counters_.reconnects.load();
-    s.protocol_variant = describe_variant(counters_.variant.load());
-    s.padding_set = counters_.padding_set.load();
-    lcm_->lcm.publish(status_channel, &s);
+    if (lcm_->lcm.publish(status_channel, &s) != 0) refused(status_channel, status_refused);
   };
 
   const auto period = std::chrono::duration<double>(cfg_.status_period_s);
@@ -267,7 +287,8 @@ void Daemon::publisher_main() {
       queue_.pop();
       msg.publish_utime = now_utime();
       const int len = msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
-      if (len > 0) lcm_->lcm.publish(raw_channel, buf.data(), static_cast<unsigned>(len));
+      if (len <= 0 || lcm_->lcm.publish(raw_channel, buf.data(), static_cast<unsigned>(len)) != 0)
+        refused(raw_channel, raw_refused);
       counters_.blocks.fetch_add(1, std::memory_order_relaxed);
     }
     std::deque<std::pair<State, std::string>> events;
@@ -280,6 +301,7 @@ void Daemon::publisher_main() {
       text = state_text_;
     }
     for (const auto& [st, why] : events) publish_status(st, why);
+    errors.tick(now_utime());
     const auto now = std::chrono::steady_clock::now();
     if (now >= next_status) {
       if (events.empty()) publish_status(state, text);

@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "pof/daq/backends/backend.hpp"
+#include "pof/daq_status_t.hpp"
 #include "pof/daq/stream/acquisition.hpp"
 #include "pof/daq/stream/config.hpp"
 #include "pof/daq/stream/doorbell.hpp"
@@ -29,7 +30,8 @@ const char* state_name(State s);
 
 class Daemon {
  public:
-  /// Setup: opens LCM (throws pof::IoError when the URL does not work) and allocates the queue.
+  /// Setup: opens LCM on cfg.lcm_url (as pof::bus::resolve_url() gave it; throws pof::IoError
+  /// when the URL does not work) and allocates the queue.
   Daemon(DaqConfig cfg, std::unique_ptr<Backend> backend);
   ~Daemon();
   Daemon(const Daemon&) = delete;
@@ -47,6 +49,10 @@ class Daemon {
   /// True once the device has streamed and the protocol variant is fully told (no undecided part).
   [[nodiscard]] bool variant_known() const;
   [[nodiscard]] std::int64_t scans() const { return counters_.scans.load(); }
+  /// Raw blocks and statuses LCM refused to publish so far.
+  [[nodiscard]] std::int64_t publish_failures() const { return counters_.publish_failures.load(); }
+  /// The daq_status_t published for `state` now (seq is the publisher's): counters, identity, rate.
+  [[nodiscard]] pof::daq_status_t status(State state, const std::string& text);
 
  private:
   void acquisition_main();

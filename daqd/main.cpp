@@ -20,6 +20,7 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "pof/bus/url.hpp"
 #include "pof/daq/backends/backend.hpp"
 #include "pof/daq/stream/config.hpp"
 #include "daemon.hpp"
@@ -61,7 +62,7 @@ int main(int argc, char** argv) {
   app.add_option("-r,--rate", rate, "acquisition.scan_rate_hz");
   app.add_option("--decimate", decimate, "acquisition.decimate");
   app.add_option("--block-scans", block_scans, "acquisition.block_scans");
-  app.add_option("--lcm-url", lcm_url, "lcm.url");
+  app.add_option("--lcm-url", lcm_url, "lcm.url (default: $LCM_DEFAULT_URL, else udpm on this host, ttl=0)");
   app.add_option("--sensor-id", sensor_id, "lcm.sensor_id (channel suffix)");
   app.add_option("-s,--set", sets, "override any key: section.key=value (repeatable)");
   app.add_option("--duration", duration_s, "stop after this many seconds (tests, benchmarks)")
@@ -104,7 +105,10 @@ int main(int argc, char** argv) {
         !lcm_url.empty() || !sensor_id.empty() || !serial.empty()) {
       source += " + command line";
     }
-    const daq::DaqConfig cfg = daq::config_from_table(table, source);
+    daq::DaqConfig cfg = daq::config_from_table(table, source);
+    // --lcm-url, else lcm.url of the file, else $LCM_DEFAULT_URL, else this host only: the rule of
+    // every pofkit process (pof/bus/url.hpp); --print-config shows the URL it resolved to.
+    cfg.lcm_url = bus::resolve_url(cfg.lcm_url);
     if (print_config) {
       std::cout << daq::to_toml(cfg);
       return pof::kExitOk;

@@ -36,7 +36,7 @@ std::string ReceiveError::describe() const {
 
 Receiver::Receiver(lcm::LCM& lc, const std::string& url, ReceiverOptions options) : lc_(lc), opt_(options) {
   if (url.rfind("udpm://", 0) == 0) {
-    udpm_ = std::make_unique<UdpmReceiver>(parse_udpm_url(url), opt_.udpm);
+    udpm_ = std::make_unique<UdpmReceiver>(url, opt_.udpm);
     sink_ = [this](int64_t utime, std::string_view channel, const unsigned char* data, uint32_t size) {
       dispatch(channel, data, size, utime);
     };

@@ -7,7 +7,6 @@
 
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -72,17 +71,6 @@ long rmem_max() {
   long v = -1;
   if (!(in >> v)) return -1;
   return v;
-}
-
-uint16_t lcm_url_port(const char* url) {
-  if (url == nullptr || *url == '\0') url = std::getenv("LCM_DEFAULT_URL");
-  if (url == nullptr || *url == '\0') return 7667;  // lcm's default udpm://239.255.76.67:7667
-  if (std::strncmp(url, "udpm://", 7) != 0) return 0;
-  const char* host = url + 7;
-  const char* q = std::strchr(host, '?');
-  const char* colon = std::strchr(host, ':');
-  if (colon == nullptr || (q != nullptr && colon > q)) return 7667;
-  return static_cast<uint16_t>(std::strtoul(colon + 1, nullptr, 10));
 }
 
 }  // namespace pof::bus

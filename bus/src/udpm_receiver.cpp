@@ -29,53 +29,9 @@ constexpr std::size_t kMaxChannelBytes = LCM_MAX_CHANNEL_NAME_LENGTH;
 
 }  // namespace
 
-UdpmUrl parse_udpm_url(const std::string& url) {
-  UdpmUrl u;
-  if (url.rfind("udpm://", 0) != 0) throw pof::ConfigError("LCM URL '" + url + "': not a udpm:// URL");
-  std::string rest = url.substr(7);
-  std::string query;
-  if (const auto q = rest.find('?'); q != std::string::npos) {
-    query = rest.substr(q + 1);
-    rest = rest.substr(0, q);
-  }
-  if (!rest.empty()) {
-    const auto colon = rest.find(':');
-    u.group = rest.substr(0, colon);
-    if (colon != std::string::npos) {
-      char* end = nullptr;
-      const long port = std::strtol(rest.c_str() + colon + 1, &end, 10);
-      if (*end != '\0' || port <= 0 || port > 65535)
-        throw pof::ConfigError("LCM URL '" + url + "': port: expected 1..65535");
-      u.port = static_cast<uint16_t>(port);
-    }
-  }
-  in_addr a{};
-  if (inet_aton(u.group.c_str(), &a) == 0 || !IN_MULTICAST(ntohl(a.s_addr)))
-    throw pof::ConfigError("LCM URL '" + url + "': '" + u.group + "' is not an IPv4 multicast address");
-  std::size_t pos = 0;
-  while (pos < query.size()) {
-    const auto amp = query.find('&', pos);
-    const std::string kv = query.substr(pos, amp == std::string::npos ? std::string::npos : amp - pos);
-    pos = amp == std::string::npos ? query.size() : amp + 1;
-    const auto eq = kv.find('=');
-    const std::string k = kv.substr(0, eq);
-    const std::string v = eq == std::string::npos ? "" : kv.substr(eq + 1);
-    char* end = nullptr;
-    const long n = std::strtol(v.c_str(), &end, 10);
-    const bool num = !v.empty() && *end == '\0';
-    if (k == "ttl") {
-      if (!num || n < 0 || n > 255) throw pof::ConfigError("LCM URL '" + url + "': ttl: expected 0..255");
-      u.ttl = static_cast<int>(n);
-    } else if (k == "recv_buf_size") {
-      if (!num || n < 0 || n > (1L << 30)) throw pof::ConfigError("LCM URL '" + url + "': recv_buf_size: expected bytes");
-      u.recv_buf_size = static_cast<int>(n);
-    }
-    // Other liblcm options (transmit-only ones) do not concern a receiver.
-  }
-  return u;
-}
-
-UdpmReceiver::UdpmReceiver(const UdpmUrl& url, UdpmLimits limits) : limits_(limits) {
+UdpmReceiver::UdpmReceiver(const std::string& lcm_url, UdpmLimits limits) : limits_(limits) {
+  const UdpmUrl url = parse_udpm_url(lcm_url);
+  if (!url.ok()) throw pof::ConfigError("LCM URL '" + lcm_url + "': " + url.error);
   if (limits_.max_senders == 0) limits_.max_senders = 1;
   const std::string where = "udpm://" + url.group + ":" + std::to_string(url.port);
   fd_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);

@@ -25,8 +25,9 @@
 #include <vector>
 
 #include "pof/angle_t.hpp"
-#include "pof/lcm/url.hpp"    // the LCM URL rule every pofkit process follows
-#include "pof/lcm/utime.hpp"  // microseconds since the epoch, the utime convention
+#include "pof/bus/channels.hpp"  // pofkit's channel names
+#include "pof/bus/url.hpp"       // the LCM URL rule every pofkit process follows
+#include "pof/lcm/utime.hpp"     // microseconds since the epoch, the utime convention
 
 namespace {
 
@@ -84,8 +85,8 @@ int main(int argc, char** argv) {
     else if (a == "--timeout") timeout_s = std::strtod(v, nullptr);
     else return usage(argv[0]);
   }
-  const std::string url = pof::lcmutil::resolve_url(url_opt);
-  const std::string channel = pof::lcmutil::channel("POF_ANGLE", sensor_id);
+  const std::string url = pof::bus::resolve_url(url_opt);
+  const std::string channel = pof::bus::channel(pof::bus::Stream::kAngle, sensor_id);
   lcm::LCM lc(url);
   if (!lc.good()) {
     std::fprintf(stderr, "pof-angle-client: cannot open LCM URL %s\n", url.c_str());

@@ -7,13 +7,17 @@
 #include <pof/raw_block_t.hpp>
 
 #include "pof/base/errors.hpp"
+#include "pof/bus/channels.hpp"
 #include "pof/io/lcmlog_scan.hpp"
 #include "pof/io/recording_reader.hpp"
 
 namespace pof::io {
 
 namespace {
-bool is_raw_channel(std::string_view c) { return c == "POF_RAW" || c.substr(0, 8) == "POF_RAW_"; }
+bool is_raw_channel(std::string_view c) {
+  const auto name = bus::parse_channel(c);
+  return name && name->stream == bus::Stream::kRaw;
+}
 }  // namespace
 
 Recording read_lcmlog(const std::string& path, const std::string& channel) {

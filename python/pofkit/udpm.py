@@ -18,7 +18,6 @@ import os
 import socket
 import struct
 import time
-from urllib.parse import parse_qs, urlsplit
 
 from .types import decode
 
@@ -31,26 +30,59 @@ _IP_MULTICAST_ALL = getattr(socket, "IP_MULTICAST_ALL", 49)  # Linux <linux/in.h
 
 
 def resolve_url(url=None, recv_buf_bytes=8 << 20):
-    """The URL rule every pofkit process follows (pof/lcm/url.hpp): the argument, else
-    $LCM_DEFAULT_URL, else udpm on this host only (ttl=0); a udpm URL without recv_buf_size asks for
-    8 MiB, since the kernel's default buffer drops bursts while the reader is descheduled (the host
-    needs deploy/sysctl.d's rmem_max to grant it)."""
+    """The URL rule every pofkit process follows (bus/include/pof/bus/url.hpp, mirrored here): the
+    argument, else $LCM_DEFAULT_URL, else udpm on this host only (ttl=0); a udpm URL without
+    recv_buf_size asks for 8 MiB, since the kernel's default buffer drops bursts while the reader
+    is descheduled (the host needs deploy/sysctl.d's rmem_max to grant it)."""
     url = url or os.environ.get("LCM_DEFAULT_URL") or HOST_ONLY_URL
     if url.startswith("udpm://") and "recv_buf_size=" not in url.partition("?")[2]:
         url += ("&" if "?" in url else "?") + f"recv_buf_size={recv_buf_bytes}"
     return url
 
 
+def _decimal(text, top):
+    """Decimal digits only (no sign, space, '_' or base prefix), at most ``top``; None otherwise."""
+    if not text or len(text) > 10 or any(not "0" <= c <= "9" for c in text):
+        return None
+    value = int(text)
+    return value if value <= top else None
+
+
 def parse_udpm_url(url):
-    """udpm://GROUP:PORT?ttl=N&recv_buf_size=N -> (group, port, options dict). ValueError otherwise."""
-    parts = urlsplit(url)
-    if parts.scheme != "udpm":
-        raise ValueError(f"LCM URL '{url}': only udpm:// is supported here")
-    group, port = parts.hostname or "239.255.76.67", parts.port or 7667
-    first = int(group.split(".")[0]) if group.count(".") == 3 else -1
+    """udpm://GROUP:PORT?ttl=N&recv_buf_size=N -> (group, port, {"ttl": n, "recv_buf_size": n}),
+    by the rules of pof::bus::parse_udpm_url (bus/include/pof/bus/url.hpp; test_pofkit.py compares
+    the two): GROUP an IPv4 multicast address as inet_aton(3) reads it, PORT 1..65535, ttl 0..255,
+    recv_buf_size 0..2^30, in decimal digits; other options are ignored. ValueError otherwise, with
+    the C++ error text."""
+    def bad(why):
+        return ValueError(f"LCM URL '{url}': {why}")
+    if not url.startswith("udpm://"):
+        raise bad("not a udpm:// URL")
+    rest, _, query = url[len("udpm://"):].partition("?")
+    group, port = "239.255.76.67", 7667
+    if rest:
+        group, colon, port_text = rest.partition(":")
+        if colon:
+            port = _decimal(port_text, 65535)
+            if not port:
+                raise bad("port: expected 1..65535")
+    try:
+        first = socket.inet_aton(group)[0]
+    except (OSError, ValueError):
+        first = -1
     if not 224 <= first <= 239:
-        raise ValueError(f"LCM URL '{url}': '{group}' is not an IPv4 multicast group")
-    opts = {k: v[-1] for k, v in parse_qs(parts.query).items()}
+        raise bad(f"'{group}' is not an IPv4 multicast address")
+    opts = {"ttl": 0, "recv_buf_size": 0}
+    for kv in query.split("&"):
+        key, _, value = kv.partition("=")
+        if key == "ttl":
+            opts["ttl"] = _decimal(value, 255)
+            if opts["ttl"] is None:
+                raise bad("ttl: expected 0..255")
+        elif key == "recv_buf_size":
+            opts["recv_buf_size"] = _decimal(value, 1 << 30)
+            if opts["recv_buf_size"] is None:
+                raise bad("recv_buf_size: expected 0..1073741824 bytes")
     return group, port, opts
 
 
@@ -65,8 +97,8 @@ class Subscriber:
         self._partial = {}  # sender -> [seq, size, got_bytes, n_frags, got_frags, channel, bytearray]
         s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM, socket.IPPROTO_UDP)
         s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        if "recv_buf_size" in opts:
-            s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, int(opts["recv_buf_size"]))
+        if opts["recv_buf_size"] > 0:
+            s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, opts["recv_buf_size"])
         s.bind((group, port))
         mreq = struct.pack("4s4s", socket.inet_aton(group), socket.inet_aton("0.0.0.0"))
         s.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP, mreq)

@@ -19,8 +19,8 @@
 #include "pof/bus/channel_filter.hpp"
 #include "pof/bus/udp_socket.hpp"
 #include "pof/bus/udpm_receiver.hpp"
+#include "pof/bus/url.hpp"
 #include "pof/io/atomic_file.hpp"
-#include "pof/lcm/url.hpp"
 #include "pof/lcm/utime.hpp"
 
 namespace pof::recorder {
@@ -86,8 +86,9 @@ Session::Session(SessionOptions options) : opt_(std::move(options)) {
     if (!fs::is_regular_file(f)) throw pof::NoInputError(f.string() + ": --manifest-file: no such file");
   }
 
-  url_ = lcmutil::resolve_url(opt_.lcm_url, opt_.recv_buf_bytes);
-  port_ = bus::lcm_url_port(url_.c_str());
+  url_ = bus::resolve_url(opt_.lcm_url, opt_.recv_buf_bytes);
+  const bus::UdpmUrl udpm = bus::parse_udpm_url(url_);
+  port_ = udpm.ok() ? udpm.port : 0;  // 0: not udpm (no kernel socket statistics)
 }
 
 Session::~Session() {
@@ -124,7 +125,7 @@ void Session::start() {
 
   if (url_.rfind("udpm://", 0) == 0 && !opt_.use_liblcm) {
     channel_filter_ = std::make_unique<bus::ChannelFilter>(opt_.channels);
-    direct_ = std::make_unique<bus::UdpmReceiver>(bus::parse_udpm_url(url_));
+    direct_ = std::make_unique<bus::UdpmReceiver>(url_);
   } else {
     lcm_ = std::make_unique<lcm::LCM>(url_);
     if (!lcm_->good())
@@ -294,13 +295,13 @@ void Session::writer_loop() {
         auto it = channels_.find(e.channel);
         if (it == channels_.end()) {
           it = channels_.emplace(std::string(e.channel), ChannelStats{}).first;
-          it->second.fingerprint = fingerprint_of(e.data, e.size);
-          it->second.type = pof_type_of(e.data, e.size);
+          it->second.fingerprint = bus::fingerprint_of(e.data, e.size);
+          it->second.type = bus::message_type_of(e.data, e.size);
         }
         ChannelStats& cs = it->second;
         ++cs.events;
         cs.bytes += e.size;
-        if (cs.type != PofType::kUnknown) {
+        if (cs.type != bus::MessageType::kUnknown) {
           if (auto sq = pof_seq(e.data, e.size)) cs.seq.update(*sq);
         }
       }
@@ -436,7 +437,7 @@ void Session::write_manifest(const char* status) {
                        {"first_utime", f.first_utime},
                        {"last_utime", f.last_utime}});
     for (const auto& [name, c] : channels_) {
-      nlohmann::json j = {{"events", c.events}, {"bytes", c.bytes}, {"type", pof_type_name(c.type)}};
+      nlohmann::json j = {{"events", c.events}, {"bytes", c.bytes}, {"type", bus::message_type_name(c.type)}};
       char fp[24];
       std::snprintf(fp, sizeof fp, "0x%016llx", static_cast<unsigned long long>(c.fingerprint));
       j["fingerprint"] = fp;

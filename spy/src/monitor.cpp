@@ -97,20 +97,20 @@ void Monitor::on_message(std::string_view channel, const void* data, std::size_t
   c.bytes += size;
   c.last_size = size;
   c.last_recv_utime = recv_utime;
-  c.fingerprint = recorder::fingerprint_of(data, size);
-  c.type = recorder::pof_type_of(data, size);
+  c.fingerprint = bus::fingerprint_of(data, size);
+  c.type = bus::message_type_of(data, size);
   bool ok = true;
   int64_t seq = 0;
   switch (c.type) {
-    case recorder::PofType::kRawBlock:
+    case bus::MessageType::kRawBlock:
       ok = decode_into(c.raw, data, size);
       if (ok) seq = c.raw->seq;
       break;
-    case recorder::PofType::kAngle:
+    case bus::MessageType::kAngle:
       ok = decode_into(c.angle, data, size);
       if (ok) seq = c.angle->seq;
       break;
-    case recorder::PofType::kCycleStats: {
+    case bus::MessageType::kCycleStats: {
       std::optional<pof::cycle_stats_t> s;
       ok = decode_into(s, data, size);
       if (ok) {
@@ -120,15 +120,15 @@ void Monitor::on_message(std::string_view channel, const void* data, std::size_t
       }
       break;
     }
-    case recorder::PofType::kDaqStatus:
+    case bus::MessageType::kDaqStatus:
       ok = decode_into(c.status, data, size);
       if (ok) seq = c.status->seq;
       break;
-    case recorder::PofType::kCompensatorStatus:
+    case bus::MessageType::kCompensatorStatus:
       ok = decode_into(c.compensator, data, size);
       if (ok) seq = c.compensator->seq;
       break;
-    case recorder::PofType::kUnknown:
+    case bus::MessageType::kUnknown:
       return;
   }
   if (!ok) {
@@ -163,11 +163,11 @@ std::string render(const Monitor& m, const RenderOptions& o) {
                       "MISSING", "AGE s")) +
        "\n";
   for (const auto& [name, c] : m.channels()) {
-    std::string type = c.type == recorder::PofType::kUnknown ? fmt("fp:%016llx", static_cast<unsigned long long>(c.fingerprint))
-                                                             : recorder::pof_type_name(c.type);
+    std::string type = c.type == bus::MessageType::kUnknown ? fmt("fp:%016llx", static_cast<unsigned long long>(c.fingerprint))
+                                                             : bus::message_type_name(c.type);
     const double age = o.now_utime > c.last_recv_utime ? static_cast<double>(o.now_utime - c.last_recv_utime) / 1e6 : 0.0;
-    std::string gaps = c.type == recorder::PofType::kUnknown ? "-" : std::to_string(c.seq.gaps);
-    std::string missing = c.type == recorder::PofType::kUnknown ? "-" : std::to_string(c.seq.missing);
+    std::string gaps = c.type == bus::MessageType::kUnknown ? "-" : std::to_string(c.seq.gaps);
+    std::string missing = c.type == bus::MessageType::kUnknown ? "-" : std::to_string(c.seq.missing);
     s += fmt("%-26s %-19s %9.1f %10llu %7zu %8s %9s %7.2f", name.c_str(), type.c_str(), c.rate_hz,
              static_cast<unsigned long long>(c.count), c.last_size, gaps.c_str(), missing.c_str(), age);
     if (c.seq.restarts > 0) s += fmt("  restarts %llu", static_cast<unsigned long long>(c.seq.restarts));
@@ -235,10 +235,11 @@ std::string render(const Monitor& m, const RenderOptions& o) {
                d.state_text.c_str(), d.device_kind.c_str(), d.sensor_id.empty() ? "-" : d.sensor_id.c_str(),
                static_cast<unsigned>(d.vendor_id), static_cast<unsigned>(d.product_id), d.serial.c_str(), d.scan_rate_hz,
                d.n_channels);
-      s += fmt("   scans %lld  blocks %lld  dropped_scans %lld  usb_errors %lld  overruns %lld  reconnects %lld\n",
+      s += fmt("   scans %lld  blocks %lld  dropped_scans %lld  usb_errors %lld  overruns %lld  reconnects %lld"
+               "  publish_failures %lld\n",
                static_cast<long long>(d.scans), static_cast<long long>(d.blocks), static_cast<long long>(d.dropped_scans),
                static_cast<long long>(d.usb_errors), static_cast<long long>(d.overruns),
-               static_cast<long long>(d.reconnects));
+               static_cast<long long>(d.reconnects), static_cast<long long>(d.publish_failures));
     }
     if (c.compensator) {  // pof-compensatord's health: what it lost, rejected or flagged
       const auto& d = *c.compensator;
@@ -253,9 +254,9 @@ std::string render(const Monitor& m, const RenderOptions& o) {
       s += fmt("   angles %lld  cycles %lld  reloads %d  reload failures %d%s%s\n", static_cast<long long>(d.angles),
                static_cast<long long>(d.cycles), d.reloads, d.reload_failures,
                d.last_error.empty() ? "" : "  last error: ", d.last_error.c_str());
-      s += fmt("   decode_errors %lld  malformed_datagrams %lld  duplicate_blocks %lld\n",
+      s += fmt("   decode_errors %lld  malformed_datagrams %lld  duplicate_blocks %lld  publish_failures %lld\n",
                static_cast<long long>(d.decode_errors), static_cast<long long>(d.malformed_datagrams),
-               static_cast<long long>(d.duplicate_blocks));
+               static_cast<long long>(d.duplicate_blocks), static_cast<long long>(d.publish_failures));
     }
   }
   if (m.channels().empty()) s += "(no messages yet)\n";

@@ -95,6 +95,7 @@ assert st["duplicate_blocks"] == 2, st
 assert st["malformed_datagrams"] >= 1002 + 96, st  # garbage + 2 fragments + the horde evicted
 assert st["lost_blocks"] >= 0 and st["lost_scans"] >= 0, st
 assert st["rejected_blocks"] == 0, st
+assert st["publish_failures"] == 0, st  # hostile input costs nothing on the way out
 peak_kb = int(sys.argv[1])
 assert peak_kb < 64 * 1024, f"peak RSS {peak_kb} kB"  # was 1.18 GB on one decode bomb
 PY

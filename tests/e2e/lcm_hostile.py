@@ -168,7 +168,7 @@ def listen(port, out, want_scans, want_dups, want_decode):
                     and status.decode_errors >= want_decode):
                 break
     fields = ["blocks", "scans", "lost_blocks", "lost_scans", "rejected_blocks", "angles",
-              "decode_errors", "malformed_datagrams", "duplicate_blocks"]
+              "decode_errors", "malformed_datagrams", "duplicate_blocks", "publish_failures"]
     json.dump({"indices": indices, "statuses": statuses,
                "status": {f: getattr(status, f) for f in fields} if status else None},
               open(out, "w"))

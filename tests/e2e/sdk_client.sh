@@ -9,7 +9,7 @@ prefix="$WORK_DIR/prefix"
 cmake --install "$BUILD_DIR" --prefix "$prefix" >install.log || fail "cmake --install failed: $(tail -5 install.log)"
 
 for f in include/pof/angle_t.hpp include/pof/raw_block_t.hpp include/pof_angle_t.h include/pof_raw_block_t.h \
-  include/pof/core/compensator.hpp include/pof/core/calibration.hpp include/pof/lcm/url.hpp \
+  include/pof/core/compensator.hpp include/pof/core/calibration.hpp include/pof/bus/url.hpp include/pof/bus/channels.hpp \
   lib/libpof_core.a lib/libpof_lcmtypes_c.a lib/cmake/pofkit/pofkitConfig.cmake \
   lib/cmake/pofkit/pofkitConfigVersion.cmake lib/cmake/pofkit/pofkitTargets.cmake lib/pkgconfig/pofkit.pc \
   share/pofkit/lcmtypes/angle_t.lcm share/pofkit/lcmtypes/raw_block_t.lcm share/pofkit/plot/calibration_report.py \

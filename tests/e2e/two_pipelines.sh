@@ -43,16 +43,18 @@ for id in LEFT_KNEE RIGHT_KNEE; do
   grep -qE "^  POF_ANGLE_$id +angle_t .* 0 gaps" check.txt || fail "POF_ANGLE_$id missing or with gaps"
   "$POF" export both.lcmlog -c POF_RAW_$id -o raw-$id.csv 2>/dev/null
   "$POF" export both.lcmlog -c POF_ANGLE_$id -o angle-$id.csv 2>/dev/null
-  # The status streams export too: one row per message, columns by name.
+  # The status streams export too: one row per message, columns by name; nothing was refused by LCM.
   "$POF" export both.lcmlog -c POF_DAQ_STATUS_$id -o daq-status-$id.csv 2>/dev/null || fail "export of POF_DAQ_STATUS_$id"
   "$POF" export both.lcmlog -c POF_COMPENSATOR_STATUS_$id -o comp-status-$id.csv 2>/dev/null ||
     fail "export of POF_COMPENSATOR_STATUS_$id"
   awk -F, -v id=$id 'NR == 1 { for (i = 1; i <= NF; ++i) col[$i] = i; next }
     $col["state"] == "streaming" && $col["sensor_id"] == id && $col["scans"] > 0 { ok = 1 }
-    END { exit !ok }' daq-status-$id.csv || fail "no streaming row for $id in the exported DAQ status: $(head -3 daq-status-$id.csv)"
+    $col["publish_failures"] != "0" { bad = 1 }
+    END { exit !ok || bad }' daq-status-$id.csv || fail "no streaming row for $id in the exported DAQ status: $(head -3 daq-status-$id.csv)"
   awk -F, -v id=$id 'NR == 1 { for (i = 1; i <= NF; ++i) col[$i] = i; next }
     $col["sensor_id"] == id && $col["angles"] > 1000 && $col["lost_scans"] == 0 { ok = 1 }
-    END { exit !ok }' comp-status-$id.csv || fail "exported compensator status for $id: $(tail -2 comp-status-$id.csv)"
+    $col["publish_failures"] != "0" { bad = 1 }
+    END { exit !ok || bad }' comp-status-$id.csv || fail "exported compensator status for $id: $(tail -2 comp-status-$id.csv)"
 done
 /usr/bin/python3 - <<'PY' || fail "crosstalk check failed"
 import csv

@@ -8,9 +8,14 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <random>
+#include <string>
 #include <vector>
 
+#include "lcm_sink.hpp"
 #include "pipeline.hpp"
+#include "pof/bus/channels.hpp"
+#include "pof/bus/error_log.hpp"
 #include "pof/core/model.hpp"
 #include "pof/core/offline.hpp"
 #include "pof/bus/receiver.hpp"
@@ -25,8 +30,14 @@ using pof::compensatord::PipelineSettings;
 struct Collect final : pof::compensatord::Sink {
   std::vector<pof::angle_t> angles;
   std::vector<pof::cycle_stats_t> cycles;
-  void angle(const pof::angle_t& m) override { angles.push_back(m); }
-  void cycle(const pof::cycle_stats_t& m) override { cycles.push_back(m); }
+  bool angle(const pof::angle_t& m) override {
+    angles.push_back(m);
+    return true;
+  }
+  bool cycle(const pof::cycle_stats_t& m) override {
+    cycles.push_back(m);
+    return true;
+  }
 };
 
 constexpr int kScansPerBlock = 20;
@@ -430,6 +441,41 @@ TEST_F(PipelineTest, OverMemqTheOutputIsThatOfDirectCallsDespiteHostileTraffic) 
   EXPECT_EQ(bused.status(0).lost_blocks, 0);
   EXPECT_EQ(bused.status(0).duplicate_blocks, dups);
   EXPECT_EQ(rx.stats().decode_errors, std::uint64_t(bombs));
+}
+
+// Every message LCM refuses is counted in the status. liblcm 1.3.1's memq:// never refuses one;
+// its udpm:// refuses a channel name longer than LCM_MAX_CHANNEL_NAME_LENGTH, the refusal a test
+// can provoke: the daemon's own sink publishes the angles on such a channel. (It also prints
+// "LCM Error: channel name too long" once per message, hence the decimated output.)
+TEST_F(PipelineTest, MessagesLcmRefusesAreCountedInTheStatus) {
+  std::mt19937 rng(std::random_device{}());
+  const std::string url = "udpm://239.255.76.67:" + std::to_string(20000 + rng() % 30000) + "?ttl=0";
+  lcm::LCM lc(url);
+  ASSERT_TRUE(lc.good()) << "no multicast route? " << url;
+  std::vector<std::string> logged;
+  pof::bus::ErrorLog errors([&](const std::string& line) { logged.push_back(line); });
+  const std::string too_long = pof::bus::channel(pof::bus::Stream::kAngle, std::string(60, 'X'));
+  ASSERT_GT(too_long.size(), std::size_t{LCM_MAX_CHANNEL_NAME_LENGTH});
+  pof::compensatord::LcmSink sink(lc, too_long, pof::bus::channel(pof::bus::Stream::kStats, "LEFT_KNEE"), errors);
+  PipelineSettings ps;
+  ps.output_rate_hz = 10;  // one angle per 20-scan block
+  Pipeline p(paper_calibration(), "x", ps);
+  for (size_t i = 0; i < 8; ++i) p.on_block((*blocks_)[i], 0, sink);
+  pof::compensator_status_t st = p.status(0);
+  EXPECT_EQ(st.angles, 8);  // produced (seq advanced), none published
+  EXPECT_EQ(st.publish_failures, 8);
+  ASSERT_EQ(logged.size(), 1u);  // the first in full, the rest summarised later (rate-limited)
+  EXPECT_NE(logged[0].find(too_long), std::string::npos) << logged[0];
+  // The daemon's status message itself, when refused, counts in the next one.
+  p.note_publish_failure();
+  EXPECT_EQ(p.status(0).publish_failures, 9);
+  // A sink that publishes counts nothing.
+  Pipeline q(paper_calibration(), "x", ps);
+  pof::compensatord::LcmSink fine(lc, pof::bus::channel(pof::bus::Stream::kAngle, "LEFT_KNEE"),
+                                  pof::bus::channel(pof::bus::Stream::kStats, "LEFT_KNEE"), errors);
+  for (size_t i = 0; i < 8; ++i) q.on_block((*blocks_)[i], 0, fine);
+  EXPECT_EQ(q.status(0).angles, 8);
+  EXPECT_EQ(q.status(0).publish_failures, 0);
 }
 
 }  // namespace

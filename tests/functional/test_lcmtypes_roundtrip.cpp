@@ -167,6 +167,7 @@ TEST(LcmTypesRoundTrip, DaqStatus) {
   m.usb_errors = 2;
   m.overruns = 1;
   m.reconnects = 1;
+  m.publish_failures = 3;
   const auto got = round_trip("POF_DAQ_STATUS", m);
   ASSERT_TRUE(got);
   EXPECT_EQ(got->utime, m.utime);
@@ -186,6 +187,7 @@ TEST(LcmTypesRoundTrip, DaqStatus) {
   EXPECT_EQ(got->usb_errors, m.usb_errors);
   EXPECT_EQ(got->overruns, m.overruns);
   EXPECT_EQ(got->reconnects, m.reconnects);
+  EXPECT_EQ(got->publish_failures, 3);
 }
 
 TEST(LcmTypesRoundTrip, CompensatorStatus) {
@@ -202,6 +204,7 @@ TEST(LcmTypesRoundTrip, CompensatorStatus) {
   m.decode_errors = 5;
   m.malformed_datagrams = 1001;
   m.duplicate_blocks = 2;
+  m.publish_failures = 4;
   const auto got = round_trip("POF_COMPENSATOR_STATUS", m);
   ASSERT_TRUE(got);
   EXPECT_EQ(got->calibration_path, m.calibration_path);
@@ -209,6 +212,7 @@ TEST(LcmTypesRoundTrip, CompensatorStatus) {
   EXPECT_EQ(got->decode_errors, 5);
   EXPECT_EQ(got->malformed_datagrams, 1001);
   EXPECT_EQ(got->duplicate_blocks, 2);
+  EXPECT_EQ(got->publish_failures, 4);
 }
 
 // A message of one type sent on a channel subscribed with another type must not decode: the

@@ -1,8 +1,9 @@
 """The pofkit Python package against real LCM peers: liblcm publishing (pof-testpub) on udpm
-loopback, logs written by stock lcm-logger, and damaged logs and hostile datagrams.
+loopback, logs written by stock lcm-logger, damaged logs and hostile datagrams, and its LCM URL
+rule against the C++ one.
 
-Run by ctest with PYTHONPATH = build/python (lcm-gen's `pof` classes) : python/ (pofkit) and
-POF_TESTPUB = build/tests/pof-testpub.
+Run by ctest with PYTHONPATH = build/python (lcm-gen's `pof` classes) : python/ (pofkit),
+POF_TESTPUB = build/tests/pof-testpub and POF_URL_PROBE = build/tests/url_probe.
 """
 import os
 import random
@@ -20,6 +21,7 @@ import numpy as np
 import pofkit
 
 TESTPUB = os.environ["POF_TESTPUB"]
+URL_PROBE = os.environ["POF_URL_PROBE"]
 
 
 def private_url():
@@ -150,6 +152,63 @@ class Logs(unittest.TestCase):
         self.assertEqual(len(events), len(list(pofkit.read_events(path))) - 1)
         with self.assertRaises(pofkit.LogError):
             pofkit.read_log("/dev/zero")
+
+
+class UrlRules(unittest.TestCase):
+    """pofkit.resolve_url and parse_udpm_url mirror bus/include/pof/bus/url.hpp (Python cannot share
+    the C++ code): both read every URL of a list alike, with $LCM_DEFAULT_URL set and unset. The C++
+    side is build/tests/url_probe (tests/support/url_probe.cpp)."""
+
+    URLS = [
+        "", "udpm://239.255.76.67:7667?ttl=0", "udpm://239.255.76.68:7700?ttl=1&recv_buf_size=4194304",
+        "udpm://", "udpm://239.255.76.67", "udpm://239.255.76.67?ttl=1", "udpm://224.0.0.1:1",
+        "udpm://239.1:7667", "udpm://0xef.1.2.3:7667", "udpm://239.255.76.67 x:7667",
+        "udpm://239.255.76.67:", "udpm://239.255.76.67:0", "udpm://239.255.76.67:65535", "udpm://239.255.76.67:65536",
+        "udpm://239.255.76.67:+80", "udpm://239.255.76.67: 80", "udpm://239.255.76.67:7667:1", "udpm://:7700",
+        "udpm://10.0.0.1:7667", "udpm://240.0.0.1:7667", "udpm://not.a.host:7667",
+        "udpm://239.255.76.67:7667?ttl=256", "udpm://239.255.76.67:7667?ttl=x", "udpm://239.255.76.67:7667?ttl=",
+        "udpm://239.255.76.67:7667?ttl", "udpm://239.255.76.67:7667?ttl=1_0", "udpm://239.255.76.67:7667?ttl=2&ttl=3",
+        "udpm://239.255.76.67:7667?recv_buf_size=1073741824", "udpm://239.255.76.67:7667?recv_buf_size=1073741825",
+        "udpm://239.255.76.67:7667?&transmit_only=true&", "udpm://239.255.76.67:7667?xrecv_buf_size=5",
+        "udpm://239.255.76.67:7667?ttl=\u0661", "memq://", "file:///tmp/x.lcmlog?mode=w", "UDPM://239.255.76.67:7667",
+    ]
+
+    def python_side(self, url, env_url):
+        env = {k: v for k, v in os.environ.items() if k != "LCM_DEFAULT_URL"}
+        if env_url is not None:
+            env["LCM_DEFAULT_URL"] = env_url
+        saved = dict(os.environ)
+        try:
+            os.environ.clear()
+            os.environ.update(env)
+            resolved = pofkit.resolve_url(url or None)
+        finally:
+            os.environ.clear()
+            os.environ.update(saved)
+        try:
+            group, port, opts = pofkit.parse_udpm_url(url)
+            return [resolved, group, str(port), str(opts["ttl"]), str(opts["recv_buf_size"]), ""]
+        except ValueError as e:
+            prefix = f"LCM URL '{url}': "
+            self.assertTrue(str(e).startswith(prefix), str(e))
+            return [resolved, None, None, None, None, str(e)[len(prefix):]]
+
+    def test_python_and_cpp_read_every_url_alike(self):
+        for env_url in (None, "udpm://239.255.76.69:7001?ttl=1"):
+            env = {k: v for k, v in os.environ.items() if k != "LCM_DEFAULT_URL"}
+            if env_url is not None:
+                env["LCM_DEFAULT_URL"] = env_url
+            out = subprocess.run([URL_PROBE, *self.URLS], env=env, capture_output=True, text=True, check=True).stdout
+            lines = out.split("\n")[:-1]
+            self.assertEqual(len(lines), len(self.URLS), out)
+            for url, line in zip(self.URLS, lines):
+                cpp = line.split("\t")
+                py = self.python_side(url, env_url)
+                with self.subTest(url=url, env=env_url):
+                    self.assertEqual(py[0], cpp[0], "resolved URL")
+                    self.assertEqual(py[5], cpp[5], "error")
+                    if not cpp[5]:
+                        self.assertEqual(py[1:5], cpp[1:5], "group, port, ttl, recv_buf_size")
 
 
 if __name__ == "__main__":

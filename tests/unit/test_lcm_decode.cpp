@@ -192,6 +192,7 @@ pof::daq_status_t sample_daq() {
   m.reconnects = 38;
   m.protocol_variant = "reply header 00 01";
   m.padding_set = 39;
+  m.publish_failures = 40;
   return m;
 }
 pof::compensator_status_t sample_comp() {
@@ -216,6 +217,7 @@ pof::compensator_status_t sample_comp() {
   m.decode_errors = 53;
   m.malformed_datagrams = 54;
   m.duplicate_blocks = 55;
+  m.publish_failures = 56;
   return m;
 }
 
@@ -284,6 +286,8 @@ TEST(LcmDecode, EveryTypeRoundTrips) {
   EXPECT_EQ(round_trip(sample_daq()).protocol_variant, "reply header 00 01");
   const auto comp = round_trip(sample_comp());
   EXPECT_EQ(comp.duplicate_blocks, 55);
+  EXPECT_EQ(comp.publish_failures, 56);  // the last field, behind a string
+  EXPECT_EQ(round_trip(sample_daq()).publish_failures, 40);
   EXPECT_EQ(comp.last_error, "");
   // The hand-made writer agrees with the generated encoder.
   pof::raw_block_t m;

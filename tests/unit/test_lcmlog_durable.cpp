@@ -19,6 +19,7 @@
 
 #include "pof/base/errors.hpp"
 #include "pof/bus/channel_filter.hpp"
+#include "pof/bus/fingerprint.hpp"
 #include "pof/recorder/lcmlog_durable.hpp"
 #include "pof/recorder/pof_messages.hpp"
 #include "temp_dir.hpp"
@@ -233,7 +234,7 @@ TEST(PofMessages, FastSeqMatchesTheGeneratedDecoder) {
     ASSERT_GT(msg.encode(buf.data(), 0, static_cast<int>(buf.size())), 0);
     EXPECT_EQ(pof_seq(buf.data(), buf.size()), seq);
     EXPECT_EQ(pof_seq_decoded(buf.data(), buf.size()), seq);
-    EXPECT_NE(pof_type_of(buf.data(), buf.size()), PofType::kUnknown);
+    EXPECT_NE(pof::bus::message_type_of(buf.data(), buf.size()), pof::bus::MessageType::kUnknown);
   };
   pof::raw_block_t r{};
   r.utime = 11;
@@ -263,7 +264,7 @@ TEST(PofMessages, FastSeqMatchesTheGeneratedDecoder) {
   cs.seq = 4242;
   check(cs, 4242);
   const char junk[] = "not ours at all";
-  EXPECT_EQ(pof_type_of(junk, sizeof junk), PofType::kUnknown);
+  EXPECT_EQ(pof::bus::message_type_of(junk, sizeof junk), pof::bus::MessageType::kUnknown);
   EXPECT_FALSE(pof_seq(junk, sizeof junk).has_value());
 }
 

@@ -39,7 +39,7 @@ TEST(SpyMonitor, RatesCountsAndGaps) {
   EXPECT_EQ(c.seq.gaps, 1u);
   EXPECT_EQ(c.seq.missing, 3u);
   EXPECT_NEAR(c.rate_hz, 100.0, 1.0);
-  EXPECT_EQ(c.type, pof::recorder::PofType::kAngle);
+  EXPECT_EQ(c.type, pof::bus::MessageType::kAngle);
 }
 
 TEST(SpyMonitor, RendersDecodedValuesOfOurTypesAndFingerprintsOfOthers) {
@@ -70,6 +70,7 @@ TEST(SpyMonitor, RendersDecodedValuesOfOurTypesAndFingerprintsOfOthers) {
   d.state_text = "device unplugged";
   d.device_kind = "usb6008";
   d.reconnects = 2;
+  d.publish_failures = 3;
   feed(m, "POF_DAQ_STATUS_LEFT_KNEE", enc(d), 1);
   pof::compensator_status_t cs{};
   cs.sensor_id = "LEFT_KNEE";
@@ -79,6 +80,7 @@ TEST(SpyMonitor, RendersDecodedValuesOfOurTypesAndFingerprintsOfOthers) {
   cs.rejected_blocks = 1;
   cs.reload_failures = 1;
   cs.last_error = "cal.toml: key 'model.c9': expected a number";
+  cs.publish_failures = 5;
   feed(m, "POF_COMPENSATOR_STATUS_LEFT_KNEE", enc(cs), 1);
   const std::vector<unsigned char> foreign{1, 2, 3, 4, 5, 6, 7, 8, 9, 10};
   feed(m, "OTHER", foreign, 1);
@@ -95,6 +97,8 @@ TEST(SpyMonitor, RendersDecodedValuesOfOurTypesAndFingerprintsOfOthers) {
   EXPECT_NE(text.find("GAP|SETTLING"), std::string::npos);
   EXPECT_NE(text.find("DISCONNECTED (device unplugged)"), std::string::npos);
   EXPECT_NE(text.find("reconnects 2"), std::string::npos);
+  EXPECT_NE(text.find("reconnects 2  publish_failures 3"), std::string::npos) << text;  // both daemons' refused publishes
+  EXPECT_NE(text.find("publish_failures 5"), std::string::npos) << text;
   EXPECT_NE(text.find("fp:0102030405060708"), std::string::npos);
   // The compensator's drops and its failed reload are on screen, not only its message count.
   EXPECT_NE(text.find("calibration /etc/pof/cal.toml"), std::string::npos) << text;

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "pof/bus/fingerprint.hpp"
 #include "pof/angle_t.hpp"
 #include "pof/compensator_status_t.hpp"
 #include "pof/cycle_stats_t.hpp"
@@ -31,14 +32,6 @@
 
 namespace pof::cli {
 namespace {
-
-std::int64_t fingerprint_of(const void* data, std::uint32_t size) {
-  if (size < 8) return 0;
-  const auto* p = static_cast<const unsigned char*>(data);
-  std::uint64_t h = 0;
-  for (int i = 0; i < 8; ++i) h = (h << 8) | p[i];
-  return std::int64_t(h);
-}
 
 // Shortest text that reads back to the same float/double.
 std::string num(double v) {
@@ -77,9 +70,9 @@ struct ExportOptions {
   bool salvage = false;
 };
 
-std::string hex_fingerprint(std::int64_t fp) {
+std::string hex_fingerprint(std::uint64_t fp) {
   char b[24];
-  std::snprintf(b, sizeof b, "0x%016" PRIx64, static_cast<std::uint64_t>(fp));
+  std::snprintf(b, sizeof b, "0x%016" PRIx64, fp);
   return b;
 }
 
@@ -88,7 +81,7 @@ void run(const ExportOptions& o) {
   io::LcmLogReader log(o.log);
   std::ostringstream out;
   std::int64_t rows = 0, events = 0;
-  std::int64_t type = 0;
+  bus::MessageType type = bus::MessageType::kUnknown;  // the channel's, from its first message of ours
   bool raw_header_written = false;
   std::vector<std::string> raw_names;
   // Events before the first one of a known type: damage if the channel turns out to have a type,
@@ -97,43 +90,52 @@ void run(const ExportOptions& o) {
   log.scan([&](const io::LcmEventRef& ev) {
     if (ev.channel != o.channel) return;
     ++events;
-    const std::int64_t fp = fingerprint_of(ev.data, ev.data_size);
-    if (type == 0) {
-      if (fp != pof::angle_t::getHash() && fp != pof::cycle_stats_t::getHash() && fp != pof::raw_block_t::getHash() &&
-          fp != pof::daq_status_t::getHash() && fp != pof::compensator_status_t::getHash()) {
+    const bus::MessageType t = bus::message_type_of(ev.data, ev.data_size);
+    if (type == bus::MessageType::kUnknown) {
+      if (t == bus::MessageType::kUnknown) {
         unknown_before_type.push_back(ev);
         return;
       }
-      type = fp;
+      type = t;
       for (const auto& u : unknown_before_type)
-        log.undecodable(u, "fingerprint " + hex_fingerprint(fingerprint_of(u.data, u.data_size)) +
+        log.undecodable(u, "fingerprint " + hex_fingerprint(bus::fingerprint_of(u.data, u.data_size)) +
                                " differs from the channel's type");
-      if (fp == pof::angle_t::getHash())
-        out << "utime,seq,scan_index,angle_deg,angle_uncomp_deg,angle_ref_deg,velocity_rad_s,phase,quality\n";
-      else if (fp == pof::cycle_stats_t::getHash())
-        out << "utime,seq,cycle,start_utime,end_utime,velocity_rad_s,rmse_comp_deg,rmse_uncomp_deg,"
-               "hysteresis_comp_pct,hysteresis_uncomp_pct,max_error_deg,n_samples\n";
-      else if (fp == pof::daq_status_t::getHash())
-        out << "utime,seq,sensor_id,device_kind,vendor_id,product_id,serial,state,state_text,scan_rate_hz,"
-               "n_channels,scans,blocks,dropped_scans,usb_errors,overruns,reconnects,protocol_variant,padding_set\n";
-      else if (fp == pof::compensator_status_t::getHash())
-        out << "utime,seq,sensor_id,calibration_path,calibration_sensor_id,calibration_date,blocks,scans,"
-               "lost_blocks,lost_scans,rejected_blocks,fault_scans,angles,cycles,reloads,reload_failures,"
-               "last_error,decode_errors,malformed_datagrams,duplicate_blocks\n";
-      else
-        out << "utime,block_seq,scan_index,flags";  // channel columns follow from the first block
-    } else if (fp != type) {
-      log.undecodable(ev, "fingerprint " + hex_fingerprint(fp) + " differs from the channel's first message");
+      switch (t) {
+        case bus::MessageType::kAngle:
+          out << "utime,seq,scan_index,angle_deg,angle_uncomp_deg,angle_ref_deg,velocity_rad_s,phase,quality\n";
+          break;
+        case bus::MessageType::kCycleStats:
+          out << "utime,seq,cycle,start_utime,end_utime,velocity_rad_s,rmse_comp_deg,rmse_uncomp_deg,"
+                 "hysteresis_comp_pct,hysteresis_uncomp_pct,max_error_deg,n_samples\n";
+          break;
+        case bus::MessageType::kDaqStatus:
+          out << "utime,seq,sensor_id,device_kind,vendor_id,product_id,serial,state,state_text,scan_rate_hz,"
+                 "n_channels,scans,blocks,dropped_scans,usb_errors,overruns,reconnects,protocol_variant,padding_set,"
+                 "publish_failures\n";
+          break;
+        case bus::MessageType::kCompensatorStatus:
+          out << "utime,seq,sensor_id,calibration_path,calibration_sensor_id,calibration_date,blocks,scans,"
+                 "lost_blocks,lost_scans,rejected_blocks,fault_scans,angles,cycles,reloads,reload_failures,"
+                 "last_error,decode_errors,malformed_datagrams,duplicate_blocks,publish_failures\n";
+          break;
+        case bus::MessageType::kRawBlock:
+        case bus::MessageType::kUnknown:
+          out << "utime,block_seq,scan_index,flags";  // channel columns follow from the first block
+          break;
+      }
+    } else if (t != type) {
+      log.undecodable(ev, "fingerprint " + hex_fingerprint(bus::fingerprint_of(ev.data, ev.data_size)) +
+                              " differs from the channel's first message");
       return;
     }
-    if (fp == pof::angle_t::getHash()) {
+    if (t == bus::MessageType::kAngle) {
       pof::angle_t m{};
       if (auto why = io::decode_lcm_event(ev, m)) return log.undecodable(ev, *why);
       out << m.utime << ',' << m.seq << ',' << m.scan_index << ',' << num(double(m.angle_deg)) << ','
           << num(double(m.angle_uncomp_deg)) << ',' << num(double(m.angle_ref_deg)) << ','
           << num(double(m.velocity_rad_s)) << ',' << phase_name(m.phase) << ',' << m.quality << '\n';
       ++rows;
-    } else if (fp == pof::cycle_stats_t::getHash()) {
+    } else if (t == bus::MessageType::kCycleStats) {
       pof::cycle_stats_t m{};
       if (auto why = io::decode_lcm_event(ev, m)) return log.undecodable(ev, *why);
       out << m.utime << ',' << m.seq << ',' << m.cycle << ',' << m.start_utime << ',' << m.end_utime << ','
@@ -142,16 +144,16 @@ void run(const ExportOptions& o) {
           << num(double(m.hysteresis_uncomp_pct)) << ',' << num(double(m.max_error_deg)) << ',' << m.n_samples
           << '\n';
       ++rows;
-    } else if (fp == pof::daq_status_t::getHash()) {
+    } else if (t == bus::MessageType::kDaqStatus) {
       pof::daq_status_t m{};
       if (auto why = io::decode_lcm_event(ev, m)) return log.undecodable(ev, *why);
       out << m.utime << ',' << m.seq << ',' << text(m.sensor_id) << ',' << text(m.device_kind) << ',' << m.vendor_id
           << ',' << m.product_id << ',' << text(m.serial) << ',' << state_name(m.state) << ','
           << text(m.state_text) << ',' << num(m.scan_rate_hz) << ',' << m.n_channels << ',' << m.scans << ','
           << m.blocks << ',' << m.dropped_scans << ',' << m.usb_errors << ',' << m.overruns << ',' << m.reconnects
-          << ',' << text(m.protocol_variant) << ',' << m.padding_set << '\n';
+          << ',' << text(m.protocol_variant) << ',' << m.padding_set << ',' << m.publish_failures << '\n';
       ++rows;
-    } else if (fp == pof::compensator_status_t::getHash()) {
+    } else if (t == bus::MessageType::kCompensatorStatus) {
       pof::compensator_status_t m{};
       if (auto why = io::decode_lcm_event(ev, m)) return log.undecodable(ev, *why);
       out << m.utime << ',' << m.seq << ',' << text(m.sensor_id) << ',' << text(m.calibration_path) << ','
@@ -159,7 +161,7 @@ void run(const ExportOptions& o) {
           << ',' << m.lost_blocks << ',' << m.lost_scans << ',' << m.rejected_blocks << ',' << m.fault_scans << ','
           << m.angles << ',' << m.cycles << ',' << m.reloads << ',' << m.reload_failures << ','
           << text(m.last_error) << ',' << m.decode_errors << ',' << m.malformed_datagrams << ','
-          << m.duplicate_blocks << '\n';
+          << m.duplicate_blocks << ',' << m.publish_failures << '\n';
       ++rows;
     } else {
       pof::raw_block_t m{};
@@ -191,14 +193,14 @@ void run(const ExportOptions& o) {
   });
   const bool damaged = log.damaged();
   if (events == 0 && !damaged) throw pof::DataError(o.log + ": no event on channel " + pof::excerpt(o.channel));
-  if (type == 0 && !damaged) {
+  if (type == bus::MessageType::kUnknown && !damaged) {
     throw pof::DataError(o.log + ": channel " + pof::excerpt(o.channel) +
                         ": not a pofkit message (angle_t, cycle_stats_t, raw_block_t, daq_status_t, "
                         "compensator_status_t)");
   }
   if (damaged && !o.salvage)
     throw pof::DataError(log.damage_report() + "; nothing written (--salvage writes what is readable)");
-  if (type == 0 && damaged)
+  if (type == bus::MessageType::kUnknown && damaged)
     throw pof::DataError(log.damage_report() + "; no readable event on channel " + pof::excerpt(o.channel) + ", nothing written");
   io::write_output(o.output, out.str());
   if (o.output != "-") {

@@ -14,6 +14,7 @@
 
 #include "commands.hpp"
 #include "pof/base/errors.hpp"
+#include "pof/bus/fingerprint.hpp"
 #include "pof/recorder/lcmlog_durable.hpp"
 #include "pof/recorder/pof_messages.hpp"
 #include "pof/recorder/session.hpp"
@@ -54,12 +55,12 @@ std::string utc(int64_t utime) {
 // Prints what a log holds; returns true when it is clean.
 bool check_one(const std::string& file) {
   std::map<std::string, rec::SeqTracker> seqs;
-  std::map<std::string, rec::PofType> types;
+  std::map<std::string, bus::MessageType> types;
   const rec::LogCheck c = rec::scan_log(file, [&](const rec::LogEventRef& e) {
     const std::string ch(e.channel);
     auto t = types.find(ch);
-    if (t == types.end()) t = types.emplace(ch, rec::pof_type_of(e.data, e.data_size)).first;
-    if (t->second != rec::PofType::kUnknown) {
+    if (t == types.end()) t = types.emplace(ch, bus::message_type_of(e.data, e.data_size)).first;
+    if (t->second != bus::MessageType::kUnknown) {
       if (auto s = rec::pof_seq(e.data, e.data_size)) seqs[ch].update(*s);
     }
   });
@@ -71,7 +72,7 @@ bool check_one(const std::string& file) {
   std::cout << std::flush;
   std::printf("\n");
   for (const auto& [ch, n] : c.channel_events) {
-    std::printf("  %-28s %-14s %10llu events", ch.c_str(), rec::pof_type_name(types[ch]),
+    std::printf("  %-28s %-14s %10llu events", ch.c_str(), bus::message_type_name(types[ch]),
                 static_cast<unsigned long long>(n));
     if (auto s = seqs.find(ch); s != seqs.end())
       std::printf("  seq %lld..%lld, %llu gaps (%llu missing), %llu restarts", static_cast<long long>(s->second.first),

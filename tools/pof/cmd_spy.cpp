@@ -18,8 +18,8 @@
 #include "commands.hpp"
 #include "pof/bus/receiver.hpp"
 #include "pof/bus/udp_socket.hpp"
+#include "pof/bus/url.hpp"
 #include "pof/base/errors.hpp"
-#include "pof/lcm/url.hpp"
 #include "pof/lcm/utime.hpp"
 #include "pof/service/signals.hpp"
 #include "pof/spy/monitor.hpp"
@@ -73,7 +73,7 @@ int terminal_width() {
 
 void run_spy(const SpyArgs& a) {
   service::SignalWaiter signals;  // before liblcm may start a thread: every thread inherits the mask
-  const std::string url = lcmutil::resolve_url(a.url);
+  const std::string url = bus::resolve_url(a.url);
   lcm::LCM lcm(url);
   if (!lcm.good()) throw pof::ConfigError("LCM URL '" + url + "': cannot open (is there a multicast route? see docs/deployment.md)");
   spy::Monitor monitor;
@@ -83,7 +83,8 @@ void run_spy(const SpyArgs& a) {
   rx.subscribe_raw(a.channels, [&monitor](const bus::Delivery& d, const unsigned char* data, std::size_t size) {
     monitor.on_message(d.channel, data, size, d.recv_utime);
   });
-  const uint16_t port = bus::lcm_url_port(url.c_str());
+  const bus::UdpmUrl udpm = bus::parse_udpm_url(url);
+  const uint16_t port = udpm.ok() ? udpm.port : 0;  // 0: not udpm (no kernel drop count)
   const uint64_t drops0 = port != 0 ? bus::udp_drops(port) : 0;
 
   const int sfd = signals.fd();

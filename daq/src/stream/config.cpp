@@ -3,6 +3,7 @@
 
 #include <sstream>
 
+#include "pof/bus/channels.hpp"
 #include "pof/daq/device_ids.hpp"
 #include "pof/base/errors.hpp"
 #include "pof/base/toml_reader.hpp"
@@ -30,12 +31,8 @@ std::vector<ChannelMap> DaqConfig::channels() const {
   return out;
 }
 
-std::string DaqConfig::raw_channel() const {
-  return sensor_id.empty() ? "POF_RAW" : "POF_RAW_" + sensor_id;
-}
-std::string DaqConfig::status_channel() const {
-  return sensor_id.empty() ? "POF_DAQ_STATUS" : "POF_DAQ_STATUS_" + sensor_id;
-}
+std::string DaqConfig::raw_channel() const { return bus::channel(bus::Stream::kRaw, sensor_id); }
+std::string DaqConfig::status_channel() const { return bus::channel(bus::Stream::kDaqStatus, sensor_id); }
 
 void apply_override(toml::table& table, const std::string& assignment) {
   const auto eq = assignment.find('=');

@@ -86,7 +86,7 @@ class Receiver {
   using RawHandler = std::function<void(const Delivery&, const unsigned char* data, std::size_t size)>;
   using ErrorHandler = std::function<void(const ReceiveError&)>;
 
-  /// `url` as resolved by pof::lcmutil::resolve_url(). Throws pof::ConfigError naming the URL
+  /// `url` as resolved by pof::bus::resolve_url(). Throws pof::ConfigError naming the URL
   /// when the socket cannot be set up or `lc` is not good() on a non-udpm URL.
   Receiver(lcm::LCM& lc, const std::string& url, ReceiverOptions options = {});
   ~Receiver();

@@ -2,8 +2,9 @@
 // What the kernel knows about this process's UDP sockets: the receive buffer it really granted and
 // the datagrams it dropped because that buffer was full. LCM 1.3.1 hides its udpm socket and counts
 // nothing, so the only honest "LCM drops" figure on the receive side comes from the kernel:
-// /proc/self/fd -> socket inode -> the `drops` column of /proc/net/udp (docs/lcm.md:
-// the default buffer loses messages from ~50k msg/s).
+// /proc/self/fd -> socket inode -> the `drops` column of /proc/net/udp (docs/deployment.md, "The
+// UDP receive buffer": the default buffer loses messages from ~50k msg/s). The port of a URL:
+// parse_udpm_url() (pof/bus/url.hpp).
 #include <cstdint>
 #include <vector>
 
@@ -26,8 +27,5 @@ uint64_t udp_drops(uint16_t port = 0);
 
 /// net.core.rmem_max [bytes], or -1 when unreadable.
 long rmem_max();
-
-/// The port of an LCM udpm:// URL (default 7667), 0 for other providers.
-uint16_t lcm_url_port(const char* url);
 
 }  // namespace pof::bus

@@ -44,14 +44,9 @@
 #include <string_view>
 #include <vector>
 
-namespace pof::bus {
+#include "pof/bus/url.hpp"
 
-struct UdpmUrl {
-  std::string group = "239.255.76.67";
-  uint16_t port = 7667;
-  int ttl = 0;
-  int recv_buf_size = 0;  // 0: kernel default
-};
+namespace pof::bus {
 
 struct UdpmLimits {
   uint32_t max_message_bytes = 16u << 20;   // largest message reassembled from fragments
@@ -59,15 +54,14 @@ struct UdpmLimits {
   uint64_t max_partial_bytes = 64u << 20;   // their declared message sizes together
 };
 
-/// Parses udpm://GROUP:PORT?ttl=N&recv_buf_size=N (liblcm's syntax). Throws pof::ConfigError.
-UdpmUrl parse_udpm_url(const std::string& url);
-
 class UdpmReceiver {
  public:
   /// (receive time [us since the epoch, kernel timestamp], channel, payload)
   using Sink = std::function<void(int64_t, std::string_view, const unsigned char*, uint32_t)>;
 
-  explicit UdpmReceiver(const UdpmUrl& url, UdpmLimits limits = {});
+  /// `url`: udpm://... as pof/bus/url.hpp reads it. Throws pof::ConfigError naming the URL when it
+  /// is not a valid udpm:// URL or the socket cannot be set up.
+  explicit UdpmReceiver(const std::string& url, UdpmLimits limits = {});
   ~UdpmReceiver();
   UdpmReceiver(const UdpmReceiver&) = delete;
   UdpmReceiver& operator=(const UdpmReceiver&) = delete;

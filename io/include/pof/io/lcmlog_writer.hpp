@@ -9,6 +9,7 @@
 #include <memory>
 #include <string>
 
+#include "pof/bus/channels.hpp"
 #include "pof/io/atomic_file.hpp"
 #include "pof/io/recording.hpp"
 #include "pof/io/recording_row.hpp"
@@ -19,7 +20,7 @@ namespace pof::io {
 inline constexpr std::int64_t kDefaultEpochUtime = 1506816000LL * 1000000LL;
 
 struct LcmLogOptions {
-  std::string channel = "POF_RAW";
+  std::string channel = bus::channel(bus::Stream::kRaw);
   std::string sensor_id;               // raw_block_t.sensor_id
   double scan_rate_hz = 200;           // raw_block_t.scan_rate_hz
   int block_scans = 20;                // scans per message (100 ms at 200 Hz)

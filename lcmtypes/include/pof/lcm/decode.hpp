@@ -145,6 +145,7 @@ struct Layout<pof::daq_status_t> {
       {"reconnects", FieldType::kInt64, {}},
       {"protocol_variant", FieldType::kString, {}},
       {"padding_set", FieldType::kInt64, {}},
+      {"publish_failures", FieldType::kInt64, {}},
   };
 };
 
@@ -172,6 +173,7 @@ struct Layout<pof::compensator_status_t> {
       {"decode_errors", FieldType::kInt64, {}},
       {"malformed_datagrams", FieldType::kInt64, {}},
       {"duplicate_blocks", FieldType::kInt64, {}},
+      {"publish_failures", FieldType::kInt64, {}},
   };
 };
 

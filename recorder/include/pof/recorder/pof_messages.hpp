@@ -1,21 +1,13 @@
 #pragma once
-// Recognising pofkit's own LCM messages in raw bytes: a message starts with its type's 8-byte
-// big-endian fingerprint (docs/lcm.md, "Log format"), and every POF stream carries `seq`
-// (lcmtypes/*.lcm). Used by `pof record --check` (per-channel sequence gaps) and `pof spy`.
+// The `seq` of pofkit's own LCM messages, read from raw bytes: every POF stream carries it
+// (lcmtypes/*.lcm), and the type comes from the fingerprint (pof/bus/fingerprint.hpp). Used by
+// `pof record --check` (per-channel sequence gaps) and `pof spy`.
 #include <cstddef>
 #include <cstdint>
 #include <optional>
 
 namespace pof::recorder {
 
-enum class PofType { kUnknown, kRawBlock, kAngle, kCycleStats, kDaqStatus, kCompensatorStatus };
-
-/// The first 8 bytes as a big-endian fingerprint (0 when shorter).
-uint64_t fingerprint_of(const void* data, std::size_t size);
-/// Which of our types the fingerprint names (kUnknown for anything else).
-PofType pof_type_of(const void* data, std::size_t size);
-/// "raw_block_t", "angle_t", ... or "?" for kUnknown.
-const char* pof_type_name(PofType t);
 /// The `seq` field of one of our messages, read at its fixed offset (cheap: no allocation);
 /// nullopt when not ours or too short.
 std::optional<int64_t> pof_seq(const void* data, std::size_t size);

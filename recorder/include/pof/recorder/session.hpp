@@ -31,6 +31,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "pof/bus/fingerprint.hpp"
 #include "pof/recorder/lcmlog_durable.hpp"
 #include "pof/recorder/pof_messages.hpp"
 
@@ -46,7 +47,7 @@ class ChannelFilter;
 namespace pof::recorder {
 
 struct SessionOptions {
-  std::string lcm_url;                 // "" = LCM's default (LCM_DEFAULT_URL or udpm://239.255.76.67:7667)
+  std::string lcm_url;                 // "": $LCM_DEFAULT_URL, else udpm on this host (pof/bus/url.hpp)
   // Added to a udpm:// URL that has no recv_buf_size: 16 MiB holds ~1/4 s of 100k msg/s of
   // 300-byte messages (kernel accounting ~1 KB per datagram), enough to ride out scheduling stalls
   // on a loaded 2-core host.
@@ -71,7 +72,7 @@ enum class Outcome { kRunning, kStopped, kDiskFull, kIoError };
 struct ChannelStats {
   uint64_t events = 0;
   uint64_t bytes = 0;
-  PofType type = PofType::kUnknown;
+  bus::MessageType type = bus::MessageType::kUnknown;
   uint64_t fingerprint = 0;
   SeqTracker seq;
 };

@@ -20,6 +20,7 @@
 #include <pof/daq_status_t.hpp>
 #include <pof/raw_block_t.hpp>
 
+#include "pof/bus/fingerprint.hpp"
 #include "pof/recorder/pof_messages.hpp"
 
 namespace pof::spy {
@@ -31,7 +32,7 @@ struct ChannelView {
   uint64_t decode_errors = 0;     // fingerprint matched one of our types but it did not decode (bounded decoder)
   std::size_t last_size = 0;
   uint64_t fingerprint = 0;
-  recorder::PofType type = recorder::PofType::kUnknown;
+  bus::MessageType type = bus::MessageType::kUnknown;
   int64_t last_recv_utime = 0;
   double rate_hz = 0;             // over the last ~1 s of ticks
   recorder::SeqTracker seq;

@@ -14,7 +14,7 @@
 namespace pof::daq {
 
 /// Counters published in daq_status_t. Written by the acquisition thread (and the publisher for
-/// `blocks`), read by the publisher. They never go backwards.
+/// `blocks` and `publish_failures`), read by the publisher. They never go backwards.
 struct Counters {
   std::atomic<std::int64_t> scans{0};          // device scans received
   std::atomic<std::int64_t> blocks{0};         // raw blocks published
@@ -23,6 +23,7 @@ struct Counters {
   std::atomic<std::int64_t> overruns{0};       // blocks dropped because the queue was full
   std::atomic<std::int64_t> reconnects{0};
   std::atomic<std::int64_t> padding_set{0};    // samples with padding bits set (kept)
+  std::atomic<std::int64_t> publish_failures{0};  // raw blocks and statuses LCM refused
   std::atomic<std::uint32_t> variant{0};       // Variant bits of the current session
 };
 

@@ -45,7 +45,7 @@ struct DaqConfig {
   int reference_ai = 1;
   int pot_ai = 2;
   // [lcm]
-  std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0";
+  std::string lcm_url;                  // "": $LCM_DEFAULT_URL, else udpm on this host (pof/bus/url.hpp)
   std::string sensor_id;                // suffix of the channels: POF_RAW_<SENSOR_ID>
   int queue_blocks = 256;               // publisher queue depth [blocks]
   // [daemon]

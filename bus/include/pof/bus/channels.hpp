@@ -1,0 +1,63 @@
+#pragma once
+// pofkit's LCM channel names: the one place they are spelt. Every stream is POF_<STREAM>, suffixed
+// with _<SENSOR_ID> when the publisher serves a named sensor (docs/deployment.md, "Channels"):
+//
+//   Stream              channel                             type                    publisher
+//   kRaw                POF_RAW[_<ID>]                      raw_block_t             pof-daqd
+//   kDaqStatus          POF_DAQ_STATUS[_<ID>]               daq_status_t            pof-daqd
+//   kAngle              POF_ANGLE[_<ID>]                    angle_t                 pof-compensatord
+//   kStats              POF_STATS[_<ID>]                    cycle_stats_t           pof-compensatord
+//   kCompensatorStatus  POF_COMPENSATOR_STATUS[_<ID>]       compensator_status_t    pof-compensatord
+//
+// Header-only C++17 (the SDK installs it, examples/cpp_client uses it).
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace pof::bus {
+
+enum class Stream { kRaw, kDaqStatus, kAngle, kStats, kCompensatorStatus };
+
+inline constexpr Stream kStreams[] = {Stream::kRaw, Stream::kDaqStatus, Stream::kAngle, Stream::kStats,
+                                      Stream::kCompensatorStatus};
+
+/// "POF_RAW", "POF_DAQ_STATUS", ...: the channel without a sensor id.
+constexpr std::string_view stream_base(Stream s) {
+  switch (s) {
+    case Stream::kRaw: return "POF_RAW";
+    case Stream::kDaqStatus: return "POF_DAQ_STATUS";
+    case Stream::kAngle: return "POF_ANGLE";
+    case Stream::kStats: return "POF_STATS";
+    case Stream::kCompensatorStatus: return "POF_COMPENSATOR_STATUS";
+  }
+  return "";
+}
+
+/// (kAngle, "LEFT_KNEE") -> "POF_ANGLE_LEFT_KNEE"; no suffix for an empty sensor id.
+inline std::string channel(Stream s, std::string_view sensor_id = {}) {
+  std::string c(stream_base(s));
+  if (!sensor_id.empty()) c.append("_").append(sensor_id);
+  return c;
+}
+
+/// A channel name taken apart: the inverse of channel().
+struct ChannelName {
+  Stream stream = Stream::kRaw;
+  std::string sensor_id;
+};
+
+/// "POF_RAW_LEFT_KNEE" -> {kRaw, "LEFT_KNEE"}; nullopt for a channel that is none of pofkit's
+/// streams ("POF_RAWX", "POF_RAW_", "FOREIGN"). No stream name is a prefix of another, so the
+/// answer is unique.
+inline std::optional<ChannelName> parse_channel(std::string_view ch) {
+  for (const Stream s : kStreams) {
+    const std::string_view base = stream_base(s);
+    if (ch.substr(0, base.size()) != base) continue;
+    const std::string_view rest = ch.substr(base.size());
+    if (rest.empty()) return ChannelName{s, {}};
+    if (rest.size() > 1 && rest[0] == '_') return ChannelName{s, std::string(rest.substr(1))};
+  }
+  return std::nullopt;
+}
+
+}  // namespace pof::bus

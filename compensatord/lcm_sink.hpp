@@ -1,0 +1,36 @@
+#pragma once
+// pof-compensatord's Sink on the bus: publishes angles and cycle statistics with liblcm. A message
+// LCM refuses (publish() != 0, e.g. a channel name longer than LCM_MAX_CHANNEL_NAME_LENGTH) is
+// reported to the pipeline, which counts it in compensator_status_t.publish_failures, and logged
+// rate-limited through `errors`. The log lines are made at setup: publishing allocates nothing and
+// never throws.
+#include <string>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "pipeline.hpp"
+#include "pof/bus/error_log.hpp"
+
+namespace pof::compensatord {
+
+class LcmSink final : public Sink {
+ public:
+  /// A channel and the line logged when LCM refuses a message on it.
+  struct Out {
+    explicit Out(std::string ch);
+    std::string channel, refused;
+  };
+
+  LcmSink(lcm::LCM& lc, std::string angle_channel, std::string stats_channel, bus::ErrorLog& errors);
+  bool angle(const pof::angle_t& m) override { return sent(lc_.publish(angle_.channel, &m), angle_); }
+  bool cycle(const pof::cycle_stats_t& m) override { return sent(lc_.publish(stats_.channel, &m), stats_); }
+  /// liblcm's publish() result `rc` for a message on out.channel: true when published, else logged.
+  bool sent(int rc, const Out& out) noexcept;
+
+ private:
+  lcm::LCM& lc_;
+  Out angle_, stats_;
+  bus::ErrorLog& errors_;
+};
+
+}  // namespace pof::compensatord

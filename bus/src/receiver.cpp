@@ -120,20 +120,9 @@ void Receiver::deliver_typed(Channel& c, const Delivery& d, const unsigned char*
     }
     try {
       sub->call(d);
-    } catch (const std::exception& ex) {
-      ++c.stats.handler_errors;
-      ReceiveError e;
-      e.kind = ReceiveError::Kind::kHandler;
-      e.channel = d.channel;
-      e.what = ex.what();
-      report(e);
     } catch (...) {
       ++c.stats.handler_errors;
-      ReceiveError e;
-      e.kind = ReceiveError::Kind::kHandler;
-      e.channel = d.channel;
-      e.what = "an exception that is not a std::exception";
-      report(e);
+      report_handler_error(d.channel, std::current_exception());
     }
   }
 }
@@ -141,19 +130,23 @@ void Receiver::deliver_typed(Channel& c, const Delivery& d, const unsigned char*
 void Receiver::deliver_raw(Raw& r, const Delivery& d, const unsigned char* data, std::size_t size) noexcept {
   try {
     r.fn(d, data, size);
-  } catch (const std::exception& ex) {
-    ReceiveError e;
-    e.kind = ReceiveError::Kind::kHandler;
-    e.channel = d.channel;
-    e.what = ex.what();
-    report(e);
   } catch (...) {
-    ReceiveError e;
-    e.kind = ReceiveError::Kind::kHandler;
-    e.channel = d.channel;
-    e.what = "an exception that is not a std::exception";
-    report(e);
+    report_handler_error(d.channel, std::current_exception());
   }
+}
+
+void Receiver::report_handler_error(std::string_view channel, std::exception_ptr error) noexcept {
+  ReceiveError e;
+  e.kind = ReceiveError::Kind::kHandler;
+  e.channel = channel;
+  try {
+    std::rethrow_exception(std::move(error));
+  } catch (const std::exception& ex) {
+    e.what = ex.what();
+  } catch (...) {
+    e.what = "an exception that is not a std::exception";
+  }
+  report(e);
 }
 
 void Receiver::report(const ReceiveError& e) noexcept {

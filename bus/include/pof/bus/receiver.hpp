@@ -18,6 +18,7 @@
 // daemons log them rate-limited with ErrorLog).
 //
 // Threads: one thread subscribes and calls handle(); handlers run on it.
+#include <exception>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -160,6 +161,8 @@ class Receiver {
   void deliver_typed(Channel& c, const Delivery& d, const unsigned char* data, std::size_t size) noexcept;
   void deliver_raw(Raw& r, const Delivery& d, const unsigned char* data, std::size_t size) noexcept;
   void report(const ReceiveError& e) noexcept;
+  /// A subscriber's handler threw `error` on `channel`: reported as Kind::kHandler.
+  void report_handler_error(std::string_view channel, std::exception_ptr error) noexcept;
 
   lcm::LCM& lc_;
   ReceiverOptions opt_;

@@ -66,17 +66,24 @@ inline double quasi_static_angle(const ModelCoefficients& m, double v) { return 
 /// Inverse of f5: the normalised voltage [V] the quasi-static line gives at angle [deg].
 inline double quasi_static_voltage(const ModelCoefficients& m, double angle_deg) { return (m.c10 - angle_deg) / m.c9; }
 
+/// f2 at |w|: f3's gain a = c3 h + c4 and offset b = c5 h + c6 for direction x, h = f1(|w|).
+struct F3Line {
+  double a, b;
+};
+inline F3Line f3_line(const ModelCoefficients& m, const DirectionCoefficients& x, double w) {
+  const double h = hysteresis_pct(m, w);
+  return {x.c3 * h + x.c4, x.c5 * h + x.c6};
+}
+
 /// f1..f5 chained: the compensated angle [deg] of a normalised voltage [V] measured while moving in
 /// direction d (flexion or extension) at angular speed |w| [rad/s]. For kHold returns f5 alone.
 inline double compensated_angle(const ModelCoefficients& m, double v_meas, double w, Direction d) {
   if (d == Direction::kHold) return quasi_static_angle(m, v_meas);
   const DirectionCoefficients& x = m.of(d);
-  const double h = hysteresis_pct(m, w);
-  const double a = x.c3 * h + x.c4;
-  const double b = x.c5 * h + x.c6;
-  const double v1 = a * v_meas + b;  // f3
-  const double v2 = x.c7 * v1 - x.c8;  // f4
-  return quasi_static_angle(m, v2);  // f5
+  const F3Line f3 = f3_line(m, x, w);
+  const double v1 = f3.a * v_meas + f3.b;  // f3
+  const double v2 = x.c7 * v1 - x.c8;      // f4
+  return quasi_static_angle(m, v2);        // f5
 }
 
 /// Inverse of compensated_angle in v_meas: the voltage [V] the model predicts at angle [deg] while
@@ -84,12 +91,10 @@ inline double compensated_angle(const ModelCoefficients& m, double v_meas, doubl
 inline double model_voltage(const ModelCoefficients& m, double angle_deg, double w, Direction d) {
   if (d == Direction::kHold) return quasi_static_voltage(m, angle_deg);
   const DirectionCoefficients& x = m.of(d);
-  const double h = hysteresis_pct(m, w);
-  const double a = x.c3 * h + x.c4;
-  const double b = x.c5 * h + x.c6;
+  const F3Line f3 = f3_line(m, x, w);
   const double v2 = quasi_static_voltage(m, angle_deg);
   const double v1 = (v2 + x.c8) / x.c7;
-  return (v1 - b) / a;
+  return (v1 - f3.b) / f3.a;
 }
 
 /// The combined equation (11) (flexion) or (12) (extension) in the paper's printed form.

@@ -27,18 +27,8 @@ namespace pof::recorder {
 namespace fs = std::filesystem;
 namespace {
 
+using pof::lcmutil::iso_utc;
 using pof::lcmutil::now_utime;
-
-std::string iso_utc(int64_t utime) {
-  const std::time_t t = static_cast<std::time_t>(utime / 1000000);
-  std::tm tm{};
-  ::gmtime_r(&t, &tm);
-  char b[40];
-  std::strftime(b, sizeof b, "%Y-%m-%dT%H:%M:%S", &tm);
-  char out[64];
-  std::snprintf(out, sizeof out, "%s.%06lldZ", b, static_cast<long long>(utime % 1000000));
-  return out;
-}
 
 }  // namespace
 

@@ -13,6 +13,7 @@
 #include <spdlog/spdlog.h>
 
 #include "commands.hpp"
+#include "pof/lcm/utime.hpp"
 #include "pof/base/errors.hpp"
 #include "pof/bus/fingerprint.hpp"
 #include "pof/recorder/lcmlog_durable.hpp"
@@ -43,14 +44,6 @@ struct RecordArgs {
   bool liblcm = false;
 };
 
-std::string utc(int64_t utime) {
-  const std::time_t t = static_cast<std::time_t>(utime / 1000000);
-  std::tm tm{};
-  ::gmtime_r(&t, &tm);
-  char b[40];
-  std::strftime(b, sizeof b, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return b;
-}
 
 // Prints what a log holds; returns true when it is clean.
 bool check_one(const std::string& file) {
@@ -66,7 +59,7 @@ bool check_one(const std::string& file) {
   });
   std::cout << file << ": " << c.events << " complete events, " << c.good_bytes << " bytes";
   if (c.events > 0)
-    std::printf("%s", (", " + utc(c.first_utime) + " .. " + utc(c.last_utime) + " (" +
+    std::printf("%s", (", " + pof::lcmutil::iso_utc(c.first_utime, false) + " .. " + pof::lcmutil::iso_utc(c.last_utime, false) + " (" +
                        std::to_string(static_cast<double>(c.last_utime - c.first_utime) / 1e6) + " s)")
                           .c_str());
   std::cout << std::flush;

@@ -153,30 +153,28 @@ def _watch(a, pid, pidfd, sock):
     os.dup2(devnull, 0)
     os.dup2(devnull, 1)  # the shell may read CMD's stdout through a pipe: do not hold it open
 
-    deadline = time.monotonic() + a.timeout
-    what = "READY=1" if a.notify else f"a UDP socket on port {a.listening}"
-    while True:
-        left = deadline - time.monotonic()
-        if left <= 0:
-            os.kill(pid, signal.SIGTERM)
-            report(f"FAILED no {what} within {a.timeout:g} s (terminated)")
-            return 1
-        if a.notify:
-            readable, _, _ = select.select([sock, pidfd], [], [], left)
+    what = "READY=1" if a.notify else f"UDP socket on port {a.listening}"
+    gone = lambda: bool(select.select([pidfd], [], [], 0)[0])  # noqa: E731
+    if a.notify:
+        ready, deadline = False, time.monotonic() + a.timeout
+        while not ready and time.monotonic() < deadline:
+            readable, _, _ = select.select([sock, pidfd], [], [], max(0.0, deadline - time.monotonic()))
             if sock in readable:
-                msg = sock.recv(4096).decode(errors="replace")
-                if "READY=1" in msg.split("\n"):
-                    report(f"READY {pid}")
-                    return 0
-                continue
-        else:
-            if sockets_of(pid, a.listening) > 0:
-                report(f"READY {pid}")
-                return 0
-            readable, _, _ = select.select([pidfd], [], [], min(left, POLL_S))
-        if pidfd in readable:
-            report(f"FAILED exited before {what}")
-            return 1
+                ready = "READY=1" in sock.recv(4096).decode(errors="replace").split("\n")
+            elif readable:
+                break
+    else:
+        wait_until(lambda: sockets_of(pid, a.listening) > 0 or gone(), a.timeout)
+        ready = sockets_of(pid, a.listening) > 0
+    if ready:
+        report(f"READY {pid}")
+        return 0
+    if gone():
+        report(f"FAILED exited before {what}")
+    else:
+        os.kill(pid, signal.SIGTERM)
+        report(f"FAILED no {what} within {a.timeout:g} s (terminated it)")
+    return 1
 
 
 def cmd_notify_log(a):

@@ -13,15 +13,7 @@ no_file() { local f; for f in "$@"; do [ ! -e "$f" ] || fail "$f was written"; d
 # poke <file> <offset> <hex bytes>: overwrite bytes in place.
 poke() { printf "$(sed 's/\([0-9a-f][0-9a-f]\)/\\x\1/g' <<<"$3")" | dd of="$1" bs=1 seek="$2" conv=notrunc status=none; }
 # event_offset <log> <n>: byte offset of event n (0-based), from the headers.
-event_offset() {
-  python3 - "$1" "$2" <<'PY'
-import struct, sys
-d = open(sys.argv[1], "rb").read(); off = 0
-for _ in range(int(sys.argv[2])):
-    cl, dl = struct.unpack(">II", d[off + 20:off + 28]); off += 28 + cl + dl
-print(off)
-PY
-}
+event_offset() { "$PY" "$SOURCE_DIR/tests/e2e/lcmlog_events.py" offset "$1" "$2"; }
 
 "$POF" sim paper -o run.lcmlog --seconds 20 --seed 7 2>/dev/null   # 200 POF_RAW blocks of 20 scans
 "$POF" sim paper -o run.csv --seconds 5 --seed 7 2>/dev/null

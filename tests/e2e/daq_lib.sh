@@ -17,13 +17,12 @@ vdaq() {
   fi
 }
 
-# report <python expression over r>: a value from the JSON report.
-report() {
-  /usr/bin/python3 -c 'import json,sys; r=json.load(open(sys.argv[1])); print(eval(sys.argv[2]))' \
-    "$WORK_DIR/report.json" "$1"
-}
+# report <key[.key...]> [file]: a value from the JSON report (default $WORK_DIR/report.json), e.g.
+# `report status.dropped_scans`; true/false for booleans, JSON for lists and objects.
+report() { "$PY" "$SOURCE_DIR/tests/e2e/daq_report.py" get "${2:-$WORK_DIR/report.json}" "$1"; }
 
-# summary: one line with the figures of the run, for the test log.
-summary() {
-  report '"blocks=%d scans=%d rate=%.3f/%.3f Hz dropped=%d usb_errors=%d reconnects=%d ts_err_p99=%s us publish_age p50/p99=%s/%s us seam p50/max=%s/%s us cpu=%s%%" % (r["blocks"], r["scans_published"], r["measured_rate_hz"] or 0, r["published_rate_hz"], r["status"]["dropped_scans"], r["status"]["usb_errors"], r["status"]["reconnects"], r["timestamp_abs_error_us"]["p99"], r["scan_to_publish_us"]["p50"], r["scan_to_publish_us"]["p99"], r.get("seam_us",{}).get("p50"), r.get("seam_us",{}).get("max"), r.get("daemon_cpu_percent"))'
-}
+# summary [file]: one line with the figures of the run, for the test log.
+summary() { "$PY" "$SOURCE_DIR/tests/e2e/daq_report.py" summary "${1:-$WORK_DIR/report.json}"; }
+
+# at_most <number> <bound>: exit 0 when number <= bound (floating point).
+at_most() { awk -v x="$1" -v b="$2" 'BEGIN { exit !(x + 0 <= b + 0) }'; }

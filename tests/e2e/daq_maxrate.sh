@@ -17,9 +17,9 @@ status=0
 wait $p8 || status=1
 wait $p9 || status=1
 for name in usb6008 usb6009; do
-  cp "$WORK_DIR/$name.json" "$WORK_DIR/report.json"
-  echo "$name: $(summary)"
-  [ "$(report 'r["pass"]')" = True ] || { tail -n 20 "$WORK_DIR/$name.err" >&2; fail "$name: $(report 'r["failures"]')"; }
+  r="$WORK_DIR/$name.json"
+  echo "$name: $(summary "$r")"
+  [ "$(report pass "$r")" = true ] || { tail -n 20 "$WORK_DIR/$name.err" >&2; fail "$name: $(report failures "$r")"; }
 done
 [ $status = 0 ] || fail "pof-vdaq failed"
 echo ok

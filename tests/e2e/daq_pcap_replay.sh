@@ -6,13 +6,13 @@
 source "$(dirname "$0")/daq_lib.sh"
 vdaq --model 6009 --duration 2 --rate 4000 --decimate 1 --block-scans 20 \
      --record-pcap "$WORK_DIR/session.pcap"
-recorded=$(report 'r["scans_published"]')
+recorded=$(report scans_published)
 [ "$recorded" -gt 1000 ] || fail "recording published only $recorded scans"
 vdaq --model 6009 --duration 2 --rate 4000 --decimate 1 --block-scans 20 --min-rate-ratio 0 \
      --replay-pcap "$WORK_DIR/session.pcap"
-replayed=$(report 'r["scans_published"]')
+replayed=$(report scans_published)
 [ "$replayed" = "$recorded" ] || fail "replay published $replayed scans, the recording $recorded"
-echo "recorded and replayed $recorded scans, max error $(report 'r["max_value_error_lsb"]') LSB"
+echo "recorded and replayed $recorded scans, max error $(report max_value_error_lsb) LSB"
 shopt -s nullglob
 for dir in "$SOURCE_DIR"/tests/data/usb_captures/*/; do
   model=$(cat "$dir/model")
@@ -21,8 +21,8 @@ for dir in "$SOURCE_DIR"/tests/data/usb_captures/*/; do
   umockdev-wrapper "$BIN_DIR/pof-vdaq" --daemon "$BIN_DIR/pof-daqd" --report "$WORK_DIR/real.json" \
     --model "$model" --duration 3 --min-rate-ratio 0 --replay-pcap "$dir/capture.pcap" \
     -- -s acquisition.data_timeout_ms=5000 >"$WORK_DIR/real.out" 2>&1 || true
-  /usr/bin/python3 -c 'import json,sys; r=json.load(open(sys.argv[1])); sys.exit(0 if r["blocks"] > 0 and r["index_jumps_without_gap_flag"] == 0 and r["daemon_exit_code"] == 0 else 1)' \
-    "$WORK_DIR/real.json" || fail "replay of $dir: see $WORK_DIR/real.out"
-  echo "replayed $dir: $(report 'r["blocks"]') blocks"
+  "$PY" "$SOURCE_DIR/tests/e2e/daq_report.py" stream-intact "$WORK_DIR/real.json" ||
+    fail "replay of $dir: see $WORK_DIR/real.out"
+  echo "replayed $dir: $(report blocks "$WORK_DIR/real.json") blocks"
 done
 echo ok

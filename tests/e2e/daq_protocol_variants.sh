@@ -16,15 +16,16 @@ summary
 vdaq --model 6008 --duration 2.5 --rate 1000 --decimate 1 --block-scans 10 --padding-noise \
      --expect-variant "padding bits set"
 summary
-[ "$(report 'r["status"]["padding_set"] > 1000')" = True ] || fail "padding_set not counted: $(report 'r["status"]')"
-[ "$(report 'r["status"]["usb_errors"]')" = 0 ] || fail "padding counted as USB errors"
+[ "$(report status.padding_set)" -gt 1000 ] || fail "padding_set not counted: $(report status)"
+[ "$(report status.usb_errors)" = 0 ] || fail "padding counted as USB errors"
 # Little-endian samples (datalogger-rpi usb6008.py) of a steady +0.03 V with +-1 LSB noise: the
 # reading a padding check alone lets through as -2.46 V. Told from the data; the blocks before the
 # first verdict (one window of 256 scans) are flagged doubtful, every other value is exact.
 vdaq --model 6008 --duration 2.5 --rate 1000 --decimate 1 --block-scans 10 --byte-order little \
      --steady-volts 0.03 --expect-variant "little-endian"
 summary
-[ "$(report '0 < r["doubtful_blocks"] <= 30')" = True ] || fail "doubtful blocks: $(report 'r["doubtful_blocks"]')"
+doubtful=$(report doubtful_blocks)
+[ "$doubtful" -gt 0 ] && [ "$doubtful" -le 30 ] || fail "doubtful blocks: $doubtful"
 # ... and big-endian (comedi's family) with the knee signal, with nonzero padding as well.
 vdaq --model 6008 --duration 2.5 --rate 1000 --decimate 1 --block-scans 10 --padding-noise \
      --expect-variant "big-endian"

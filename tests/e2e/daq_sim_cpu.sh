@@ -5,5 +5,5 @@
 source "$(dirname "$0")/daq_lib.sh"
 vdaq --model sim --duration 12 --warmup 2 --rate 16000 --decimate 1 --block-scans 50
 summary
-[ "$(report 'r["status"]["dropped_scans"]')" = 0 ] || fail "dropped scans"
+[ "$(report status.dropped_scans)" = 0 ] || fail "dropped scans"
 echo ok

@@ -7,12 +7,12 @@ source "$(dirname "$0")/daq_lib.sh"
 vdaq --model 1208ls --scenario normal --duration 4 --rate 250 --decimate 1 --block-scans 10 \
      --expect-variant "record-first"
 summary
-[ "$(report 'r["max_value_error_lsb"] <= 1.0')" = True ] || fail "value error above 1 LSB"
+at_most "$(report max_value_error_lsb)" 1.0 || fail "value error above 1 LSB"
 # The layout of wjasper's Python driver and ryan-duve's backend (data from byte 0, index at 101).
 vdaq --model 1208ls --scenario normal --duration 3 --rate 250 --decimate 1 --block-scans 10 \
      --report-layout data-first --expect-variant "data-first"
 summary
-[ "$(report 'r["max_value_error_lsb"] <= 1.0')" = True ] || fail "data-first layout: value error above 1 LSB"
+at_most "$(report max_value_error_lsb)" 1.0 || fail "data-first layout: value error above 1 LSB"
 vdaq --model 1208ls --scenario unplug --event-at 1.5 --unplug-for 1 --duration 5 --rate 250 \
      --decimate 1 --block-scans 10 --expect-gap --expect-state 2 --min-reconnects 1 \
      --max-dropped 100000 --min-rate-ratio 0
@@ -21,5 +21,5 @@ summary
 vdaq --model 1208ls --scenario normal --duration 3 --rate 15 --decimate 1 --block-scans 1 --min-rate-ratio 0.95 \
      -- -s 'acquisition.mcc_mode="single"'
 summary
-[ "$(report 'r["max_value_error_lsb"] <= 1.0')" = True ] || fail "single reads: value error above 1 LSB"
+at_most "$(report max_value_error_lsb)" 1.0 || fail "single reads: value error above 1 LSB"
 echo ok

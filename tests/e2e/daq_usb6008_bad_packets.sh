@@ -9,11 +9,11 @@ summary
 vdaq --model 6008 --scenario garbage --duration 4 --event-at 1.5 --rate 2000 --decimate 1 \
      --block-scans 10 --expect-gap --min-usb-errors 1 --max-dropped 2000 --min-rate-ratio 0
 summary
-report 'r["states_seen"]' | grep -q "odd-length" || fail "garbage: the fault does not say why"
+report states_seen | grep -q "odd-length" || fail "garbage: the fault does not say why"
 vdaq --model 6008 --scenario padding --duration 4 --event-at 1.5 --rate 2000 --decimate 1 \
      --block-scans 10 --expect-gap --max-dropped 2000 --min-rate-ratio 0 \
      --daemon-byte-order big --expect-variant "padding bits set"
 summary
-[ "$(report 'r["status"]["padding_set"] >= 30')" = True ] || fail "padding: not counted: $(report 'r["status"]')"
-report 'r["states_seen"]' | grep -q "no data" || fail "padding: the silence that follows is not reported"
+[ "$(report status.padding_set)" -ge 30 ] || fail "padding: not counted: $(report status)"
+report states_seen | grep -q "no data" || fail "padding: the silence that follows is not reported"
 echo ok

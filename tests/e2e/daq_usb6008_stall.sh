@@ -5,5 +5,5 @@ vdaq --model 6008 --scenario stall --duration 5 --event-at 2 --rate 2000 --decim
      --expect-gap --expect-state 3 --min-usb-errors 1 --min-reconnects 1 \
      --max-dropped 1000 --min-rate-ratio 0
 summary
-report 'r["states_seen"]' | grep -q "stalled" || fail "the fault state does not name the stall"
+report states_seen | grep -q "stalled" || fail "the fault state does not name the stall"
 echo ok

@@ -58,38 +58,8 @@ grep -q '^ExecStart=.*--sensor-id %i' "$units/pof-daqd@.service" || fail "daqd t
 mkdir -p state/recordings
 args=$(sed -n 's/^Environment="POF_RECORD_ARGS=\(.*\)"$/\1/p' "$units/pof-record.service")
 [ -n "$args" ] || fail "no default POF_RECORD_ARGS in pof-record.service"
-cat >notify.py <<'PY'
-import os, socket, subprocess, sys, time
-path = os.path.join(os.getcwd(), "notify.sock")
-if os.path.exists(path):
-    os.unlink(path)  # one socket per run: the script runs this for several services
-s = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
-s.bind(path)
-s.settimeout(0.2)
-env = dict(os.environ, NOTIFY_SOCKET=path, WATCHDOG_USEC="1000000")
-p = subprocess.Popen(sys.argv[1:], env=env)
-msgs = []
-t0 = time.time()
-while p.poll() is None or time.time() - t0 < 0.5:
-    try:
-        msgs.append((round(time.time() - t0, 2), s.recv(4096).decode()))
-    except socket.timeout:
-        if p.poll() is not None:
-            break
-# Drain: the last datagrams (STOPPING=1 right before exit) may still be queued when the loop sees
-# the process gone.
-s.settimeout(0.05)
-while True:
-    try:
-        msgs.append((round(time.time() - t0, 2), s.recv(4096).decode()))
-    except socket.timeout:
-        break
-print(p.returncode)
-for t, m in msgs:
-    print(t, m.replace("\n", " ; "))
-PY
 # shellcheck disable=SC2086  # POF_RECORD_ARGS is split into words, as systemd does with $VAR
-/usr/bin/python3 notify.py "$prefix/bin/pof" record --output state/recordings/ $args --duration 3 \
+"$PY" "$POF_WAIT" notify-log -- "$prefix/bin/pof" record --output state/recordings/ $args --duration 3 \
   --lcm-url "udpm://239.255.76.67:$((20000 + RANDOM % 30000))?ttl=0" >notify.out
 cat notify.out
 [ "$(head -n 1 notify.out)" = 0 ] || fail "pof record (service command line) exited $(head -n 1 notify.out)"
@@ -105,7 +75,7 @@ ls state/recordings/pof-*.manifest.json >/dev/null || fail "no manifest in the s
 # READY=1 once running, the watchdog fed from their working loop, STOPPING=1 on the way out.
 check_notify() {  # check_notify <name> <command...>
   local name=$1; shift
-  /usr/bin/python3 notify.py "$@" >"notify-$name.out" 2>"notify-$name.err" || fail "$name: $(tail -n 3 "notify-$name.err")"
+  "$PY" "$POF_WAIT" notify-log -- "$@" >"notify-$name.out" 2>"notify-$name.err" || fail "$name: $(tail -n 3 "notify-$name.err")"
   [ "$(head -n 1 "notify-$name.out")" = 0 ] || fail "$name exited $(head -n 1 "notify-$name.out"): $(cat "notify-$name.err")"
   grep -q "READY=1" "notify-$name.out" || fail "$name: no READY=1"
   grep -q "STOPPING=1" "notify-$name.out" || fail "$name: no STOPPING=1"

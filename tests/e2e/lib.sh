@@ -16,3 +16,35 @@ expect_exit() {
   out=$(cat "$WORK_DIR/.out"); err=$(cat "$WORK_DIR/.err")
   [ "$got" -eq "$want" ] || fail "'$*' exited $got, expected $want; stderr: $err"
 }
+
+# --- Waiting on readiness and conditions (tests/e2e/pof_wait.py), never on a fixed time ----------
+PY=/usr/bin/python3
+POF_WAIT="$SOURCE_DIR/tests/e2e/pof_wait.py"
+
+# start_ready <notify|PORT> <stderr file> <command...>: starts the command in the background (its
+# stderr into the file) and returns once it is ready: READY=1 over sd_notify (`notify`: pof-daqd,
+# pof-compensatord, pof record), or a UDP socket of its own bound on the LCM port PORT (lcm-logger,
+# pof spy, clients). $! is its pid, a child of this shell: `wait $!` gives its exit status. Fails,
+# with the end of its stderr, when it exits or is not ready within 20 s.
+start_ready() {
+  local how=$1 log=$2 fifo="$WORK_DIR/.ready.fifo" fd line
+  shift 2
+  rm -f "$fifo" && mkfifo "$fifo"
+  exec {fd}<>"$fifo"   # read-write: opening does not wait for the writer
+  if [ "$how" = notify ]; then how=(--notify); else how=(--listening "$how"); fi
+  "$PY" "$POF_WAIT" start "${how[@]}" --report "$fifo" --stderr "$log" -- "$@" &
+  read -r -t 30 -u "$fd" line || line="FAILED no word from pof_wait.py within 30 s"
+  exec {fd}<&-
+  rm -f "$fifo"
+  [ "$line" = "READY $!" ] || fail "$(basename "$1"): ${line#FAILED }; its stderr: $(tail -n 20 "$log")"
+}
+
+# wait_until [--timeout S] <condition>: polls until the condition holds (pof_wait.py until:
+# --drained PORT, --exited PID, --listening PORT PID..., or -- a command that exits 0).
+wait_until() { "$PY" "$POF_WAIT" until "$@"; }
+
+# caught_up --lcm-url URL [--sensor-id ID] (--blocks N | -- DAQ command...): returns once
+# pof-compensatord's status shows it took N raw blocks (or every block the DAQ command published).
+caught_up() {
+  PYTHONPATH="$BIN_DIR/../python:$SOURCE_DIR/python" "$PY" "$POF_WAIT" caught-up "$@"
+}

@@ -62,32 +62,32 @@ trap cleanup EXIT
 "$prefix/bin/pof" sim paper -o cal.csv 2>/dev/null
 "$prefix/bin/pof" calibrate cal.csv -o cal.toml >/dev/null 2>&1 || fail "installed pof calibrate failed"
 printf 'schema_version = 1\n[potentiometer]\ndeg_per_volt = 22.5\nzero_v = 0.5\n' >pot.toml
-client/pof-angle-client --lcm-url "$URL" --count 400 --timeout 25 >client.out 2>&1 &
+# The clients and the compensator listen before pof-daqd publishes its first scan.
+start_ready "$PORT" client.err client/pof-angle-client --lcm-url "$URL" --count 400 --timeout 25 >client.out
 client_pid=$!; pids+=($client_pid)
 # The Python client from the installed package alone (its types and pofkit beside each other).
-PYTHONPATH="$prefix/lib/python3/dist-packages" /usr/bin/python3 "$SOURCE_DIR/examples/python/angle_client.py" \
-  --lcm-url "$URL" --count 400 --timeout 25 >pyclient.out 2>&1 &
+PYTHONPATH="$prefix/lib/python3/dist-packages" start_ready "$PORT" pyclient.err \
+  /usr/bin/python3 "$SOURCE_DIR/examples/python/angle_client.py" --lcm-url "$URL" --count 400 --timeout 25 >pyclient.out
 py_pid=$!; pids+=($py_pid)
 # MATLAB/Octave through the Java jars, when GNU Octave is installed (it is not part of ./pofkit
 # setup: ~300 MB; `apt install octave` to run this part).
 oct_pid=
 if command -v octave-cli >/dev/null 2>&1; then
-  octave-cli --no-gui --quiet --eval "addpath('$SOURCE_DIR/examples/matlab'); \
-    s = pof_angle_client('POF_ANGLE', 400, '$URL', '$prefix/share/java'); exit(s.angles < 400)" >octave.out 2>&1 &
+  start_ready "$PORT" octave.err octave-cli --no-gui --quiet --eval "addpath('$SOURCE_DIR/examples/matlab'); \
+    s = pof_angle_client('POF_ANGLE', 400, '$URL', '$prefix/share/java'); exit(s.angles < 400)" >octave.out
   oct_pid=$!; pids+=($oct_pid)
 else
   echo "note: octave-cli not installed; the MATLAB/Octave client (examples/matlab) was not run"
 fi
-"$prefix/bin/pof-compensatord" --cal cal.toml --pot-cal pot.toml --lcm-url "$URL" 2>comp.log &
+start_ready notify comp.log "$prefix/bin/pof-compensatord" --cal cal.toml --pot-cal pot.toml --lcm-url "$URL"
 pids+=($!)
-sleep 1
 "$prefix/bin/pof-daqd" --device sim:session --lcm-url "$URL" --duration 6 2>daqd.log &
 pids+=($!)
-wait $client_pid || fail "the client did not get 400 angles: $(cat client.out) / $(tail -3 comp.log) / $(tail -3 daqd.log)"
-wait $py_pid || fail "the Python client did not get 400 angles: $(cat pyclient.out)"
+wait $client_pid || fail "the client did not get 400 angles: $(cat client.out client.err) / $(tail -3 comp.log) / $(tail -3 daqd.log)"
+wait $py_pid || fail "the Python client did not get 400 angles: $(cat pyclient.out pyclient.err)"
 outs=(client.out pyclient.out)
 if [ -n "$oct_pid" ]; then
-  wait $oct_pid || fail "the Octave client did not get 400 angles: $(cat octave.out)"
+  wait $oct_pid || fail "the Octave client did not get 400 angles: $(cat octave.out octave.err)"
   outs+=(octave.out)
 fi
 for out in "${outs[@]}"; do

@@ -25,14 +25,7 @@ expect_exit 0 "$POF" sim realistic -o r2.lcmlog --seconds 10
 cmp -s r.lcmlog r2.lcmlog || fail "LCM log not byte-deterministic"
 if command -v lcm-logplayer >/dev/null; then
   expect_exit 0 timeout 60 lcm-logplayer -s 100 -l "file://$WORK_DIR/replay.lcmlog?mode=w" r.lcmlog
-  count_events() { /usr/bin/python3 -c '
-import struct, sys
-b = open(sys.argv[1], "rb").read(); i = n = 0
-while i < len(b):
-    sync, num, ts, cl, dl = struct.unpack(">IqqII", b[i:i + 28])
-    assert sync == 0xEDA1DA01 and b[i + 28:i + 28 + cl] == b"POF_RAW"
-    i += 28 + cl + dl; n += 1
-print(n)' "$1"; }
+  count_events() { "$PY" "$SOURCE_DIR/tests/e2e/lcmlog_events.py" count "$1" POF_RAW; }
   [ "$(count_events r.lcmlog)" = 100 ] || fail "r.lcmlog: $(count_events r.lcmlog) events"
   [ "$(count_events replay.lcmlog)" = 100 ] || fail "lcm-logplayer replayed $(count_events replay.lcmlog) of 100 events"
 fi

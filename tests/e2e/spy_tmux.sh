@@ -16,16 +16,16 @@ trap cleanup EXIT
 
 "$PUB" --lcm-url "$URL" session --duration 12 --suffix _LEFT_KNEE &
 pub=$!
-tm new-session -d -s spy -x 132 -y 50 "'$POF' spy --lcm-url '$URL'; echo SPY-EXITED \$?; sleep 30"
-# Wait until a cycle-statistics row has arrived (every 2 s) and the rates have settled.
-for _ in $(seq 1 40); do
-  sleep 0.25
-  screen=$(tm capture-pane -p -t spy)
-  grep -q "cycle statistics" <<<"$screen" && grep -q "FOREIGN_TELEMETRY" <<<"$screen" && break
-done
-sleep 1.5
-screen=$(tm capture-pane -p -t spy)
-printf '%s\n' "$screen" >screen.txt
+# The pane stays after pof spy exits (remain-on-exit), so its exit status can be read from it.
+tm new-session -d -s spy -x 132 -y 50 "'$POF' spy --lcm-url '$URL'; echo SPY-EXITED \$?" \; \
+  set-option -t spy remain-on-exit on
+# Wait until a cycle-statistics row (every 2 s) and the foreign channel are on the screen and the
+# angle rate has settled at its 100/s (+-15 %); the checks below say what is missing when that does
+# not happen within 10 s.
+wait_until --timeout 10 -- sh -c 'tmux -S "$0" capture-pane -p -t spy >screen.txt &&
+  grep -q "cycle statistics" screen.txt && grep -q FOREIGN_TELEMETRY screen.txt &&
+  awk "\$1 == \"POF_ANGLE_LEFT_KNEE\" && \$2 == \"angle_t\" { ok = \$3 > 85 && \$3 < 115 } END { exit !ok }" screen.txt' \
+  "$sock" || true
 cat screen.txt
 for want in "POF_RAW_LEFT_KNEE" "raw_block_t" "POF_ANGLE_LEFT_KNEE" "angle_t" "POF_STATS_LEFT_KNEE" \
   "POF_DAQ_STATUS_LEFT_KNEE" "STREAMING (streaming)" "sensor_id LEFT_KNEE" "reference 4.3500 V" \
@@ -39,20 +39,17 @@ awk '$1 == "POF_ANGLE_LEFT_KNEE" && $2 == "angle_t" { exit !($6 == 0 && $7 == 0)
   fail "spy reports sequence gaps on a loss-free loopback stream"
 
 tm send-keys -t spy q
-for _ in $(seq 1 20); do
-  sleep 0.2
-  tm capture-pane -p -t spy | grep -q "SPY-EXITED 0" && break
-done
-tm capture-pane -p -t spy | grep -q "SPY-EXITED 0" || fail "'q' did not quit pof spy with exit 0"
+wait_until --timeout 5 -- sh -c 'tmux -S "$0" capture-pane -p -t spy | grep -q "SPY-EXITED 0"' "$sock" ||
+  fail "'q' did not quit pof spy with exit 0: $(tm capture-pane -p -t spy | grep SPY-EXITED)"
 
 # Snapshot mode: plain text (no escape codes), exits by itself.
 expect_exit 0 "$POF" spy --lcm-url "$URL" --duration 1.5
 grep -q "POF_ANGLE_LEFT_KNEE" <<<"$out" || fail "--duration snapshot lacks the angle channel: $out"
 if grep -q $'\x1b' <<<"$out"; then fail "--duration snapshot contains escape codes"; fi
 # SIGINT ends the live view cleanly too.
-"$POF" spy --lcm-url "$URL" >/dev/null &
+"$POF" spy --lcm-url "$URL" >live.out &
 spy=$!
-sleep 0.5
+wait_until -- test -s live.out || fail "pof spy drew no frame"   # its first frame: SIGINT is its own
 kill -INT $spy
 wait $spy || fail "pof spy exited $? on SIGINT"
 echo ok

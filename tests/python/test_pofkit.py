@@ -11,14 +11,18 @@ import shutil
 import socket
 import struct
 import subprocess
+import sys
 import tempfile
 import threading
-import time
 import unittest
 
 import numpy as np
 
 import pofkit
+
+# The e2e tests' readiness helper: wait for conditions, never for a fixed time.
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "e2e"))
+import pof_wait  # noqa: E402
 
 TESTPUB = os.environ["POF_TESTPUB"]
 URL_PROBE = os.environ["POF_URL_PROBE"]
@@ -106,14 +110,20 @@ class Logs(unittest.TestCase):
     def record(self):
         """A log of pof-testpub's session written by stock lcm-logger."""
         url = private_url()
+        port = pofkit.parse_udpm_url(url)[1]
         path = os.path.join(self.dir, "session.lcmlog")
         logger = subprocess.Popen(["lcm-logger", "--lcm-url", url, "-q", path],
                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         try:
-            time.sleep(0.5)  # lcm-logger subscribes without telling anyone it is ready
+            # lcm-logger does not say when it is ready: it is once its socket is bound on the port
+            # (liblcm joins the group right after binding).
+            self.assertTrue(pof_wait.wait_until(
+                lambda: pof_wait.sockets_of(logger.pid, port) > 0 or logger.poll() is not None, 20))
+            self.assertIsNone(logger.poll(), "lcm-logger exited")
             subprocess.run([TESTPUB, "--lcm-url", url, "session", "--duration", "2"], check=True,
                            capture_output=True)
-            time.sleep(0.5)
+            # Stopped once it read everything the kernel queued for it.
+            self.assertTrue(pof_wait.wait_until(lambda: pof_wait.drained(port), 20))
         finally:
             logger.terminate()
             logger.wait(timeout=10)

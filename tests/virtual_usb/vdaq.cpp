@@ -148,6 +148,9 @@ struct Checker {
   std::vector<std::string> state_texts;
   pof::daq_status_t last_status;
   long status_msgs = 0;
+  // pof-daqd publishes `stopping` when its acquisition ends and once more, with the final counters,
+  // after its last block (daqd/daemon.cpp, publisher_main): the second one ends its stream.
+  long stopping_msgs = 0;
 
   // Truth time of device scan `idx` of `session` (device mutex held).
   double truth_us(int sess, double idx) const {
@@ -252,6 +255,7 @@ struct Checker {
     std::lock_guard lock(mu);
     ++status_msgs;
     states.insert(s.state);
+    if (s.state == pof::daq_status_t::STATE_STOPPING) ++stopping_msgs;
     if (s.state == pof::daq_status_t::STATE_STREAMING && s.scans == 0) ++streaming_without_scans;
     const std::string t = std::to_string(s.state) + ": " + s.state_text;
     if (state_texts.empty() || state_texts.back() != t) state_texts.push_back(t);
@@ -556,7 +560,15 @@ int main(int argc, char** argv) {
   } else {
     waitpid(pid, &status, 0);
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // last LCM messages
+  // The daemon's last messages: until its final status arrived (2 s at most: a daemon that died
+  // sends none, and the report says so).
+  for (const std::int64_t until = now_us() + 2'000'000; now_us() < until;) {
+    {
+      std::lock_guard lock(checker.mu);
+      if (checker.stopping_msgs >= 2) break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
   lcm_stop.store(true);
   lcm_thread.join();
 

@@ -1,0 +1,59 @@
+#!/usr/bin/python3
+"""Checks of a `pof record` manifest (<log>.manifest.json, recorder/src/session.cpp) for
+tests/e2e/record_lossless.sh and record_crash.sh.
+
+  record_manifest_check.py lossless MANIFEST N   every one of N messages received and written,
+                                                 none dropped (hand-off or kernel)
+  record_manifest_check.py killed MANIFEST       after SIGKILL: still `recording`, the attached
+                                                 calibration listed, the rotated files named
+  record_manifest_check.py rotated MANIFEST      a time-rotated session stopped cleanly: >= 3
+                                                 files, every event written, POF_ANGLE_RIGHT_KNEE
+                                                 without sequence gaps
+"""
+import json
+import sys
+
+
+def check(ok, what):
+    if not ok:
+        sys.exit(f"{sys.argv[2]}: {what}")
+
+
+def lossless(m, n):
+    c = m["counters"]
+    print("manifest counters:", c)
+    check(c["received"] == n and c["written"] == n, f"received/written {c['received']}/{c['written']}, sent {n}")
+    check(c["dropped_handoff"] == 0 and c["udp_kernel_drops"] == 0, f"drops: {c}")
+
+
+def killed(m):
+    check(m["status"] == "recording", f"status {m['status']} (killed: it never reached 'stopped')")
+    check(m["attachments"][0]["copy"] == "run.files/cal.toml", f"attachments {m['attachments']}")
+    check(m["versions"]["lcm"] == "1.3.1", f"versions {m['versions']}")
+    check(len(m["files"]) >= 2 and m["files"][0]["name"] == "run.0000.lcmlog", f"files {m['files']}")
+
+
+def rotated(m):
+    check(m["status"] == "stopped", f"status {m['status']}")
+    check(len(m["files"]) >= 3, f"{len(m['files'])} files")
+    events = sum(f["events"] for f in m["files"])
+    ch = m["channels"]["POF_ANGLE_RIGHT_KNEE"]
+    check(ch["type"] == "angle_t" and ch["seq"]["gaps"] == 0, f"POF_ANGLE_RIGHT_KNEE {ch}")
+    c = m["counters"]
+    check(c["written"] == events == c["received"], f"counters {c}, {events} events in the files")
+
+
+def main():
+    if len(sys.argv) < 3 or sys.argv[1] not in ("lossless", "killed", "rotated"):
+        sys.exit(__doc__)
+    m = json.load(open(sys.argv[2]))
+    if sys.argv[1] == "lossless":
+        lossless(m, int(sys.argv[3]))
+    elif sys.argv[1] == "killed":
+        killed(m)
+    else:
+        rotated(m)
+
+
+if __name__ == "__main__":
+    main()

@@ -186,6 +186,8 @@ void Session::lcm_loop() {
     };
     while (!stop_lcm_.load()) {
       direct_->receive(50, sink);
+      malformed_.store(direct_->malformed(), std::memory_order_relaxed);
+      incomplete_.store(direct_->incomplete_messages(), std::memory_order_relaxed);
       lcm_beats_.fetch_add(1);
     }
     return;
@@ -353,6 +355,8 @@ SessionStats Session::poll() {
     s.udp_drops = d >= udp_drops_at_start_ ? d - udp_drops_at_start_ : 0;
     if (!socks.empty()) s.udp_rcvbuf_bytes = socks.front().rcvbuf_bytes;
   }
+  s.malformed_datagrams = malformed_.load(std::memory_order_relaxed);
+  s.incomplete_messages = incomplete_.load(std::memory_order_relaxed);
   s.manifest = manifest_path_;
   return s;
 }
@@ -445,6 +449,8 @@ void Session::write_manifest(const char* status) {
                    {"written", s.written},
                    {"dropped_handoff", s.dropped_handoff},
                    {"udp_kernel_drops", final_udp_drops_},
+                   {"malformed_datagrams", s.malformed_datagrams},
+                   {"incomplete_messages", s.incomplete_messages},
                    {"udp_rcvbuf_bytes", final_rcvbuf_},
                    {"handoff_peak_bytes", peak}};
   io::write_file_atomic(manifest_path_, m.dump(2) + "\n");

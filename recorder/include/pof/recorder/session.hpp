@@ -84,6 +84,8 @@ struct SessionStats {
   uint64_t written = 0;             // events in the log files (written through write(2))
   uint64_t dropped_handoff = 0;     // hand-off queue full (writer too slow)
   uint64_t udp_drops = 0;           // kernel drops on our LCM socket since start
+  uint64_t malformed_datagrams = 0; // datagrams that are not LCM packets or carry impossible fragment headers
+  uint64_t incomplete_messages = 0; // fragmented messages abandoned before their last fragment
   int udp_rcvbuf_bytes = 0;         // receive buffer the kernel granted (0: not udpm)
   std::size_t handoff_peak_bytes = 0;
   std::vector<std::filesystem::path> files;
@@ -158,6 +160,8 @@ class Session {
   std::atomic<bool> stop_writer_{false};
   std::atomic<uint64_t> writer_beats_{0};
   std::atomic<uint64_t> lcm_beats_{0};
+  // The direct receiver's counters, published by the receive thread after each receive().
+  std::atomic<uint64_t> malformed_{0}, incomplete_{0};
   std::thread lcm_thread_;
   std::thread writer_thread_;
   bool started_ = false;

@@ -34,20 +34,24 @@ const char* state_name(State s) {
   return "?";
 }
 
-struct Daemon::Lcm {
-  explicit Lcm(const std::string& url) : lcm(url) {}
-  lcm::LCM lcm;
-};
-
 Daemon::Daemon(DaqConfig cfg, std::unique_ptr<Backend> backend)
     : cfg_(std::move(cfg)),
       backend_(std::move(backend)),
-      lcm_(std::make_unique<Lcm>(cfg_.lcm_url)),
+      owned_lcm_(std::make_unique<lcm::LCM>(cfg_.lcm_url)),
+      lcm_(owned_lcm_.get()),
       queue_(static_cast<std::size_t>(cfg_.queue_blocks)) {
-  if (!lcm_->lcm.good()) {
+  if (!lcm_->good()) {
     throw pof::IoError("LCM URL '" + cfg_.lcm_url +
                            "' does not work (no multicast route? see ./pofkit setup)");
   }
+}
+
+Daemon::Daemon(DaqConfig cfg, std::unique_ptr<Backend> backend, lcm::LCM& bus)
+    : cfg_(std::move(cfg)),
+      backend_(std::move(backend)),
+      lcm_(&bus),
+      queue_(static_cast<std::size_t>(cfg_.queue_blocks)) {
+  if (!lcm_->good()) throw pof::IoError("the LCM instance given to pof-daqd's Daemon is not usable");
 }
 
 Daemon::~Daemon() { stop(); }
@@ -94,7 +98,7 @@ void Daemon::acquisition_main() {
   while (!stop_.load()) {
     set_state(State::kStarting, "opening " + cfg_.device_kind);
     std::string why;
-    const OpenStatus st = backend_->open(why);
+    const OpenStatus st = open_backend(why);
     if (st != OpenStatus::kOk) {
       set_state(st == OpenStatus::kAbsent ? State::kDisconnected : State::kFault, why);
       // An absent device is polled at the plain interval (it is plugged in by a person); a
@@ -117,7 +121,7 @@ void Daemon::acquisition_main() {
     const std::int64_t scans_before = counters_.scans.load();
     armed_scans_.store(scans_before);
     set_state(State::kStarting, "configured " + cfg_.device_kind + ", waiting for scans");
-    const StreamEnd end = backend_->stream(*acq, stop_, why);
+    const StreamEnd end = stream_backend(*acq, why);
     {
       std::lock_guard lock(state_mu_);
       armed_scans_.store(-1);
@@ -140,6 +144,32 @@ void Daemon::acquisition_main() {
   backend_->close();
   if (stop_.load()) set_state(State::kStopping, "stopped on request");
   acquisition_done_.store(true);
+}
+
+// open() and stream() promise not to throw (backend.hpp). One that does anyway (a bug, or
+// std::bad_alloc while building a message) fails that attempt like a device fault: the state says
+// so and the daemon retries with back-off, instead of std::terminate taking the service down
+// without a last status.
+OpenStatus Daemon::open_backend(std::string& why) {
+  try {
+    return backend_->open(why);
+  } catch (const std::exception& e) {
+    why = cfg_.device_kind + ": opening failed: " + e.what();
+  } catch (...) {
+    why = cfg_.device_kind + ": opening failed: an exception of unknown type";
+  }
+  return OpenStatus::kFault;
+}
+
+StreamEnd Daemon::stream_backend(ScanSink& sink, std::string& why) {
+  try {
+    return backend_->stream(sink, stop_, why);
+  } catch (const std::exception& e) {
+    why = cfg_.device_kind + ": streaming failed: " + e.what();
+  } catch (...) {
+    why = cfg_.device_kind + ": streaming failed: an exception of unknown type";
+  }
+  return StreamEnd::kError;
 }
 
 int Daemon::retry_delay_ms(int failures) const {
@@ -251,7 +281,7 @@ void Daemon::publisher_main() {
   auto publish_status = [&](State state, const std::string& text) {
     pof::daq_status_t s = status(state, text);
     s.seq = status_seq++;
-    if (lcm_->lcm.publish(status_channel, &s) != 0) refused(status_channel, status_refused);
+    if (lcm_->publish(status_channel, &s) != 0) refused(status_channel, status_refused);
   };
 
   const auto period = std::chrono::duration<double>(cfg_.status_period_s);
@@ -287,7 +317,7 @@ void Daemon::publisher_main() {
       queue_.pop();
       msg.publish_utime = now_utime();
       const int len = msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
-      if (len <= 0 || lcm_->lcm.publish(raw_channel, buf.data(), static_cast<unsigned>(len)) != 0)
+      if (len <= 0 || lcm_->publish(raw_channel, buf.data(), static_cast<unsigned>(len)) != 0)
         refused(raw_channel, raw_refused);
       counters_.blocks.fetch_add(1, std::memory_order_relaxed);
     }

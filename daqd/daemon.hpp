@@ -15,6 +15,10 @@
 #include "pof/daq/stream/config.hpp"
 #include "pof/daq/stream/doorbell.hpp"
 
+namespace lcm {
+class LCM;
+}  // namespace lcm
+
 namespace pof::daq {
 
 /// Lifecycle (daq_status_t STATE_*). Every wait has a reason and a deadline:
@@ -22,8 +26,9 @@ namespace pof::daq {
 ///                  command_timeout_ms per command and data_timeout_ms for data
 ///   kStreaming     scans arrive (set once they do); a transfer silent for data_timeout_ms is an error
 ///   kDisconnected  device absent; retry every retry_ms, forever (a service never gives up)
-///   kFault         device present but failing; retry after retry_ms, doubling per consecutive
-///                  failure up to 30 s (reset once a session delivers scans)
+///   kFault         device present but failing (or the backend threw, breaking its contract);
+///                  retry after retry_ms, doubling per consecutive failure up to 30 s (reset
+///                  once a session delivers scans)
 ///   kStopping      SIGTERM: cancel transfers, stop the scan, release the device
 enum class State : std::int8_t { kStarting = 0, kStreaming = 1, kDisconnected = 2, kFault = 3, kStopping = 4 };
 const char* state_name(State s);
@@ -31,8 +36,15 @@ const char* state_name(State s);
 class Daemon {
  public:
   /// Setup: opens LCM on cfg.lcm_url (as pof::bus::resolve_url() gave it; throws pof::IoError
-  /// when the URL does not work) and allocates the queue.
+  /// when the URL does not work) and allocates the queue. `backend` is opened, streamed and closed
+  /// again on every attempt.
   Daemon(DaqConfig cfg, std::unique_ptr<Backend> backend);
+  /// The same, publishing on the caller's `bus` instead of opening cfg.lcm_url. liblcm's memq://
+  /// provider is one queue per lcm::LCM instance, so this is how a process that embeds the daemon
+  /// (tests/functional/test_daqd_states.cpp) subscribes to what it publishes. `bus` must outlive
+  /// the daemon; the publisher thread publishes on it while the caller's thread may handle() it
+  /// (liblcm locks its queue and handler list).
+  Daemon(DaqConfig cfg, std::unique_ptr<Backend> backend, lcm::LCM& bus);
   ~Daemon();
   Daemon(const Daemon&) = delete;
   Daemon& operator=(const Daemon&) = delete;
@@ -59,6 +71,9 @@ class Daemon {
   void publisher_main();
   void set_state(State s, const std::string& why);
   bool sleep_unless_stopped(int ms);
+  /// backend_->open() / stream(), an exception escaping them turned into kFault / kError.
+  OpenStatus open_backend(std::string& why);
+  StreamEnd stream_backend(ScanSink& sink, std::string& why);
   /// Wait before re-opening after `failures` consecutive failed attempts (back-off).
   [[nodiscard]] int retry_delay_ms(int failures) const;
   /// Publisher thread: `starting` becomes `streaming` once scans of the open session arrive.
@@ -66,8 +81,8 @@ class Daemon {
 
   DaqConfig cfg_;
   std::unique_ptr<Backend> backend_;
-  struct Lcm;
-  std::unique_ptr<Lcm> lcm_;
+  std::unique_ptr<lcm::LCM> owned_lcm_;  // opened from cfg.lcm_url, unless the caller gave a bus
+  lcm::LCM* lcm_;
   SpscQueue<Block> queue_;
   Counters counters_;
   Doorbell wake_;

@@ -55,7 +55,7 @@ UdpmReceiver::UdpmReceiver(const std::string& lcm_url, UdpmLimits limits) : limi
   ::setsockopt(fd_, IPPROTO_IP, IP_MULTICAST_ALL, &zero, sizeof zero);
   // Bound to the group, not INADDR_ANY (liblcm's choice): Linux hands a UDP datagram only to
   // sockets bound to its destination address or to INADDR_ANY, so unicast sent to one of the
-  // host's addresses on this port stays out (tests/functional/test_bus_receiver.cpp checks it).
+  // host's addresses on this port stays out (tests/functional/test_bus_receiver_udpm.cpp checks it).
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
   inet_aton(url.group.c_str(), &addr.sin_addr);

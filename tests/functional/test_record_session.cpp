@@ -1,12 +1,11 @@
 // The recording session in-process (both receive paths), over udpm on loopback: what liblcm
 // publishes ends up in the log, byte for byte and in order, with the manifest's counters agreeing.
 // Run under the tsan preset too: the session has a receive thread and a writer thread.
-#include <unistd.h>
-
+#include <chrono>
 #include <filesystem>
 #include <fstream>
-#include <random>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -17,6 +16,7 @@
 #include "pof/base/errors.hpp"
 #include "pof/recorder/lcmlog_durable.hpp"
 #include "pof/recorder/session.hpp"
+#include "lcm_test.hpp"
 #include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
@@ -26,15 +26,23 @@ namespace {
 
 using pof::test::TempDir;
 
-std::string random_url() {
-  std::random_device rd;
-  return "udpm://239.255.76.67:" + std::to_string(20000 + rd() % 30000) + "?ttl=0";
+using pof::test::random_udpm_url;
+
+// Polls the session's counters (they have no condition to wait on) until `n` selected messages
+// were received; false after 10 s.
+bool wait_received(Session& s, uint64_t n) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (s.poll().received < n) {
+    if (std::chrono::steady_clock::now() >= deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  return true;
 }
 
 void record_and_check(bool liblcm) {
   TempDir d;
   SessionOptions o;
-  o.lcm_url = random_url();
+  o.lcm_url = random_udpm_url();
   o.output = d.path() / "s.lcmlog";
   o.channels = "POF_ANGLE.*";
   o.use_liblcm = liblcm;
@@ -50,9 +58,13 @@ void record_and_check(bool liblcm) {
     a.angle_deg = static_cast<float>(i);
     tx.publish("POF_ANGLE_LEFT_KNEE", &a);
     tx.publish("OTHER", &a);  // not selected
-    if (i % 500 == 499) usleep(2000);
+    // Flow control: the socket buffer (net.core.rmem_max may cap it) holds a few thousand
+    // datagrams, so let the session catch up every 500 messages (1000 datagrams).
+    if (i % 500 == 499) {
+      ASSERT_TRUE(wait_received(s, static_cast<uint64_t>(i + 1))) << s.poll().received;
+    }
   }
-  usleep(300000);
+  ASSERT_TRUE(wait_received(s, kN)) << s.poll().received;
   const SessionStats st = s.stop();
   EXPECT_EQ(st.outcome, Outcome::kStopped);
   EXPECT_EQ(st.received, static_cast<uint64_t>(kN));
@@ -94,7 +106,7 @@ TEST(RecordSession, LiblcmPathRecordsEverySelectedMessageInOrder) { record_and_c
 TEST(RecordSession, SetupErrorsNameTheProblem) {
   TempDir d;
   SessionOptions o;
-  o.lcm_url = random_url();
+  o.lcm_url = random_udpm_url();
   o.output = d.path() / "x.lcmlog";
   o.channels = "(";
   EXPECT_THROW(Session{o}, pof::ConfigError);

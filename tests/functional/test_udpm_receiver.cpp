@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 #include <lcm/lcm-cpp.hpp>
 
+#include "lcm_test.hpp"
 #include "pof/base/errors.hpp"
 #include "pof/bus/udpm_receiver.hpp"
 
@@ -20,11 +21,7 @@ using namespace pof::bus;
 
 namespace {
 
-std::string random_url() {
-  std::random_device rd;
-  const unsigned port = 20000 + rd() % 30000;  // other runs on this host must not cross in
-  return "udpm://239.255.76.67:" + std::to_string(port) + "?ttl=0&recv_buf_size=8388608";
-}
+std::string random_url() { return pof::test::random_udpm_url("ttl=0&recv_buf_size=8388608"); }
 
 struct Got {
   int64_t utime;
@@ -66,15 +63,20 @@ TEST(UdpmReceiver, ReceivesShortAndFragmentedMessagesFromLiblcm) {
   ASSERT_TRUE(tx.good()) << "no multicast route? " << url;
   std::mt19937 rng(7);
   std::vector<std::vector<unsigned char>> sent;
-  // 0 bytes, 1 byte, just below/above liblcm's short-message limit, and fragmented sizes.
+  std::vector<Got> got;
+  // 0 bytes, 1 byte, just below/above liblcm's short-message limit, and fragmented sizes. Each
+  // message is received before the next is sent, so that the socket buffer (net.core.rmem_max
+  // may cap recv_buf_size) never holds more than one.
   for (std::size_t size : {0u, 1u, 1300u, 1500u, 65000u, 70000u, 300000u, 1000000u}) {
     std::vector<unsigned char> d(size);
     for (auto& b : d) b = static_cast<unsigned char>(rng());
     sent.push_back(d);
     tx.publish("POF_TEST_" + std::to_string(size), d.data(), static_cast<unsigned>(d.size()));
-    usleep(20000);  // let the 1 MB message drain before the next
+    auto one = receive_until(rx, 1, 5.0);
+    ASSERT_EQ(one.size(), 1u) << size << " bytes: malformed " << rx.malformed() << " incomplete "
+                              << rx.incomplete_messages();
+    got.push_back(std::move(one.front()));
   }
-  const auto got = receive_until(rx, sent.size(), 5.0);
   ASSERT_EQ(got.size(), sent.size()) << "malformed " << rx.malformed() << " incomplete " << rx.incomplete_messages();
   for (std::size_t i = 0; i < sent.size(); ++i) {
     EXPECT_EQ(got[i].channel, "POF_TEST_" + std::to_string(sent[i].size()));

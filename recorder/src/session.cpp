@@ -449,8 +449,8 @@ void Session::write_manifest(const char* status) {
                    {"written", s.written},
                    {"dropped_handoff", s.dropped_handoff},
                    {"udp_kernel_drops", final_udp_drops_},
-                   {"malformed_datagrams", s.malformed_datagrams},
-                   {"incomplete_messages", s.incomplete_messages},
+                   {"malformed_datagrams", malformed_.load(std::memory_order_relaxed)},
+                   {"incomplete_messages", incomplete_.load(std::memory_order_relaxed)},
                    {"udp_rcvbuf_bytes", final_rcvbuf_},
                    {"handoff_peak_bytes", peak}};
   io::write_file_atomic(manifest_path_, m.dump(2) + "\n");

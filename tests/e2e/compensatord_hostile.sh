@@ -1,5 +1,5 @@
 # Hostile traffic on the bus (docs/deployment.md, "Threat model"): the real pof-compensatord on
-# udpm (loopback) and a `pof spy` beside it receive, from tests/e2e/lcm_hostile.py,
+# udpm (loopback), a `pof spy` and a `pof record` beside it receive, from tests/e2e/lcm_hostile.py,
 #   1000 garbage datagrams; 8 raw_block_t decode bombs (n_scans 2^31-1 and -1, n_channels -1,
 #   string lengths 0 and -7, a wrong fingerprint, a truncated block, 2^31-1 empty scans); the LCM
 #   fragment with offset 0xFFFFFFFF that crashes liblcm 1.3.1, one declaring a 4 GiB message; 100
@@ -10,7 +10,8 @@
 # for every scan of the good blocks and none for the unicast block, count exactly the 8 decode errors
 # and 2 duplicates, at least the malformed datagrams, keep its loss counters non-negative, log the
 # errors rate-limited, keep exactly one socket on the LCM port (its own: liblcm's receiver is never
-# set up), and its peak RSS must stay bounded. Prints the daemon's RSS before and after.
+# set up), and its peak RSS must stay bounded. The recorder must stop cleanly with a readable log and
+# the malformed datagrams and abandoned fragmented messages counted in its manifest. Prints the daemon's RSS before and after.
 source "$(dirname "$0")/lib.sh"
 PORT=$((20000 + RANDOM % 30000))   # ttl=0 multicast is host-wide: keep other runs out
 URL="udpm://239.255.76.67:$PORT?ttl=0"
@@ -38,6 +39,8 @@ start_ready "$PORT" listener.err "$PY" "$HOSTILE" listen "$PORT" seen.json 1080 
 listener=$!; pids+=($listener)
 start_ready "$PORT" spy.err "$POF" spy --lcm-url "$URL" --duration 4 > spy.txt
 spy=$!; pids+=($spy)
+start_ready "$PORT" record.err "$POF" record --lcm-url "$URL" -o hostile.lcmlog -q
+recorder=$!; pids+=($recorder)
 rss0=$(rss_kb $daemon VmRSS); hwm0=$(rss_kb $daemon VmHWM)
 
 "$PY" "$HOSTILE" hostile "$PORT" || fail "hostile sender failed"
@@ -54,6 +57,11 @@ port_hex=$(printf '%04X' "$PORT")
 drops=$(awk -v p=":$port_hex" 'substr($2, length($2) - 4) == p { d += $13 } END { print d + 0 }' /proc/net/udp)
 wait $spy || fail "pof spy exit $?: $(cat spy.err)"
 kill -TERM $daemon; wait $daemon || fail "daemon exit status $? on SIGTERM"
+kill -0 $recorder || fail "pof record died on hostile input: $(cat record.err)"
+kill -INT $recorder; wait $recorder || fail "pof record exit status $? on SIGINT: $(cat record.err)"
+"$POF" record --check hostile.lcmlog >record-check.txt || fail "pof record --check on its log: $(cat record-check.txt)"
+"$PY" "$SOURCE_DIR/tests/e2e/record_manifest_check.py" hostile hostile.manifest.json 1002 ||
+  fail "pof record's manifest after hostile traffic"
 
 echo "pof-compensatord RSS before ${rss0} kB (peak ${hwm0} kB), after ${rss1} kB (peak ${hwm1} kB); kernel UDP drops on the port: $drops"
 "$PY" "$SOURCE_DIR/tests/e2e/compensatord_hostile_check.py" seen.json "$hwm1" ||

@@ -9,6 +9,9 @@ tests/e2e/record_lossless.sh and record_crash.sh.
   record_manifest_check.py rotated MANIFEST      a time-rotated session stopped cleanly: >= 3
                                                  files, every event written, POF_ANGLE_RIGHT_KNEE
                                                  without sequence gaps
+  record_manifest_check.py hostile MANIFEST M    after compensatord_hostile.sh's traffic: stopped
+                                                 cleanly, at least M malformed datagrams and one
+                                                 abandoned fragmented message counted
 """
 import json
 import sys
@@ -43,14 +46,25 @@ def rotated(m):
     check(c["written"] == events == c["received"], f"counters {c}, {events} events in the files")
 
 
+def hostile(m, min_malformed):
+    print("manifest counters:", m["counters"])
+    check(m["status"] == "stopped", f"status {m['status']}")
+    c = m["counters"]
+    check(c["malformed_datagrams"] >= min_malformed, f"malformed_datagrams {c['malformed_datagrams']} < {min_malformed}")
+    check(c["incomplete_messages"] >= 1, f"incomplete_messages {c['incomplete_messages']}: the evicted 16 MiB messages")
+    check(c["written"] == c["received"] > 0, f"counters {c}")
+
+
 def main():
-    if len(sys.argv) < 3 or sys.argv[1] not in ("lossless", "killed", "rotated"):
+    if len(sys.argv) < 3 or sys.argv[1] not in ("lossless", "killed", "rotated", "hostile"):
         sys.exit(__doc__)
     m = json.load(open(sys.argv[2]))
     if sys.argv[1] == "lossless":
         lossless(m, int(sys.argv[3]))
     elif sys.argv[1] == "killed":
         killed(m)
+    elif sys.argv[1] == "hostile":
+        hostile(m, int(sys.argv[3]))
     else:
         rotated(m)
 

@@ -47,18 +47,15 @@ expect_exit 78 "$BIN_DIR/pof-compensatord" --cal bad_cal.toml --duration 0.1
 grep -q "^pof-compensatord: error: bad_cal.toml.*reference_level_v" <<<"$err" || fail "pof-compensatord bad_cal.toml: $err"
 
 # Signals (pof::service::SignalWaiter): SIGHUP does not stop pof-daqd (it has nothing to reload and
-# says so), SIGTERM stops it with exit 0. The log line is written after the signals are blocked.
+# says so), SIGTERM stops it with exit 0. READY=1 is sent after the signals are blocked.
 PORT=$((20000 + RANDOM % 30000))
-"$BIN_DIR/pof-daqd" --config /dev/null -s schema_version=1 --device sim:synthetic \
-  --lcm-url "udpm://239.255.76.67:$PORT?ttl=0" 2>daqd.log &
+start_ready notify daqd.log "$BIN_DIR/pof-daqd" --config /dev/null -s schema_version=1 --device sim:synthetic \
+  --lcm-url "udpm://239.255.76.67:$PORT?ttl=0"
 daqd=$!
 trap 'kill "$daqd" 2>/dev/null || true' EXIT
-for _ in $(seq 200); do grep -q "publishing POF_RAW" daqd.log && break; kill -0 "$daqd" || break; sleep 0.05; done
-grep -q "publishing POF_RAW" daqd.log || fail "pof-daqd did not start: $(cat daqd.log)"
 kill -HUP "$daqd"
-for _ in $(seq 200); do grep -q "SIGHUP ignored" daqd.log && break; kill -0 "$daqd" || break; sleep 0.05; done
+wait_until -- grep -q "SIGHUP ignored" daqd.log || fail "pof-daqd did not report the SIGHUP: $(cat daqd.log)"
 kill -TERM "$daqd" 2>/dev/null || true
 rc=0; wait "$daqd" || rc=$?
 [ "$rc" -eq 0 ] || fail "pof-daqd exited $rc after SIGHUP then SIGTERM (129 = killed by SIGHUP): $(cat daqd.log)"
-grep -q "SIGHUP ignored" daqd.log || fail "pof-daqd did not report the SIGHUP: $(cat daqd.log)"
 echo "ok"

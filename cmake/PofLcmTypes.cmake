@@ -34,7 +34,7 @@ function(pof_lcm_types)
     list(APPEND abs_sources ${CMAKE_CURRENT_SOURCE_DIR}/${src})
   endforeach()
 
-  # lcm-gen exits 0 even when it cannot write (see lcm.md), so the outputs are listed and the
+  # lcm-gen exits 0 even when it cannot write (docs/lcm.md, "Packaging"), so the outputs are listed and the
   # directory is made first; a missing header then fails the build at the consumer.
   add_custom_command(
     OUTPUT ${headers}

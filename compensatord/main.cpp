@@ -29,6 +29,7 @@
 #include "pipeline.hpp"
 #include "pof/bus/channels.hpp"
 #include "pof/bus/error_log.hpp"
+#include "pof/bus/open.hpp"
 #include "pof/bus/receiver.hpp"
 #include "pof/bus/url.hpp"
 #include "pof/io/calibration_file.hpp"
@@ -78,7 +79,7 @@ int run(const Options& o) {
 
   const std::string url = pof::bus::resolve_url(o.lcm_url);
   lcm::LCM lc(url);
-  if (!lc.good()) throw pof::ConfigError("LCM URL '" + url + "': cannot open (is there a multicast route? see docs/deployment.md)");
+  pof::bus::require_usable(lc, url);
   using pof::bus::Stream;
   const std::string raw_ch = pof::bus::channel(Stream::kRaw, o.sensor_id);
   const std::string angle_ch = pof::bus::channel(Stream::kAngle, o.sensor_id);

@@ -9,6 +9,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <spdlog/spdlog.h>
 
+#include "pof/bus/open.hpp"
 #include "pof/bus/error_log.hpp"
 #include "pof/daq_status_t.hpp"
 #include "pof/service/sd_notify.hpp"
@@ -40,10 +41,7 @@ Daemon::Daemon(DaqConfig cfg, std::unique_ptr<Backend> backend)
       owned_lcm_(std::make_unique<lcm::LCM>(cfg_.lcm_url)),
       lcm_(owned_lcm_.get()),
       queue_(static_cast<std::size_t>(cfg_.queue_blocks)) {
-  if (!lcm_->good()) {
-    throw pof::IoError("LCM URL '" + cfg_.lcm_url +
-                           "' does not work (no multicast route? see ./pofkit setup)");
-  }
+  bus::require_usable(*lcm_, cfg_.lcm_url);
 }
 
 Daemon::Daemon(DaqConfig cfg, std::unique_ptr<Backend> backend, lcm::LCM& bus)

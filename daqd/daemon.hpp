@@ -9,7 +9,7 @@
 #include <string>
 #include <thread>
 
-#include "pof/daq/backends/backend.hpp"
+#include "pof/daq/stream/backend.hpp"
 #include "pof/daq_status_t.hpp"
 #include "pof/daq/stream/acquisition.hpp"
 #include "pof/daq/stream/config.hpp"

@@ -21,7 +21,7 @@
 #include <spdlog/spdlog.h>
 
 #include "pof/bus/url.hpp"
-#include "pof/daq/backends/backend.hpp"
+#include "pof/daq/stream/backend.hpp"
 #include "pof/daq/stream/config.hpp"
 #include "daemon.hpp"
 #include "pof/base/errors.hpp"

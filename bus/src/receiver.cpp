@@ -1,5 +1,7 @@
 #include "pof/bus/receiver.hpp"
 
+#include "pof/bus/open.hpp"
+
 #include <lcm/lcm-cpp.hpp>
 
 #include <cctype>
@@ -40,8 +42,8 @@ Receiver::Receiver(lcm::LCM& lc, const std::string& url, ReceiverOptions options
     sink_ = [this](int64_t utime, std::string_view channel, const unsigned char* data, uint32_t size) {
       dispatch(channel, data, size, utime);
     };
-  } else if (!lc_.good()) {
-    throw pof::ConfigError("LCM URL '" + url + "': cannot open");
+  } else {
+    require_usable(lc_, url);
   }
 }
 

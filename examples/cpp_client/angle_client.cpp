@@ -6,7 +6,7 @@
 //     the other flags say how far to trust it (see angle_t.lcm);
 //   - measures the sample age: receive time minus angle_t.utime, the host time of the scan the
 //     angle was computed from. That is what a control loop sees as measurement delay (the
-//     pipeline's lag; the model's own filter lag comes on top, docs/deployment.md "Latency").
+//     pipeline's lag; the model's own filter lag comes on top, docs/controller.md, "Latency").
 // Prints one line per second and a summary; exits 0 once --count angles have arrived, 1 on timeout.
 //
 // Robustness, as in pof-compensatord: messages are decoded here, not by a typed subscription, so a

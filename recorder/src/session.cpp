@@ -16,6 +16,7 @@
 #include <spdlog/spdlog.h>
 
 #include "pof/base/errors.hpp"
+#include "pof/bus/open.hpp"
 #include "pof/bus/channel_filter.hpp"
 #include "pof/bus/udp_socket.hpp"
 #include "pof/bus/udpm_receiver.hpp"
@@ -118,8 +119,7 @@ void Session::start() {
     direct_ = std::make_unique<bus::UdpmReceiver>(url_);
   } else {
     lcm_ = std::make_unique<lcm::LCM>(url_);
-    if (!lcm_->good())
-      throw pof::ConfigError("LCM URL '" + url_ + "': cannot open (is there a multicast route? see docs/deployment.md)");
+    bus::require_usable(*lcm_, url_);
     lcm_subscription_t* sub = lcm_subscribe(lcm_->getUnderlyingLCM(), opt_.channels.c_str(), &Session::on_lcm_message, this);
     if (sub == nullptr) throw pof::ConfigError("--channels '" + opt_.channels + "': LCM refused the subscription");
     lcm_subscription_set_queue_capacity(sub, opt_.lcm_queue_capacity);

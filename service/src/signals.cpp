@@ -40,4 +40,12 @@ int SignalWaiter::fd() {
   return fd_;
 }
 
+void ignore_write_signals() noexcept {
+  struct sigaction sa {};
+  sa.sa_handler = SIG_IGN;
+  ::sigemptyset(&sa.sa_mask);
+  ::sigaction(SIGXFSZ, &sa, nullptr);
+  ::sigaction(SIGPIPE, &sa, nullptr);
+}
+
 }  // namespace pof::service

@@ -51,7 +51,7 @@ io::Recording synthesise(const SynthConfig& cfg, std::uint64_t seed) {
   const double dt = 1.0 / cfg.rate_hz;
   Knee k;
   k.dt = dt;
-  // Calibration protocol (method.md): quasi-static steps with 10 s holds, up and back down, then
+  // Calibration protocol (the paper, section 2.2): quasi-static steps with 10 s holds, up and back down, then
   // constant-velocity flexion/extension cycles at the table-1 velocities.
   k.hold(10);
   const double step = cfg.short_protocol ? 15.0 : 5.0;

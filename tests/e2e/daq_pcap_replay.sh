@@ -1,8 +1,8 @@
 # usbmon capture replay (umockdev pcap, the libfprint way): a session of the virtual USB-6009 is
 # recorded as a usbmon capture (the format Wireshark/usbmon give on real hardware), then pof-daqd
 # runs against the replayed capture alone; it must publish the same scans with the same volts.
-# Captures of real devices placed in tests/data/usb_captures/<name>/ (README, "Recording a
-# capture") are replayed too: capture.pcap plus a file `model` holding 6008 or 6009.
+# Captures of real devices placed in tests/data/usb_captures/<name>/ (docs/daq.md,
+# "Recording a capture of real hardware") are replayed too: capture.pcap plus a file `model` holding 6008 or 6009.
 source "$(dirname "$0")/daq_lib.sh"
 vdaq --model 6009 --duration 2 --rate 4000 --decimate 1 --block-scans 20 \
      --record-pcap "$WORK_DIR/session.pcap"

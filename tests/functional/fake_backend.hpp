@@ -1,5 +1,5 @@
 #pragma once
-// A scripted pof::daq::Backend (daq/include/pof/daq/backends/backend.hpp) for driving pof-daqd's
+// A scripted pof::daq::Backend (daq/include/pof/daq/stream/backend.hpp) for driving pof-daqd's
 // state machine (daqd/daemon.hpp) in-process, in test_daqd_states.cpp.
 //
 // The test scripts one Attempt per open(): the device is absent, faulty, throws (breaking the
@@ -26,7 +26,7 @@
 #include <utility>
 #include <vector>
 
-#include "pof/daq/backends/backend.hpp"
+#include "pof/daq/stream/backend.hpp"
 #include "pof/lcm/utime.hpp"
 
 namespace pof::test {

@@ -13,7 +13,7 @@
 
 #include "daemon.hpp"
 #include "pof/bus/url.hpp"
-#include "pof/daq/backends/backend.hpp"
+#include "pof/daq/stream/backend.hpp"
 
 namespace {
 

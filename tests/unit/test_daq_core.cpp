@@ -192,7 +192,7 @@ TEST(DaqConfig, ErrorsNameTheLineAndSuggestTheKnownKey) {
   EXPECT_EQ(e, "t.toml + command line: unknown key 'decimat' in [acquisition] (did you mean 'decimate'?)");
 }
 
-// --- Doorbell (core/doorbell.hpp): the acquisition -> publisher wake-up -------------------------
+// --- Doorbell (daq/include/pof/daq/stream/doorbell.hpp): the acquisition -> publisher wake-up -------------------------
 
 TEST(Doorbell, RingBeforeWaitIsNotLostAndRingsCoalesce) {
   pof::daq::Doorbell bell;

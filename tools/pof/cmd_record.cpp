@@ -13,6 +13,7 @@
 #include <spdlog/spdlog.h>
 
 #include "commands.hpp"
+#include "pof/bus/url.hpp"
 #include "pof/lcm/utime.hpp"
 #include "pof/base/errors.hpp"
 #include "pof/bus/fingerprint.hpp"
@@ -133,8 +134,7 @@ void run_record(const RecordArgs& a) {
   // Signals are taken by this thread's loop; blocked before the session threads start so they
   // inherit the mask. EFBIG must come back as an error, not kill us.
   const service::SignalWaiter signals;
-  ::signal(SIGXFSZ, SIG_IGN);
-  ::signal(SIGPIPE, SIG_IGN);
+  service::ignore_write_signals();
 
   service::ServiceNotifier notifier;
   rec::Session session(o);
@@ -199,7 +199,7 @@ void add_record(CLI::App& app) {
   cmd->add_option("-o,--output", a->output,
                   "Log file to create (never overwritten), or an existing directory for a timestamped name");
   cmd->add_option("--lcm-url", a->url,
-                  "LCM URL (default $LCM_DEFAULT_URL or udpm://239.255.76.67:7667?ttl=0); recv_buf_size is added");
+                  std::string("LCM URL (default $LCM_DEFAULT_URL or ") + pof::bus::kHostOnlyUrl + "); recv_buf_size is added");
   cmd->add_option("-c,--channels", a->channels, "Regex of the channels to record (whole name)")->capture_default_str();
   cmd->add_option("--rotate-mb", a->rotate_mb, "Start a new file before one exceeds this size [MiB] (0: never)")
       ->check(CLI::NonNegativeNumber);

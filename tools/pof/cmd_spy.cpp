@@ -16,6 +16,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "commands.hpp"
+#include "pof/bus/open.hpp"
 #include "pof/bus/receiver.hpp"
 #include "pof/bus/udp_socket.hpp"
 #include "pof/bus/url.hpp"
@@ -75,7 +76,7 @@ void run_spy(const SpyArgs& a) {
   service::SignalWaiter signals;  // before liblcm may start a thread: every thread inherits the mask
   const std::string url = bus::resolve_url(a.url);
   lcm::LCM lcm(url);
-  if (!lcm.good()) throw pof::ConfigError("LCM URL '" + url + "': cannot open (is there a multicast route? see docs/deployment.md)");
+  bus::require_usable(lcm, url);
   spy::Monitor monitor;
   bus::ReceiverOptions ro;
   ro.lcm_queue_capacity = a.queue_capacity;
@@ -153,7 +154,7 @@ void add_spy(CLI::App& app) {
   auto* cmd = app.add_subcommand("spy",
                                  "Terminal live view of the LCM bus: channels, rates, sequence gaps, drops and the "
                                  "latest decoded angle, raw block, cycle statistics and DAQ status (q quits)");
-  cmd->add_option("--lcm-url", a->url, "LCM URL (default $LCM_DEFAULT_URL or udpm://239.255.76.67:7667?ttl=0)");
+  cmd->add_option("--lcm-url", a->url, std::string("LCM URL (default $LCM_DEFAULT_URL or ") + bus::kHostOnlyUrl + ")");
   cmd->add_option("-c,--channels", a->channels, "Regex of the channels to show")->capture_default_str();
   cmd->add_option("--refresh", a->refresh_hz, "Screen refreshes per second")->check(CLI::Range(0.2, 50.0))->capture_default_str();
   cmd->add_flag("--once", a->once, "Listen for 1 s (or --duration), print one plain-text snapshot and exit");

@@ -1,5 +1,5 @@
 // Backend selection by `device.kind`.
-#include "pof/daq/backends/backend.hpp"
+#include "pof/daq/stream/backend.hpp"
 
 #include "pof/daq/stream/config.hpp"
 #include "pof/base/errors.hpp"

@@ -8,7 +8,7 @@
 #include <numbers>
 #include <vector>
 
-#include "pof/daq/backends/backend.hpp"
+#include "pof/daq/stream/backend.hpp"
 #include "pof/daq/backends/pacing.hpp"
 #include "pof/daq/backends/sample_source.hpp"
 #include "pof/daq/stream/config.hpp"

@@ -18,7 +18,7 @@
 #include <thread>
 #include <vector>
 
-#include "pof/daq/backends/backend.hpp"
+#include "pof/daq/stream/backend.hpp"
 #include "pof/daq/backends/pacing.hpp"
 #include "pof/daq/stream/config.hpp"
 #include "pof/raw_block_t.hpp"

@@ -17,7 +17,7 @@
 #include <cstring>
 #include <vector>
 
-#include "pof/daq/backends/backend.hpp"
+#include "pof/daq/stream/backend.hpp"
 #include "pof/daq/stream/config.hpp"
 #include "pof/daq/device_ids.hpp"
 #include "pof/raw_block_t.hpp"

@@ -15,7 +15,7 @@ namespace {
 using pof::ConfigError;
 
 double max_aggregate_rate(const std::string& kind) {
-  if (kind == "usb6008") return 10000.0;   // daq-protocols.md: 10 kS/s aggregate
+  if (kind == "usb6008") return 10000.0;   // docs/daq.md, "Protocol facts": 10 kS/s aggregate
   if (kind == "usb6009") return 48000.0;   // 48 kS/s aggregate
   if (kind == "usb1208ls") return mcc::kMaxContinuousRateHz;  // mcc_usb1208ls.hpp [8]
   return 1e6;                              // simulator

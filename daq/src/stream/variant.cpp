@@ -1,6 +1,6 @@
-// The protocol-variant bits a Backend reports (backends/backend.hpp), in words for the status
+// The protocol-variant bits a Backend reports (stream/backend.hpp), in words for the status
 // message and the log.
-#include "pof/daq/backends/backend.hpp"
+#include "pof/daq/stream/backend.hpp"
 
 namespace pof::daq {
 

@@ -1,6 +1,6 @@
 #pragma once
 // pofkit's LCM channel names: the one place they are spelt. Every stream is POF_<STREAM>, suffixed
-// with _<SENSOR_ID> when the publisher serves a named sensor (docs/deployment.md, "Channels"):
+// with _<SENSOR_ID> when the publisher serves a named sensor (docs/deployment.md, "Processes and channels"):
 //
 //   Stream              channel                             type                    publisher
 //   kRaw                POF_RAW[_<ID>]                      raw_block_t             pof-daqd

@@ -48,4 +48,9 @@ class SignalWaiter {
   int fd_ = -1;
 };
 
+/// For a process that writes files or pipes: SIGXFSZ (a file over RLIMIT_FSIZE) and SIGPIPE (a
+/// closed reader) are ignored, so the write fails with EFBIG/EPIPE and the caller reports it,
+/// instead of the signal killing the process mid-write.
+void ignore_write_signals() noexcept;
+
 }  // namespace pof::service

@@ -1,11 +1,11 @@
 #pragma once
 // The streaming path between a backend and the LCM publisher: scan indices, timestamps
 // (ScanClock), decimation, block assembly and the SPSC hand-off. Runs on the acquisition thread;
-// allocates nothing after construction and never logs: problems become counters (style.md, PX4).
+// allocates nothing after construction and never logs: problems become counters (the habit of PX4 drivers).
 #include <atomic>
 #include <cstdint>
 
-#include "pof/daq/backends/backend.hpp"
+#include "pof/daq/stream/backend.hpp"
 #include "pof/daq/stream/config.hpp"
 #include "pof/daq/stream/doorbell.hpp"
 #include "pof/daq/stream/scan_clock.hpp"

@@ -1,5 +1,5 @@
 #pragma once
-// pof-daqd settings: a plain struct (the drake habit, style.md), read from TOML
+// pof-daqd settings: a plain struct (the habit of Drake's lcm/ settings structs), read from TOML
 // (/etc/pof/daq.toml in deployment; example in deploy/config/daq.toml) and overridden from the
 // command line. Every error names the file and key and throws pof::ConfigError (exit 78).
 #include <cstdint>

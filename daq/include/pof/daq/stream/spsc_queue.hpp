@@ -1,5 +1,5 @@
 #pragma once
-// Bounded wait-free single-producer/single-consumer ring (the realtime_tools habit, style.md): the
+// Bounded wait-free single-producer/single-consumer ring (the habit of ros2_control's realtime_tools): the
 // acquisition thread pushes, the publisher thread pops; when full, push() fails and the producer
 // counts an overrun instead of blocking or allocating. Slots are preallocated at construction.
 #include <atomic>

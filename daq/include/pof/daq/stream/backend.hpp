@@ -1,6 +1,6 @@
 #pragma once
 // The one small interface every acquisition backend implements (usb6008, usb6009, usb1208ls,
-// sim:<scenario>), in the style of ros2_control hardware interfaces (style.md): setup may allocate
+// sim:<scenario>), in the style of ros2_control hardware interfaces: setup may allocate
 // and report why it failed; the streaming path returns a small enum and never throws.
 //
 // Threads: every method runs on the daemon's acquisition thread (the one libusb event thread).

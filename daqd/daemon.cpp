@@ -55,6 +55,10 @@ Daemon::Daemon(DaqConfig cfg, std::unique_ptr<Backend> backend, lcm::LCM& bus)
 Daemon::~Daemon() { stop(); }
 
 void Daemon::start() {
+  // spdlog creates its default logger on first use; both threads log, so create it here, before
+  // they start (ThreadSanitizer saw the two first uses race inside the uninstrumented libspdlog
+  // when a process had not logged before start(), as the functional tests do).
+  (void)spdlog::default_logger_raw();
   pub_thread_ = std::thread([this] { publisher_main(); });
   acq_thread_ = std::thread([this] { acquisition_main(); });
 }

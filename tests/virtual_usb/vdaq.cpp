@@ -123,6 +123,7 @@ struct Checker {
   long gaps = 0;             // blocks with FLAG_GAP
   long seq_gaps = 0;
   long gap_scans = 0;        // index advance across FLAG_GAP blocks
+  std::vector<std::pair<std::int64_t, long>> gap_events;  // (receive time [us], index advance) per FLAG_GAP block
   long doubtful_blocks = 0;  // FLAG_DOUBTFUL: values not checked (the daemon does not vouch for them)
   long utime_backsteps = 0;  // blocks stamped at or before the previous one
   std::int64_t max_utime_backstep_us = 0;
@@ -184,6 +185,7 @@ struct Checker {
       ++session;
       local = 0;
       if (next_first >= 0) gap_scans += b.first_scan - next_first;
+      gap_events.emplace_back(recv, next_first >= 0 ? static_cast<long>(b.first_scan - next_first) : 0L);
     } else if (next_first >= 0 && b.first_scan != next_first) {
       ++index_jumps;
       if (first_error.empty()) {
@@ -284,6 +286,7 @@ int main(int argc, char** argv) {
   double warmup = 1;
   double event_at = 2;
   double unplug_for = 1.5;
+  double unplug_every = 0;
   double rate = 2000;
   int decimate = 10;
   int block_scans = 1;
@@ -323,6 +326,9 @@ int main(int argc, char** argv) {
   app.add_option("--warmup", warmup, "seconds ignored by the rate/latency/CPU figures");
   app.add_option("--event-at", event_at, "seconds: when the scenario's event happens");
   app.add_option("--unplug-for", unplug_for, "seconds unplugged");
+  app.add_option("--unplug-every", unplug_every,
+                 "scenario unplug: unplug again every this many seconds after --event-at while the run lasts (0 = once)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--rate", rate, "scan rate [scans/s]");
   app.add_option("--decimate", decimate);
   app.add_option("--block-scans", block_scans);
@@ -516,16 +522,25 @@ int main(int argc, char** argv) {
     cpu_warm = cpu_ticks(pid);
     cpu_warm_us = now_us();
   }
+  std::vector<std::pair<std::int64_t, std::int64_t>> unplugs;  // (unplugged, replugged) [us]
   if (alive && (scenario == "unplug" || scenario == "stall" || scenario == "garbage" || scenario == "padding")) {
     alive = sleep_until(event_at);
     if (alive && scenario == "unplug") {
-      {
-        std::lock_guard l(dev->mutex());
-        ni ? ni->power_cycle() : mcc->power_cycle();
+      // One cycle, or (--unplug-every) one every unplug_every seconds while a whole one still fits.
+      for (double at = event_at; alive;) {
+        {
+          std::lock_guard l(dev->mutex());
+          ni ? ni->power_cycle() : mcc->power_cycle();
+        }
+        const std::int64_t off = now_us();
+        dev->unplug();
+        alive = sleep_until(at + unplug_for);
+        dev->replug();
+        unplugs.emplace_back(off, now_us());
+        at += unplug_every;
+        if (unplug_every <= 0 || at + unplug_for >= duration) break;
+        alive = alive && sleep_until(at);
       }
-      dev->unplug();
-      alive = sleep_until(event_at + unplug_for);
-      dev->replug();
     } else if (alive && scenario == "stall") {
       {
         std::lock_guard l(dev->mutex());
@@ -599,6 +614,15 @@ int main(int argc, char** argv) {
   r["gap_blocks"] = checker.gaps;
   r["gap_scans"] = checker.gap_scans;
   r["seq_gaps"] = checker.seq_gaps;
+  // Per event, seconds since the daemon started: what a soak matches up (tools/soak/).
+  r["gap_events"] = nlohmann::json::array();
+  for (const auto& [at, n] : checker.gap_events) {
+    r["gap_events"].push_back({{"received_s", static_cast<double>(at - t0) / 1e6}, {"scans", n}});
+  }
+  r["unplugs"] = nlohmann::json::array();
+  for (const auto& [off, on] : unplugs) {
+    r["unplugs"].push_back({{"unplugged_s", static_cast<double>(off - t0) / 1e6}, {"replugged_s", static_cast<double>(on - t0) / 1e6}});
+  }
   r["doubtful_blocks"] = checker.doubtful_blocks;
   r["utime_backsteps"] = checker.utime_backsteps;
   r["max_utime_backstep_us"] = checker.max_utime_backstep_us;

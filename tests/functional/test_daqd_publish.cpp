@@ -12,6 +12,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "daemon.hpp"
+#include "poll.hpp"
 #include "pof/bus/url.hpp"
 #include "pof/daq/stream/backend.hpp"
 
@@ -30,12 +31,7 @@ pof::daq::DaqConfig sim_config(const std::string& sensor_id) {
 // Waits (10 s at most) until `done()`, polling the daemon's counters.
 template <class Done>
 bool wait_until(Done done) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-  while (!done()) {
-    if (std::chrono::steady_clock::now() > deadline) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  return true;
+  return pof::test::poll_until(done, std::chrono::seconds(10), std::chrono::milliseconds(5));
 }
 
 }  // namespace

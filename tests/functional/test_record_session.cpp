@@ -17,6 +17,7 @@
 #include "pof/recorder/lcmlog_durable.hpp"
 #include "pof/recorder/session.hpp"
 #include "lcm_test.hpp"
+#include "poll.hpp"
 #include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
@@ -31,12 +32,7 @@ using pof::test::random_udpm_url;
 // Polls the session's counters (they have no condition to wait on) until `n` selected messages
 // were received; false after 10 s.
 bool wait_received(Session& s, uint64_t n) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-  while (s.poll().received < n) {
-    if (std::chrono::steady_clock::now() >= deadline) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  }
-  return true;
+  return pof::test::poll_until([&] { return s.poll().received >= n; });
 }
 
 void record_and_check(bool liblcm) {

@@ -25,6 +25,7 @@
 #include "pof/daq/stream/config.hpp"
 #include "daemon.hpp"
 #include "pof/base/errors.hpp"
+#include "pof/base/toml_reader.hpp"
 #include "pof/daq/protocol/mcc_usb1208ls.hpp"
 #include "pof/service/run_main.hpp"
 #include "pof/service/signals.hpp"
@@ -90,17 +91,15 @@ int main(int argc, char** argv) {
     } else {
       table.insert("schema_version", daq::kSchemaVersion);
     }
-    auto set = [&](const std::string& key, const std::string& value) {
-      daq::apply_override(table, key + "=" + value);
-    };
-    if (!device.empty()) set("device.kind", "\"" + device + "\"");
-    if (!serial.empty()) set("device.serial", "\"" + serial + "\"");
-    if (rate > 0) set("acquisition.scan_rate_hz", std::to_string(rate));
-    if (decimate > 0) set("acquisition.decimate", std::to_string(decimate));
-    if (block_scans > 0) set("acquisition.block_scans", std::to_string(block_scans));
-    if (!lcm_url.empty()) set("lcm.url", "\"" + lcm_url + "\"");
-    if (!sensor_id.empty()) set("lcm.sensor_id", "\"" + sensor_id + "\"");
-    for (const auto& s : sets) daq::apply_override(table, s);
+    // Options are typed values already: set as they are, never re-parsed as TOML text.
+    if (!device.empty()) pof::set_toml_path(table, "device.kind", device);
+    if (!serial.empty()) pof::set_toml_path(table, "device.serial", serial);
+    if (rate > 0) pof::set_toml_path(table, "acquisition.scan_rate_hz", rate);
+    if (decimate > 0) pof::set_toml_path(table, "acquisition.decimate", static_cast<std::int64_t>(decimate));
+    if (block_scans > 0) pof::set_toml_path(table, "acquisition.block_scans", static_cast<std::int64_t>(block_scans));
+    if (!lcm_url.empty()) pof::set_toml_path(table, "lcm.url", lcm_url);
+    if (!sensor_id.empty()) pof::set_toml_path(table, "lcm.sensor_id", sensor_id);
+    for (const auto& s : sets) pof::apply_toml_override(table, s);
     if (!sets.empty() || !device.empty() || rate > 0 || decimate > 0 || block_scans > 0 ||
         !lcm_url.empty() || !sensor_id.empty() || !serial.empty()) {
       source += " + command line";

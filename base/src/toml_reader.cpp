@@ -147,6 +147,37 @@ toml::table read_toml_file(const std::string& path, const std::string& what) {
   return parse_toml(read_text_file(path, what), path);
 }
 
+std::pair<toml::table*, std::string> toml_parent(toml::table& table, const std::string& dotted_key,
+                                                 const std::string& what) {
+  toml::table* t = &table;
+  std::string rest = dotted_key;
+  for (auto dot = rest.find('.'); dot != std::string::npos; dot = rest.find('.')) {
+    const std::string part = rest.substr(0, dot);
+    rest = rest.substr(dot + 1);
+    if (!t->contains(part)) t->insert(part, toml::table{});
+    toml::node* n = t->get(part);
+    if (!n->is_table()) throw ConfigError(what + ": '" + excerpt(part) + "' is not a table");
+    t = n->as_table();
+  }
+  return {t, rest};
+}
+
+void apply_toml_override(toml::table& table, const std::string& assignment) {
+  const auto eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0) {
+    throw ConfigError("command line: override '" + excerpt(assignment) + "': expected key.path=value");
+  }
+  const std::string value = assignment.substr(eq + 1);
+  toml::table parsed;
+  try {
+    parsed = toml::parse("v = " + value);
+  } catch (const toml::parse_error&) {
+    parsed.insert_or_assign("v", value);  // a bare word: a string
+  }
+  auto [parent, key] = toml_parent(table, assignment.substr(0, eq), "command line: override '" + excerpt(assignment) + "'");
+  parent->insert_or_assign(key, *parsed.get("v"));
+}
+
 namespace toml_check {
 TomlCheck<double> positive() {
   return [](double v) { return v > 0 ? std::string{} : std::string("a number > 0"); };

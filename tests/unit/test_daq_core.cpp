@@ -7,6 +7,7 @@
 #include <random>
 #include <thread>
 
+#include "pof/base/toml_reader.hpp"
 #include "pof/daq/stream/config.hpp"
 #include "pof/daq/stream/doorbell.hpp"
 #include "pof/daq/stream/scan_clock.hpp"
@@ -132,9 +133,9 @@ std::string config_error(const std::string& toml) {
 
 TEST(DaqConfig, DefaultsAndOverrides) {
   toml::table t = toml::parse("schema_version = 1\n[acquisition]\nscan_rate_hz = 1000.0\n");
-  pof::daq::apply_override(t, "acquisition.decimate=5");
-  pof::daq::apply_override(t, "device.kind=sim:synthetic");  // a bare word is a string
-  pof::daq::apply_override(t, "lcm.sensor_id=\"LEFT_KNEE\"");
+  pof::apply_toml_override(t, "acquisition.decimate=5");
+  pof::apply_toml_override(t, "device.kind=sim:synthetic");  // a bare word is a string
+  pof::apply_toml_override(t, "lcm.sensor_id=\"LEFT_KNEE\"");
   const auto c = pof::daq::config_from_table(t, "t.toml");
   EXPECT_DOUBLE_EQ(c.scan_rate_hz, 1000.0);
   EXPECT_EQ(c.decimate, 5);
@@ -144,7 +145,7 @@ TEST(DaqConfig, DefaultsAndOverrides) {
   EXPECT_DOUBLE_EQ(c.published_rate_hz(), 200.0);
   ASSERT_EQ(c.channels().size(), 3U);
   EXPECT_EQ(c.channels()[1].name, "reference");
-  EXPECT_THROW(pof::daq::apply_override(t, "novalue"), pof::ConfigError);
+  EXPECT_THROW(pof::apply_toml_override(t, "novalue"), pof::ConfigError);
 }
 
 TEST(DaqConfig, EveryErrorNamesItsKey) {
@@ -174,7 +175,7 @@ TEST(DaqConfig, ErrorsNameTheLineAndSuggestTheKnownKey) {
   EXPECT_EQ(config_error("schema_version = 1\n[lcm]\nurl = 'memq://'\n[aquisition]\ndecimate = 3"),
             "t.toml:4: unknown key 'aquisition' at the top level (did you mean 'acquisition'?)");
   toml::table t = toml::parse("schema_version = 1\n[acquisition]\ndecimate = 10\n");
-  pof::daq::apply_override(t, "acquisition.decimate=0");
+  pof::apply_toml_override(t, "acquisition.decimate=0");
   std::string e;
   try {
     (void)pof::daq::config_from_table(t, "t.toml + command line");
@@ -182,8 +183,8 @@ TEST(DaqConfig, ErrorsNameTheLineAndSuggestTheKnownKey) {
     e = x.what();
   }
   EXPECT_EQ(e, "t.toml + command line: key 'acquisition.decimate': expected an integer in [1, 10000], got 0");
-  pof::daq::apply_override(t, "acquisition.decimate=5");
-  pof::daq::apply_override(t, "acquisition.decimat=5");
+  pof::apply_toml_override(t, "acquisition.decimate=5");
+  pof::apply_toml_override(t, "acquisition.decimat=5");
   try {
     (void)pof::daq::config_from_table(t, "t.toml + command line");
   } catch (const pof::ConfigError& x) {

@@ -37,6 +37,22 @@ std::string error_reading(const std::string& text, const std::function<void(Toml
   });
 }
 
+TEST(TomlReader, CommandLineValuesAreSetAsGivenAndOverridesParsed) {
+  toml::table t = pof::parse_toml("[lcm]\nurl = \"udpm://a\"\n", "daq.toml");
+  // An option's text is a value as it is: quotes and backslashes are not TOML syntax here.
+  pof::set_toml_path(t, "lcm.sensor_id", std::string("KNEE \"L\" \\1"));
+  pof::set_toml_path(t, "acquisition.decimate", std::int64_t{5});
+  EXPECT_EQ(t["lcm"]["sensor_id"].value<std::string>(), "KNEE \"L\" \\1");
+  EXPECT_EQ(t["acquisition"]["decimate"].value<std::int64_t>(), 5);
+  pof::apply_toml_override(t, "acquisition.range_v=2.5");
+  pof::apply_toml_override(t, "device.kind=sim:paper");  // a bare word: a string
+  EXPECT_EQ(t["acquisition"]["range_v"].value<double>(), 2.5);
+  EXPECT_EQ(t["device"]["kind"].value<std::string>(), "sim:paper");
+  EXPECT_EQ(error_of([&] { pof::apply_toml_override(t, "lcm.url.port=1"); }),
+            "command line: override 'lcm.url.port=1': 'url' is not a table");
+  EXPECT_EQ(error_of([&] { pof::apply_toml_override(t, "=1"); }), "command line: override '=1': expected key.path=value");
+}
+
 }  // namespace
 
 TEST(TomlReader, ValuesAreReadTypedAndChecked) {

@@ -34,35 +34,6 @@ std::vector<ChannelMap> DaqConfig::channels() const {
 std::string DaqConfig::raw_channel() const { return bus::channel(bus::Stream::kRaw, sensor_id); }
 std::string DaqConfig::status_channel() const { return bus::channel(bus::Stream::kDaqStatus, sensor_id); }
 
-void apply_override(toml::table& table, const std::string& assignment) {
-  const auto eq = assignment.find('=');
-  if (eq == std::string::npos || eq == 0) {
-    throw ConfigError("command line: override '" + pof::excerpt(assignment) + "': expected key.path=value");
-  }
-  const std::string path = assignment.substr(0, eq);
-  const std::string value = assignment.substr(eq + 1);
-  toml::table parsed;
-  try {
-    parsed = toml::parse("v = " + value);
-  } catch (const toml::parse_error&) {
-    parsed.insert_or_assign("v", value);  // a bare word: a string
-  }
-  toml::table* t = &table;
-  std::string rest = path;
-  for (auto dot = rest.find('.'); dot != std::string::npos; dot = rest.find('.')) {
-    const std::string part = rest.substr(0, dot);
-    rest = rest.substr(dot + 1);
-    if (!t->contains(part)) t->insert(part, toml::table{});
-    toml::node* n = t->get(part);
-    if (!n->is_table()) {
-      throw ConfigError("command line: override '" + pof::excerpt(assignment) + "': '" + pof::excerpt(part) +
-                        "' is not a table");
-    }
-    t = n->as_table();
-  }
-  t->insert_or_assign(rest, *parsed.get("v"));
-}
-
 toml::table read_config_file(const std::filesystem::path& path) {
   return pof::read_toml_file(path.string(), "DAQ configuration file");
 }

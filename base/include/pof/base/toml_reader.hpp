@@ -31,6 +31,24 @@ toml::table parse_toml(std::string_view text, const std::string& source);
 /// read_text_file(path, what) (bounded: kMaxTextFileBytes), then parse_toml(text, path).
 toml::table read_toml_file(const std::string& path, const std::string& what);
 
+/// The table that holds `dotted_key` ("acquisition.decimate" -> [acquisition], created when
+/// missing) and the key's last part. ConfigError naming `what` when a part is a value, not a table.
+std::pair<toml::table*, std::string> toml_parent(toml::table& table, const std::string& dotted_key,
+                                                 const std::string& what);
+
+/// Sets `dotted_key` in `table` to `value` (a string, number or bool), creating the tables on the
+/// way: a command-line option that overrides a configuration file's key.
+template <class V>
+void set_toml_path(toml::table& table, const std::string& dotted_key, V&& value) {
+  auto [parent, key] = toml_parent(table, dotted_key, "command line: option for '" + dotted_key + "'");
+  parent->insert_or_assign(key, std::forward<V>(value));
+}
+
+/// Applies a `key.path=value` override (`-s` on a command line) to `table`: the value is read as
+/// a TOML value (5, 2.5, true, "text"), and a bare word that is no TOML value is taken as a string.
+/// ConfigError on a malformed assignment.
+void apply_toml_override(toml::table& table, const std::string& assignment);
+
 /// The type a value is checked as: integers as std::int64_t (before narrowing), floats as double.
 template <class T>
 struct toml_check_type {

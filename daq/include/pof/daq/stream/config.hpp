@@ -59,10 +59,6 @@ struct DaqConfig {
   [[nodiscard]] double published_rate_hz() const { return scan_rate_hz / decimate; }
 };
 
-/// Applies `key.path=value` to `table` (the value is parsed as a TOML value, else taken as a
-/// string). Throws ConfigError on a malformed override.
-void apply_override(toml::table& table, const std::string& assignment);
-
 /// Reads and validates every key of `table` (pof::TomlSection, pof/base/toml_reader.hpp);
 /// `source` names it in errors where a value has no line of the file (a command-line override:
 /// "daq.toml + command line"). Unknown keys are errors, with the nearest known key. Throws

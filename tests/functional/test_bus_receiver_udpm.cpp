@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 #include <lcm/lcm-cpp.hpp>
 
+#include "bus_receiver_test.hpp"
 #include "lcm_test.hpp"
 #include "pof/angle_t.hpp"
 #include "pof/bus/receiver.hpp"
@@ -28,19 +29,8 @@ using pof::test::encode;
 
 std::string random_url() { return pof::test::random_udpm_url("ttl=0&recv_buf_size=8388608"); }
 
-pof::angle_t angle(std::int64_t seq) {
-  pof::angle_t a{};
-  a.seq = seq;
-  a.angle_deg = 10.0f * float(seq);
-  return a;
-}
-
-// Handles until `done()` or 5 s (a generous bound for loopback; the condition is what is awaited).
-template <class Done>
-void handle_until(Receiver& rx, Done done) {
-  const auto t0 = std::chrono::steady_clock::now();
-  while (!done() && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(5)) rx.handle(20);
-}
+using pof::test::handle_until;
+pof::angle_t angle(std::int64_t seq) { return pof::test::numbered_angle(seq); }
 
 // A plain UDP socket for hand-made datagrams (what an attacker on the host or LAN can send).
 struct RawSender {

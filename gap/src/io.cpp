@@ -52,8 +52,8 @@ std::string model_toml(const Result& r, const std::string& source) {
   const json& m = r.model;
   std::ostringstream o;
   o << "# Improved sensor model written by `pof gap` (docs/gap.md). The calibration-file layout of\n"
-       "# `pof calibrate` (docs/calibration.md): c9, c10 refitted on the recording, c1..c8 the paper's\n"
-       "# table 2; [gap] holds the accepted effect terms, added to the model voltage.\n"
+       "# `pof calibrate` (docs/calibration.md): the paper's structure with its coefficients fitted to the\n"
+       "# recording; [gap] holds the accepted effect terms, added to the model voltage.\n"
     << "schema_version = 1\n"
     << "sensor_id = \"pof-gap\"\n"
     << "date = " << quoted(utc_now()) << "\n"
@@ -75,25 +75,35 @@ std::string model_toml(const Result& r, const std::string& source) {
     << "angle_max_deg = " << num(rg["angle_max_deg"].get<double>()) << "\n"
     << "velocity_min_rad_s = " << num(rg["velocity_min_rad_s"].get<double>()) << "\n"
     << "velocity_max_rad_s = " << num(rg["velocity_max_rad_s"].get<double>()) << "\n"
-    << "\n[fit_quality]    # f1..f4 are not refitted by `pof gap`: their R^2 / RMSE are given as -1\n"
+    << "\n[fit_quality]    # `pof gap` fits the voltage, not f1-f4 one by one: their R^2 / RMSE are given as -1\n"
     << "sensitivity_v_per_deg = " << num(1.0 / m["c9"].get<double>()) << "\n"
     << "linearity_r2 = " << num(m["linearity_r2"].get<double>()) << "\n"
     << "f1_r2 = -1\nf1_rmse_pct = -1\nf4_flexion_r2 = -1\nf4_extension_r2 = -1\n"
     << "n_holds = " << m["n_holds"].get<long long>() << "\n"
     << "n_velocity_tests = 0\n"
     << "\n[equations]    # informational\n"
-    << "flexion = \"paper eq. (11) with c9, c10 refitted\"\nextension = \"paper eq. (12) with c9, c10 refitted\"\n"
+    << "flexion = \"paper eq. (11), coefficients refitted by pof gap\"\nextension = \"paper eq. (12), coefficients refitted by pof gap\"\n"
     << "\n[gap]    # `pof gap` extension: v_model += sum of the terms (docs/gap.md)\n"
     << "source = " << quoted(source) << "\n"
     << "baseline_gap_deg = " << num(r.baseline_gap_deg) << "\n"
     << "final_gap_deg = " << num(r.final_gap_deg) << "\n"
-    << "kappa = " << num(m["kappa"].get<double>()) << "    # v_model = v_norm / kappa at the recording's median reference\n"
     << "delay_s = " << num(m["delay_s"].get<double>()) << "    # sensor lags the reference angle by this\n"
     << "backlash_deg = " << num(m["backlash_deg"].get<double>()) << "    # belt dead band between joint and potentiometer\n"
     << "duration_s = " << num(m["duration_s"].get<double>()) << "    # drift is linear in t / duration_s - 1/2\n";
   for (const auto& term : m["terms"]) {
     o << "\n[[gap.terms]]\neffect = " << quoted(term["effect"].get<std::string>()) << "\n"
-      << "theta = " << num(term["theta"].get<double>()) << "\n"
+      << "theta = " << num(term["theta"].get<double>()) << "\n";
+    for (const char* key : {"thresholds_deg", "time_constants_s"}) {
+      if (!term.contains(key)) continue;
+      o << key << " = [";
+      bool first = true;
+      for (const auto& c : term[key]) {
+        o << (first ? "" : ", ") << num(c.get<double>());
+        first = false;
+      }
+      o << "]\n";
+    }
+    o
       << "coefficients_v = [";
     bool first = true;
     for (const auto& c : term["coefficients_v"]) {
@@ -115,7 +125,7 @@ std::string report_md(const Result& r, const std::string& source) {
   o << "# Model gap report: " << source << "\n\n"
     << "Held-out RMS residual (time-blocked " << r.recording["folds"].get<std::size_t>() << "-fold CV) in degrees.\n\n"
     << "| step | effect | held-out gap [deg] | parameters |\n|---|---|---|---|\n"
-    << "| 0 | baseline (paper model, c9/c10 refitted) | " << r.baseline_gap_deg << " | c9 = "
+    << "| 0 | baseline (paper structure, coefficients fitted to the recording) | " << r.baseline_gap_deg << " | c9 = "
     << r.baseline["c9_deg_per_v"].get<double>() << " deg/V, c10 = " << r.baseline["c10_deg"].get<double>() << " deg |\n";
   int i = 1;
   for (const Step& s : r.steps) o << "| " << i++ << " | " << s.effect << " | " << s.gap_deg << " | `" << s.parameters.dump() << "` |\n";

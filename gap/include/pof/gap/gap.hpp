@@ -1,7 +1,7 @@
 #pragma once
-// `pof gap`: where do the baseline simulator (the paper's model, eqs. 11/12 inverted, f5
-// in holds) and a recording disagree, which physical effect is missing, and how much of the gap
-// does adding it close. See docs/gap.md for the method and the acceptance rule.
+// `pof gap`: where do the baseline (the paper's model structure, eqs. 11/12 inverted, f5 in
+// holds, with its coefficients fitted to the recording) and a recording disagree, which physical
+// effect is missing, and how much of the gap does adding it close. See docs/gap.md for the method and the acceptance rule.
 #include <functional>
 #include <string>
 #include <vector>
@@ -14,13 +14,8 @@
 
 namespace pof::gap {
 
-/// The candidate effects, with the identifiers docs/gap.md lists.
-inline const std::vector<std::string>& candidate_names() {
-  static const std::vector<std::string> names{
-      "static_nonlinearity", "drift", "creep", "rate_dependent_hysteresis", "acceleration_dependence",
-      "time_delay", "backlash", "source_power_coupling", "periodic_interference"};
-  return names;
-}
+/// The candidate effects, with the identifiers docs/gap.md lists (core/effects.hpp, in catalogue order).
+std::vector<std::string> candidate_names();
 
 struct Options {
   int folds = 5;                 // time-blocked folds (boundaries moved into holds: whole cycles)

@@ -29,6 +29,7 @@ extern const EffectDef kAccelerationDependence{
     .id = core::Effect::kAccelerationDependence,
     .meaning = "a term in the angular acceleration (inertia of the fibre in its sleeve)",
     .theta_key = "window_s",
+    .magnitude_key = "gain_deg_per_rad_s2",
     .refit_theta = true,
     .grid = [](const Context&, const Eigen::VectorXd&) { return std::vector<double>{0.015, 0.025, 0.035, 0.05, 0.075, 0.1}; },
     .columns = columns,

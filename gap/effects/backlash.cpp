@@ -11,6 +11,7 @@ extern const EffectDef kBacklash{
     .acts = Acts::kBacklash,
     .linear = 0,
     .theta_key = "width_deg",
+    .magnitude_key = "width_deg",
     .refit_theta = true,
     .grid = [](const Context&, const Eigen::VectorXd&) {
       std::vector<double> g;

@@ -23,6 +23,7 @@ extern const EffectDef kCreep{
     .id = core::Effect::kCreep,
     .meaning = "one viscoelastic relaxation time: after a step the reading relaxes with tau (standard linear solid)",
     .theta_key = "tau_s",
+    .magnitude_key = "gain",
     .refit_theta = true,
     // 1 .. 200 s. A memory shorter than ~1 s is, on the reference angle, indistinguishable from a
     // delay plus an acceleration term (LP(x) - x = -tau x' + tau^2 x'' - ...); the fibre's

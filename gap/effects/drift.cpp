@@ -22,6 +22,7 @@ nlohmann::json physical(double, const Eigen::VectorXd& b, const Context& cx) {
 extern const EffectDef kDrift{
     .id = core::Effect::kDrift,
     .meaning = "an offset that grows with time over the recording (source ageing, temperature)",
+    .magnitude_key = "drift_deg_per_min",
     .grid = [](const Context&, const Eigen::VectorXd&) { return std::vector<double>{0.0}; },
     .columns = columns,
     .physical = physical,

@@ -8,6 +8,7 @@
 // compensator). The basis functions here are the ones the compensator evaluates online
 // (docs/calibration.md, "[gap]"): a coefficient written to model.toml is volts per unit of the
 // basis, in the calibration's normalised voltage.
+#include <optional>
 #include <string_view>
 #include <vector>
 
@@ -40,7 +41,10 @@ struct EffectDef {
   Acts acts = Acts::kSensor;
   int linear = 1;             // columns (linear coefficients)
   std::string_view theta_key{};  // the physical parameter theta reports as ("" if none), e.g. "tau_s"
-  double theta_scale = 1;     // reported value = theta * theta_scale (e.g. delay in ms)
+  double theta_scale = 1;
+  /// The physical parameter whose zero means "no effect" (e.g. "delay_ms"), or "": an effect is
+  /// only named if its jackknife tells that magnitude apart from zero (|x| > 2 SE).
+  std::string_view magnitude_key{};     // reported value = theta * theta_scale (e.g. delay in ms)
   bool refit_theta = false;   // re-chosen on all data after every acceptance (docs/gap.md, section 4)
   /// The grid of theta; resid is the current held-out residual [V] (used by effects that look at
   /// its spectrum). One value 0 for an effect without theta.
@@ -56,10 +60,17 @@ struct EffectDef {
   nlohmann::json (*physical)(double theta, const Eigen::VectorXd& b, const Context&) = nullptr;
   /// Why the effect cannot be identified on this recording, or "" (e.g. a constant source power).
   std::string_view (*not_identifiable)(const Context&) = nullptr;
+  /// Why fitted parameters (with their "_se") are not physical, or "" (e.g. a relaxation spectrum
+  /// with gains of both signs). An inadmissible fit is not named; the next candidate is tried.
+  std::string (*inadmissible)(const nlohmann::json& parameters) = nullptr;
+  /// The simpler effect this one generalises (viscoelastic_relaxation: creep), if any. The general
+  /// one is only named when it beats the simpler one by the acceptance rule itself (docs/gap.md,
+  /// section 4), as if it were a further step on top of it.
+  std::optional<core::Effect> generalises{};
   /// Fixed basis constants written to model.toml beside the coefficients: the key and its values
   /// (memory_hysteresis: thresholds_deg; viscoelastic_relaxation: time_constants_s), or none.
   std::string_view basis_key{};
-  std::vector<double> (*basis_values)() = nullptr;
+  std::vector<double> (*basis_values)(double theta) = nullptr;
 };
 
 /// The definition of an effect (every core::Effect has one).

@@ -48,11 +48,12 @@ extern const EffectDef kMemoryHysteresis{
     .id = core::Effect::kMemoryHysteresis,
     .meaning = "rate-independent hysteresis with memory: persists through holds, minor loops (stop operators, 1-16 deg)",
     .linear = 5,
+    .magnitude_key = "half_height_deg",
     .grid = [](const Context&, const Eigen::VectorXd&) { return std::vector<double>{0.0}; },
     .columns = columns,
     .physical = physical,
     .basis_key = "thresholds_deg",
-    .basis_values = bank,
+    .basis_values = [](double) { return bank(); },
 };
 
 }  // namespace pof::gap

@@ -64,6 +64,7 @@ extern const EffectDef kPeriodicInterference{
     .meaning = "pick-up at one frequency (mains, motor vibration) on the sensor and reference channels",
     .linear = 4,
     .theta_key = "frequency_hz",
+    .magnitude_key = "amplitude_mv",
     .grid = grid,
     .columns = columns,
     .physical = physical,

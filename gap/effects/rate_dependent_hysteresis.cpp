@@ -27,6 +27,7 @@ extern const EffectDef kRateDependentHysteresis{
     .id = core::Effect::kRateDependentHysteresis,
     .meaning = "a loop opening that grows with speed and vanishes in holds (no memory)",
     .theta_key = "velocity_scale_rad_s",
+    .magnitude_key = "amplitude_deg",
     .refit_theta = true,
     .grid = [](const Context&, const Eigen::VectorXd&) { return basis::log_grid(0.02, 1.0, 13); },
     .refine = basis::log_refine,

@@ -43,6 +43,7 @@ extern const EffectDef kStaticNonlinearity{
     .id = core::Effect::kStaticNonlinearity,
     .meaning = "the quasi-static line bends: an angle error polynomial in the angle (bow, S, potentiometer linearity)",
     .linear = 4,
+    .magnitude_key = "max_deviation_deg",
     .grid = [](const Context&, const Eigen::VectorXd&) { return std::vector<double>{0.0}; },
     .columns = columns,
     .physical = physical,

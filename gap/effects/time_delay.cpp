@@ -12,6 +12,7 @@ extern const EffectDef kTimeDelay{
     .linear = 0,
     .theta_key = "delay_ms",
     .theta_scale = 1e3,
+    .magnitude_key = "delay_ms",
     .refit_theta = true,
     .grid = [](const Context&, const Eigen::VectorXd&) {
       std::vector<double> g;

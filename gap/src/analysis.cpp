@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <string>
 
@@ -77,6 +78,50 @@ json accepted_parameters(const EffectDef& def, const CandidateResult& w, const s
       params[name + "_se"] = floor_se;
   }
   return params;
+}
+
+// A candidate that passes the rule, assessed: its strict held-out residual (fold by fold with the
+// fold's own training fit), its physical parameters with jackknife standard errors, and whether
+// its magnitude is told apart from zero.
+struct Assessment {
+  const CandidateResult* candidate = nullptr;
+  VectorXd after;
+  json parameters;
+  bool significant = true;
+  std::string significance;
+};
+
+Assessment assess(const Search& sx, const State& st, const CandidateResult& w, Index k0cols) {
+  const EffectDef& def = effect_def(w.effect);
+  Assessment a;
+  a.candidate = &w;
+  a.after.resize(sx.cx.s->n);
+  Search at = sx;  // the candidate was scored at its own linearisation of the baseline
+  at.cx.m = w.base;
+  std::vector<json> fold_params;
+  for (std::size_t f = 0; f < sx.blocks.size(); ++f) {
+    const double th = w.grid.empty() ? 0.0 : w.grid[w.fit.theta_idx[f]];
+    const Design d2 = build_design(at, st.with(w.effect, th));
+    const Index b = sx.blocks.start[f], l = sx.blocks.len[f];
+    a.after.segment(b, l) = d2.y.segment(b, l) - d2.X.middleRows(b, l) * w.fit.beta[f];
+    const VectorXd bf = w.fit.beta[f];
+    fold_params.push_back(def.physical(th, bf.tail(bf.size() - k0cols), at.cx));
+  }
+  a.parameters = accepted_parameters(def, w, fold_params, k0cols, at.cx);
+  const std::string key(def.magnitude_key);
+  if (!key.empty() && a.parameters.contains(key) && a.parameters.contains(key + "_se")) {
+    const double x = a.parameters[key].get<double>(), se = a.parameters[key + "_se"].get<double>();
+    a.significant = std::abs(x) > 2.0 * se;
+    a.significance = key + " = " + fmt(x, 4) + " +- " + fmt(se, 4) + (a.significant ? " (> 2 SE)" : ": within 2 SE of zero");
+  }
+  if (a.significant && def.inadmissible != nullptr) {
+    const std::string why = def.inadmissible(a.parameters);
+    if (!why.empty()) {
+      a.significant = false;
+      a.significance = why;
+    }
+  }
+  return a;
 }
 
 // The fit with the baseline's coefficients moved by the all-data solution and the design rebuilt
@@ -190,8 +235,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
     const double n_eff = cv::effective_n(cur.cv_resid);
     const double rss0 = cur.fit.cv_rss;
     json scores = json::object();
-    std::size_t best = cands.size();
-    double best_bic = kInf;
+    std::vector<std::pair<double, std::size_t>> order;  // (delta BIC, candidate), best first
     for (std::size_t i = 0; i < cands.size(); ++i) {
       const CandidateResult& c = cands[i];
       const std::string id(core::to_string(c.effect));
@@ -200,66 +244,89 @@ Result analyse(const io::Recording& rec, const Options& opt) {
       const double dbic = n_eff * std::log(c.fit.cv_rss / rss0) + c.n_params * std::log(n_eff);
       scores[id] = {{"heldout_gap_deg", gap_deg(c.fit.cv_rss)}, {"reduction_pct", 100 * red}, {"delta_bic", dbic},
                     {"parameters", c.n_params}};
-      if (dbic < best_bic) { best_bic = dbic; best = i; }
+      order.emplace_back(dbic, i);
     }
-    if (best == cands.size()) break;
-    const CandidateResult& w = cands[best];
+    std::sort(order.begin(), order.end());
+    auto passes = [&](std::size_t i) {
+      const double red = 1.0 - std::sqrt(cands[i].fit.cv_rss / rss0);
+      return red >= opt.min_reduction && -scores[std::string(core::to_string(cands[i].effect))]["delta_bic"].get<double>() > opt.min_delta_bic;
+    };
+    // Parsimony between nested effects: the general one must beat the simpler one it generalises
+    // by the acceptance rule, as a further step on top of it would have to.
+    auto parsimonious = [&](std::size_t i) {
+      const auto simpler = effect_def(cands[i].effect).generalises;
+      if (!simpler) return i;
+      const auto si = static_cast<std::size_t>(*simpler);
+      if (!cands[si].applicable || !passes(si)) return i;
+      const double red_over = 1.0 - std::sqrt(cands[i].fit.cv_rss / cands[si].fit.cv_rss);
+      const double dbic_over = n_eff * std::log(cands[i].fit.cv_rss / cands[si].fit.cv_rss) +
+                               (cands[i].n_params - cands[si].n_params) * std::log(n_eff);
+      if (red_over >= opt.min_reduction && -dbic_over > opt.min_delta_bic) return i;
+      scores[std::string(core::to_string(cands[i].effect))]["not_preferred_to"] = std::string(core::to_string(*simpler));
+      return si;
+    };
+    // The first candidate, best delta BIC first, that passes the rule and whose magnitude its
+    // jackknife tells apart from zero (|x| > 2 SE: a 4 +- 3 ms delay is no finding).
+    std::optional<Assessment> chosen;
+    std::vector<std::size_t> tried;
+    for (const auto& [dbic, i0] : order) {
+      if (!passes(i0)) break;
+      const std::size_t i = parsimonious(i0);
+      if (std::find(tried.begin(), tried.end(), i) != tried.end()) continue;
+      tried.push_back(i);
+      Assessment a = assess(sx, st, cands[i], cur.d.X.cols());
+      if (a.significant) { chosen = std::move(a); break; }
+      scores[std::string(core::to_string(cands[i].effect))]["not_significant"] = a.significance;
+      say("step " + std::to_string(step) + ": " + std::string(core::to_string(cands[i].effect)) + " " + a.significance);
+    }
+    if (!chosen) {
+      if (!order.empty()) {
+        const CandidateResult& b = cands[order.front().second];
+        const double red = 1.0 - std::sqrt(b.fit.cv_rss / rss0);
+        say("step " + std::to_string(step) + ": best " + std::string(core::to_string(b.effect)) + " (" + fmt(100 * red, 1) +
+            " %, dBIC " + fmt(order.front().first, 1) + "): not significant, stopping");
+        res.whiteness["last_rejected"] = {{"effect", std::string(core::to_string(b.effect))}, {"reduction_pct", 100 * red},
+                                          {"delta_bic", order.front().first}, {"all", scores}};
+      }
+      break;
+    }
+    const CandidateResult& w = *chosen->candidate;
     const EffectDef& def = effect_def(w.effect);
     const std::string wid(core::to_string(w.effect));
     const double red = 1.0 - std::sqrt(w.fit.cv_rss / rss0);
-    const bool accept = red >= opt.min_reduction && -best_bic > opt.min_delta_bic;
-    say("step " + std::to_string(step) + ": best " + wid + " (held-out gap " + fmt(gap_deg(rss0)) + " -> " +
-        fmt(gap_deg(w.fit.cv_rss)) + " deg, " + fmt(100 * red, 1) + " %, dBIC " + fmt(best_bic, 1) + ")" +
-        (accept ? ": accepted" : ": not significant, stopping"));
-    if (!accept) {
-      res.whiteness["last_rejected"] = {{"effect", wid}, {"reduction_pct", 100 * red}, {"delta_bic", best_bic}, {"all", scores}};
-      break;
-    }
-    // The held-out residual after the step, fold by fold with the fold's own (training) fit.
-    const Index k0cols = cur.d.X.cols();
-    VectorXd after(s.n);
-    std::vector<json> fold_params;
-    Search at = sx;  // the candidate was scored at its own linearisation of the baseline
-    at.cx.m = w.base;
-    for (std::size_t f = 0; f < sx.blocks.size(); ++f) {
-      const double th = w.grid.empty() ? 0.0 : w.grid[w.fit.theta_idx[f]];
-      const Design d2 = build_design(at, st.with(w.effect, th));
-      const Index a = sx.blocks.start[f], l = sx.blocks.len[f];
-      after.segment(a, l) = d2.y.segment(a, l) - d2.X.middleRows(a, l) * w.fit.beta[f];
-      const VectorXd bf = w.fit.beta[f];
-      fold_params.push_back(def.physical(th, bf.tail(bf.size() - k0cols), sx.cx));
-    }
-    const double th_full = w.grid.empty() ? 0.0 : w.grid[w.fit.full_idx];
-    const json params = accepted_parameters(def, w, fold_params, k0cols, sx.cx);
+    const double wbic = scores[wid]["delta_bic"].get<double>();
+    say("step " + std::to_string(step) + ": " + wid + " (held-out gap " + fmt(gap_deg(rss0)) + " -> " +
+        fmt(gap_deg(w.fit.cv_rss)) + " deg, " + fmt(100 * red, 1) + " %, dBIC " + fmt(wbic, 1) + "): accepted");
 
     // Where: the part of the residual this effect explains, localised.
-    const VectorXd explained = to_deg(VectorXd(cur.cv_resid - after));
+    const VectorXd explained = to_deg(VectorXd(cur.cv_resid - chosen->after));
     const Localisation loc = localise(explained, s, k0, phases);
     const Localisation before_loc = localise(to_deg(cur.cv_resid), s, k0, phases);
     Step stp;
     stp.effect = wid;
     stp.gap_deg = gap_deg(w.fit.cv_rss);
     stp.where = loc.sentence;
-    stp.parameters = params;
-    std::vector<std::pair<double, std::string>> ranked;
-    for (const auto& c : cands)
-      if (c.applicable) ranked.emplace_back(scores[std::string(core::to_string(c.effect))]["delta_bic"].get<double>(),
-                                            std::string(core::to_string(c.effect)));
-    std::sort(ranked.begin(), ranked.end());
+    stp.parameters = chosen->parameters;
+    std::string runner_up;
+    double runner_bic = 0;
+    for (const auto& [dbic, i] : order)
+      if (cands[i].effect != w.effect) { runner_up = std::string(core::to_string(cands[i].effect)); runner_bic = dbic; break; }
     stp.evidence = {{"heldout_gap_before_deg", gap_deg(rss0)},
                     {"heldout_gap_after_deg", stp.gap_deg},
                     {"reduction_pct", 100 * red},
-                    {"delta_bic", best_bic},
+                    {"delta_bic", wbic},
                     {"n_eff", n_eff},
                     {"meaning", std::string(def.meaning)},
-                    {"runner_up", ranked.size() > 1 ? ranked[1].second : std::string()},
-                    {"runner_up_delta_bic", ranked.size() > 1 ? ranked[1].first : 0.0},
+                    {"significance", chosen->significance},
+                    {"runner_up", runner_up},
+                    {"runner_up_delta_bic", runner_bic},
                     {"residual_before_where", before_loc.sentence},
                     {"phase_rms_before_deg", phase_rms(to_deg(cur.cv_resid), phases)},
-                    {"phase_rms_after_deg", phase_rms(to_deg(after), phases)},
+                    {"phase_rms_after_deg", phase_rms(to_deg(chosen->after), phases)},
                     {"explained_localisation", loc.detail},
                     {"candidates", scores}};
     res.steps.push_back(stp);
+    const double th_full = w.grid.empty() ? 0.0 : w.grid[w.fit.full_idx];
     st = st.with(w.effect, th_full);
     sx.cx.m = w.base;
     if (st.size() > 1) refit_thetas(sx, st);
@@ -267,7 +334,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
     // nonlinear parameters fixed); the reported gaps stay the strict per-fold ones.
     cur = relinearise(sx, st);
     res.steps.back().evidence["heldout_gap_refitted_deg"] = gap_deg(cur.fit.cv_rss);
-    strict_resid = after;
+    strict_resid = chosen->after;
   }
   res.final_gap_deg = res.steps.empty() ? res.baseline_gap_deg : res.steps.back().gap_deg;
 
@@ -293,7 +360,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
       json term = {{"effect", std::string(core::to_string(t.effect))}, {"theta", t.theta},
                    {"coefficients_v", std::vector<double>(bt.data(), bt.data() + bt.size())},
                    {"parameters", def.physical(t.theta, bt, sx.cx)}};
-      if (def.basis_values != nullptr) term[std::string(def.basis_key)] = def.basis_values();
+      if (def.basis_values != nullptr) term[std::string(def.basis_key)] = def.basis_values(t.theta);
       terms.push_back(term);
       c += def.linear;
     }

@@ -105,6 +105,10 @@ TEST(GapCandidates, ViscoelasticRelaxation) {
   const auto r = run("viscoelastic_relaxation", 0.08);
   expect_named(r, "viscoelastic_relaxation");
   EXPECT_NEAR(param(r, "total_gain"), 0.08, 0.03);
+  // The generator's time constants are 1.5 s and 40 s; the short session's 10 s holds see the slow
+  // one only in part.
+  EXPECT_NEAR(param(r, "tau_fast_s"), 1.5, 1.0);
+  EXPECT_GT(param(r, "tau_slow_s"), 10.0);
 }
 TEST(GapCandidates, TwoEffectsAreBothFound) {
   pof::gap::SynthConfig cfg;

@@ -242,11 +242,6 @@ double GapCorrector::filter(double v) noexcept {
   return v;
 }
 
-double GapCorrector::history(int back) const noexcept {
-  const int size = static_cast<int>(hist_.size());
-  return hist_[static_cast<std::size_t>((hist_head_ - back + size) % size)];
-}
-
 double GapCorrector::voltage_at(double angle, double reference_v, double velocity_rad_s, Direction d) const noexcept {
   if (!active_) return 0.0;
   double v = 0;
@@ -279,16 +274,21 @@ double GapCorrector::voltage_at(double angle, double reference_v, double velocit
   return v;
 }
 
-double GapCorrector::acceleration_voltage() const noexcept {
+double GapCorrector::acceleration_voltage() const noexcept { return accel_v_; }
+
+double GapCorrector::estimate_acceleration_voltage() const noexcept {
   double v = 0;
+  const int size = static_cast<int>(hist_.size());
   for (const Acceleration& a : accel_) {
     if (hist_count_ < a.n) continue;  // no estimate until the window has filled
     // sum (j^2 - m2) A_j over the newest n committed angles, j centred; a = 2 c / dt^2 [deg/s^2].
     const double m2 = (static_cast<double>(a.n) * a.n - 1) / 12.0;
     double s = 0;
+    int at = hist_head_;
     for (int i = 0; i < a.n; ++i) {
       const double j = (a.n - 1) / 2.0 - i;  // i scans back from the newest
-      s += (j * j - m2) * history(i);
+      s += (j * j - m2) * hist_[static_cast<std::size_t>(at)];
+      at = at == 0 ? size - 1 : at - 1;
     }
     v += a.coefficient * 2.0 * s * a.norm / (dt_ * dt_) * kRadPerDeg;
   }
@@ -297,7 +297,7 @@ double GapCorrector::acceleration_voltage() const noexcept {
 
 double GapCorrector::advance(double angle, double reference_v, double angle_per_volt) noexcept {
   if (!active_) return angle;
-  const double open = accel_.empty() || angle_per_volt == 0 ? angle : angle + angle_per_volt * acceleration_voltage();
+  const double open = accel_.empty() || angle_per_volt == 0 ? angle : angle + angle_per_volt * accel_v_;
   for (Creep& c : creep_) c.x = started_ ? c.x + c.alpha * (angle - c.x) : angle;
   const double step = started_ ? angle - last_angle_ : 0.0;
   for (Stop& s : stops_) s.s = stop_operator(s.s, step, s.r);
@@ -307,6 +307,7 @@ double GapCorrector::advance(double angle, double reference_v, double angle_per_
   hist_head_ = (hist_head_ + 1) % hsize;
   hist_[static_cast<std::size_t>(hist_head_)] = open;
   hist_count_ = std::min(hist_count_ + 1, hsize);
+  if (!accel_.empty()) accel_v_ = estimate_acceleration_voltage();  // for the next scan
   if (source_ && std::isfinite(reference_v)) {
     const int size = static_cast<int>(ref_.size());
     ref_head_ = (ref_head_ + 1) % size;
@@ -348,6 +349,7 @@ double GapCorrector::advance(double angle, double reference_v, double angle_per_
 
 void GapCorrector::interrupt() noexcept {
   hist_count_ = 0;
+  accel_v_ = 0;
   late_count_ = 0;
   lead_.reset();
   for (Notch& n : notches_) n.primed = false;

@@ -163,7 +163,7 @@ class GapCorrector {
     bool primed = false;
   };
 
-  [[nodiscard]] double history(int back) const noexcept;  // the angle `back` scans before the newest
+  [[nodiscard]] double estimate_acceleration_voltage() const noexcept;  // from the committed angles
 
   bool active_ = false;
   ModelCoefficients paper_;
@@ -173,6 +173,7 @@ class GapCorrector {
   std::vector<Stop> stops_;
   std::vector<RateHysteresis> rate_;
   std::vector<Acceleration> accel_;
+  double accel_v_ = 0;  // the acceleration terms' voltage for the next scan (committed angles only)
   double c_source_vq_ = 0, c_source_r_ = 0;
   bool source_ = false;
   std::vector<Notch> notches_;

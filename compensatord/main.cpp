@@ -55,6 +55,7 @@ struct Options {
   std::string velocity_source = "sensor";
   std::string model = "file";
   double output_rate_hz = 0;
+  double scan_rate_hz = 200;  // what the calibration's [gap] terms are checked at (blocks carry their own)
   double velocity_window_s = 0.5;
   double reversal_window_s = pof::core::CompensatorSettings{}.reversal_window_s;
   int queue_capacity = 10000;
@@ -68,6 +69,7 @@ int run(const Options& o) {
   pof::compensatord::PipelineSettings ps;
   ps.sensor_id = o.sensor_id;
   ps.output_rate_hz = o.output_rate_hz;
+  ps.compensator.scan_rate_hz = o.scan_rate_hz;
   ps.compensator.velocity_window_s = o.velocity_window_s;
   ps.compensator.reversal_window_s = o.reversal_window_s;
   ps.compensator.velocity_source =
@@ -75,7 +77,8 @@ int run(const Options& o) {
   std::optional<pof::core::PotentiometerCalibration> pot;
   if (!o.pot_cal.empty()) pot = pof::io::load_potentiometer(o.pot_cal);
 
-  pof::compensatord::Pipeline pipeline(pof::io::load_calibration(o.cal, o.model), o.cal, ps, pot);
+  // A calibration with a [gap] term the compensator cannot apply is refused here (exit 78).
+  pof::compensatord::Pipeline pipeline(pof::io::load_calibration(o.cal, o.model, o.scan_rate_hz), o.cal, ps, pot);
 
   const std::string url = pof::bus::resolve_url(o.lcm_url);
   lcm::LCM lc(url);
@@ -123,7 +126,7 @@ int run(const Options& o) {
     }
     if (sig == SIGHUP) {
       try {
-        pipeline.replace_calibration(pof::io::load_calibration(o.cal, o.model), o.cal);
+        pipeline.replace_calibration(pof::io::load_calibration(o.cal, o.model, o.scan_rate_hz), o.cal);
         spdlog::info("reloaded calibration {}", o.cal);
       } catch (const std::exception& e) {
         pipeline.note_reload_failure(e.what());
@@ -186,6 +189,10 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"file", "paper", "dynamic"}))->capture_default_str();
   app.add_option("--output-rate", o.output_rate_hz, "Published angle rate [Hz] (boxcar decimation); 0 = every scan")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--scan-rate", o.scan_rate_hz,
+                 "Expected scan rate [Hz]: the calibration's [gap] terms are checked at it at start and on SIGHUP "
+                 "(blocks carry their own rate; a block at a rate the terms cannot run at is rejected)")
+      ->check(CLI::PositiveNumber)->capture_default_str();
   app.add_option("--velocity-window", o.velocity_window_s, "Velocity estimator window [s]")
       ->check(CLI::PositiveNumber)->capture_default_str();
   app.add_option("--reversal-window", o.reversal_window_s,

@@ -179,4 +179,6 @@ std::string new_key_text() {
   return text + "\n";
 }
 
+void wipe(std::string& s) { sodium_memzero(s.data(), s.size()); }
+
 }  // namespace pof::bus::auth

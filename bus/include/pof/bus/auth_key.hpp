@@ -40,6 +40,8 @@ std::optional<std::vector<unsigned char>> parse_key_bytes(const unsigned char* d
 
 /// A new random key as a key file holds it: 64 lower-case hex digits and "\n" (`pof keygen`).
 std::string new_key_text();
+/// Overwrites `s` with zeros in a way the compiler keeps (sodium_memzero): key text, once used.
+void wipe(std::string& s);
 
 /// One entry of a POSIX access ACL (the system.posix_acl_access extended attribute, as the Linux
 /// kernel stores it: include/uapi/linux/posix_acl_xattr.h).

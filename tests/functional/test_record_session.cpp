@@ -152,7 +152,10 @@ void record_authenticated(bool liblcm) {
     ASSERT_EQ(pub.publish("POF_ANGLE", a), 0);
   }
   ASSERT_TRUE(wait_received(s, 3)) << s.poll().received;
-  while (first.empty()) tx.handleTimeout(100);
+  ASSERT_TRUE(pof::test::poll_until([&] {
+    tx.handleTimeout(20);
+    return !first.empty();
+  }));
   tx.unsubscribe(tap);
   a.seq = 100;
   tx.publish("POF_ANGLE", &a);                                                  // unsigned

@@ -78,6 +78,7 @@ Session::Session(SessionOptions options) : opt_(std::move(options)) {
   }
 
   url_ = bus::resolve_url(opt_.lcm_url, opt_.recv_buf_bytes);
+  if (opt_.auth_key) verifier_ = std::make_unique<bus::auth::Verifier>(opt_.auth_key, opt_.auth);
   const bus::UdpmUrl udpm = bus::parse_udpm_url(url_);
   port_ = udpm.ok() ? udpm.port : 0;  // 0: not udpm (no kernel socket statistics)
 }
@@ -149,7 +150,22 @@ void Session::start() {
 
 // LCM thread: copy and hand off, nothing else (no disk, no logging).
 void Session::on_lcm_message(const lcm_recv_buf_t* rbuf, const char* channel, void* self) {
-  static_cast<Session*>(self)->enqueue(rbuf->recv_utime, channel, rbuf->data, rbuf->data_size);
+  static_cast<Session*>(self)->take(rbuf->recv_utime, channel, static_cast<const unsigned char*>(rbuf->data),
+                                    rbuf->data_size);
+}
+
+void Session::take(int64_t utime, std::string_view channel, const unsigned char* data, uint32_t size) {
+  if (verifier_) {
+    const bus::auth::Verification v = verifier_->verify(channel, data, size, bus::auth::counter_time(utime));
+    switch (v.verdict) {
+      case bus::auth::Verdict::kOk: size = static_cast<uint32_t>(v.message_size); break;
+      case bus::auth::Verdict::kUnsigned: auth_unsigned_.fetch_add(1, std::memory_order_relaxed); return;
+      case bus::auth::Verdict::kBadMac: auth_bad_mac_.fetch_add(1, std::memory_order_relaxed); return;
+      case bus::auth::Verdict::kStale: auth_stale_.fetch_add(1, std::memory_order_relaxed); return;
+      case bus::auth::Verdict::kReplayed: auth_replayed_.fetch_add(1, std::memory_order_relaxed); return;
+    }
+  }
+  enqueue(utime, channel, data, size);
 }
 
 void Session::enqueue(int64_t utime, std::string_view channel, const void* data, uint32_t data_size) {
@@ -182,7 +198,7 @@ void Session::lcm_loop() {
   if (direct_) {
     const bus::UdpmReceiver::Sink sink = [this](int64_t utime, std::string_view channel, const unsigned char* data,
                                            uint32_t size) {
-      if (channel_filter_->matches(channel)) enqueue(utime, channel, data, size);
+      if (channel_filter_->matches(channel)) take(utime, channel, data, size);
     };
     while (!stop_lcm_.load()) {
       direct_->receive(50, sink);
@@ -357,6 +373,11 @@ SessionStats Session::poll() {
   }
   s.malformed_datagrams = malformed_.load(std::memory_order_relaxed);
   s.incomplete_messages = incomplete_.load(std::memory_order_relaxed);
+  s.authenticated = verifier_ != nullptr;
+  s.auth_unsigned = auth_unsigned_.load(std::memory_order_relaxed);
+  s.auth_bad_mac = auth_bad_mac_.load(std::memory_order_relaxed);
+  s.auth_stale = auth_stale_.load(std::memory_order_relaxed);
+  s.auth_replayed = auth_replayed_.load(std::memory_order_relaxed);
   s.manifest = manifest_path_;
   return s;
 }
@@ -453,6 +474,18 @@ void Session::write_manifest(const char* status) {
                    {"incomplete_messages", incomplete_.load(std::memory_order_relaxed)},
                    {"udp_rcvbuf_bytes", final_rcvbuf_},
                    {"handoff_peak_bytes", peak}};
+  // Authenticated mode: the log holds only messages that passed verification, without trailers.
+  if (verifier_)
+    m["authentication"] = {{"enabled", true},
+                           {"key_id", bus::auth::key_id_hex(opt_.auth_key->id())},
+                           {"window_s", static_cast<double>(opt_.auth.window_us) / 1e6},
+                           {"dropped",
+                            {{"unsigned", auth_unsigned_.load(std::memory_order_relaxed)},
+                             {"bad_mac", auth_bad_mac_.load(std::memory_order_relaxed)},
+                             {"stale", auth_stale_.load(std::memory_order_relaxed)},
+                             {"replayed", auth_replayed_.load(std::memory_order_relaxed)}}}};
+  else
+    m["authentication"] = {{"enabled", false}};
   io::write_file_atomic(manifest_path_, m.dump(2) + "\n");
 }
 

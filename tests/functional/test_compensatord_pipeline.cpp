@@ -18,6 +18,7 @@
 #include "pof/base/errors.hpp"
 #include "pof/bus/channels.hpp"
 #include "pof/bus/error_log.hpp"
+#include "pof/bus/publisher.hpp"
 #include "pof/core/model.hpp"
 #include "pof/core/offline.hpp"
 #include "pof/bus/receiver.hpp"
@@ -526,7 +527,8 @@ TEST_F(PipelineTest, MessagesLcmRefusesAreCountedInTheStatus) {
   pof::bus::ErrorLog errors([&](const std::string& line) { logged.push_back(line); });
   const std::string too_long = pof::bus::channel(pof::bus::Stream::kAngle, std::string(60, 'X'));
   ASSERT_GT(too_long.size(), std::size_t{LCM_MAX_CHANNEL_NAME_LENGTH});
-  pof::compensatord::LcmSink sink(lc, too_long, pof::bus::channel(pof::bus::Stream::kStats, "LEFT_KNEE"), errors);
+  pof::bus::Publisher pub(lc, nullptr);
+  pof::compensatord::LcmSink sink(pub, too_long, pof::bus::channel(pof::bus::Stream::kStats, "LEFT_KNEE"), errors);
   PipelineSettings ps;
   ps.output_rate_hz = 10;  // one angle per 20-scan block
   Pipeline p(paper_calibration(), "x", ps);
@@ -541,7 +543,7 @@ TEST_F(PipelineTest, MessagesLcmRefusesAreCountedInTheStatus) {
   EXPECT_EQ(p.status(0).publish_failures, 9);
   // A sink that publishes counts nothing.
   Pipeline q(paper_calibration(), "x", ps);
-  pof::compensatord::LcmSink fine(lc, pof::bus::channel(pof::bus::Stream::kAngle, "LEFT_KNEE"),
+  pof::compensatord::LcmSink fine(pub, pof::bus::channel(pof::bus::Stream::kAngle, "LEFT_KNEE"),
                                   pof::bus::channel(pof::bus::Stream::kStats, "LEFT_KNEE"), errors);
   for (size_t i = 0; i < 8; ++i) q.on_block((*blocks_)[i], 0, fine);
   EXPECT_EQ(q.status(0).angles, 8);

@@ -67,6 +67,12 @@ struct EffectDef {
   /// one is only named when it beats the simpler one by the acceptance rule itself (docs/gap.md,
   /// section 4), as if it were a further step on top of it.
   std::optional<core::Effect> generalises{};
+  /// How the term is written to model.toml for the compensator (docs/calibration.md, "[gap]"):
+  /// whether theta is (relaxation's theta only indexes its pair, written as time_constants_s), and
+  /// how many coefficients the file's basis has; beyond `linear` they are written as 0
+  /// (rate_dependent_hysteresis: the paper-hysteresis scale, which the refitted baseline carries).
+  bool theta_in_file = true;
+  int file_coefficients = 0;  // 0: linear
   /// Fixed basis constants written to model.toml beside the coefficients: the key and its values
   /// (memory_hysteresis: thresholds_deg; viscoelastic_relaxation: time_constants_s), or none.
   std::string_view basis_key{};

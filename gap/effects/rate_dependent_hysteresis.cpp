@@ -33,6 +33,7 @@ extern const EffectDef kRateDependentHysteresis{
     .refine = basis::log_refine,
     .columns = columns,
     .physical = physical,
+    .file_coefficients = 2,
 };
 
 }  // namespace pof::gap

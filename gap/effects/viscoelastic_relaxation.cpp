@@ -80,6 +80,7 @@ extern const EffectDef kViscoelasticRelaxation{
     .physical = physical,
     .inadmissible = inadmissible,
     .generalises = core::Effect::kCreep,
+    .theta_in_file = false,
     .basis_key = "time_constants_s",
     .basis_values = basis_values,
 };

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "baseline.hpp"
+#include "compensation.hpp"
 #include "pof/base/errors.hpp"
 #include "pof/gap/gap.hpp"
 #include "pof/gap/localise.hpp"
@@ -176,6 +177,7 @@ json Result::to_json() const {
   j["whiteness"] = whiteness;
   j["model"] = model;
   j["recording"] = recording;
+  j["compensated"] = compensated;
   return j;
 }
 
@@ -214,6 +216,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
 
   State st;
   CurrentFit cur = fit_state(sx, st);
+  const core::ModelCoefficients baseline_model = moved_model(sx.cx.m, cur.fit.beta_full);
   res.baseline_gap_deg = gap_deg(cur.fit.cv_rss);
   {
     const Localisation loc = localise(to_deg(cur.cv_resid), s, k0, phases);
@@ -349,20 +352,17 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   // ---- improved model, fitted on all the data ----------------------------------------------------
   {
     const VectorXd b = cur.fit.beta_full;
-    std::array<double, core::kRefitParameters> p = core::refit_parameters(sx.cx.m);
-    for (int i = 0; i < core::kRefitParameters; ++i) p[static_cast<std::size_t>(i)] += b(i);
-    const core::ModelCoefficients mm = core::with_refit_parameters(sx.cx.m, p);
+    const core::ModelCoefficients mm = moved_model(sx.cx.m, b);
+    const core::GapModel g = gap_model_of(st, b, sx.cx);
     json terms = json::array();
-    Index c = kBaseCols;
-    for (const Term& t : st.terms) {
-      const EffectDef& def = effect_def(t.effect);
-      const VectorXd bt = b.segment(c, def.linear);
-      json term = {{"effect", std::string(core::to_string(t.effect))}, {"theta", t.theta},
-                   {"coefficients_v", std::vector<double>(bt.data(), bt.data() + bt.size())},
-                   {"parameters", def.physical(t.theta, bt, sx.cx)}};
-      if (def.basis_values != nullptr) term[std::string(def.basis_key)] = def.basis_values(t.theta);
+    for (const core::GapTerm& t : g.terms) {
+      json term = {{"effect", t.effect}, {"theta", t.theta}, {"coefficients_v", t.coefficients_v}};
+      if (!t.thresholds_deg.empty()) term["thresholds_deg"] = t.thresholds_deg;
+      if (!t.time_constants_s.empty()) term["time_constants_s"] = t.time_constants_s;
+      json p = json::object();
+      for (const auto& [k, v] : t.parameters) p[k] = v;
+      term["parameters"] = p;
       terms.push_back(term);
-      c += def.linear;
     }
     auto dir = [](const core::DirectionCoefficients& x) { return json::array({x.c3, x.c4, x.c5, x.c6, x.c7, x.c8}); };
     res.model = {{"c1", mm.c1}, {"c2", mm.c2}, {"c9", mm.c9}, {"c10", mm.c10}, {"flexion", dir(mm.flexion)},
@@ -370,6 +370,11 @@ Result analyse(const io::Recording& rec, const Options& opt) {
                  {"backlash_deg", st.backlash_deg}, {"duration_s", sx.cx.duration_s}, {"terms", terms}};
     describe_range(res.model, s, k0);
   }
+
+  // ---- the loop closed: the compensator's angle with and without the found model --------------
+  VectorXd comp_before, comp_after;
+  say("compensating the held-out blocks with the baseline and with the found model");
+  res.compensated = compensated_rmse(rec, sx, baseline_model, st, cur, &comp_before, &comp_after);
 
   // ---- plot series (at most ~40k rows) ----------------------------------------------------------
   const Index stride = std::max<Index>(1, s.n / 40000);
@@ -383,6 +388,8 @@ Result analyse(const io::Recording& rec, const Options& opt) {
     res.series.model_final.push_back(model_final(i));
     res.series.resid_baseline_deg.push_back(resid_baseline(i));
     res.series.resid_final_deg.push_back(rf(i));
+    res.series.angle_comp_before.push_back(comp_before(i));
+    res.series.angle_comp_after.push_back(comp_after(i));
   }
   say("done: held-out gap " + fmt(res.baseline_gap_deg) + " -> " + fmt(res.final_gap_deg) + " deg in " +
       std::to_string(res.steps.size()) + " step(s)");

@@ -67,11 +67,15 @@ CurrentFit fit_state(const Search& sx, const State& st) {
   return c;
 }
 
-Search moved(const Search& sx, const VectorXd& beta) {
-  std::array<double, core::kRefitParameters> p = core::refit_parameters(sx.cx.m);
+core::ModelCoefficients moved_model(const core::ModelCoefficients& m, const VectorXd& beta) {
+  std::array<double, core::kRefitParameters> p = core::refit_parameters(m);
   for (int i = 0; i < core::kRefitParameters; ++i) p[static_cast<std::size_t>(i)] += beta(i);
+  return core::with_refit_parameters(m, p);
+}
+
+Search moved(const Search& sx, const VectorXd& beta) {
   Search out = sx;
-  out.cx.m = core::with_refit_parameters(sx.cx.m, p);
+  out.cx.m = moved_model(sx.cx.m, beta);
   return out;
 }
 

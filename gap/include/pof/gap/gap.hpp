@@ -38,6 +38,7 @@ struct Step {
 /// Time series for plots (one row per kept scan).
 struct Series {
   std::vector<double> t, angle, w, v, model_baseline, model_final, resid_baseline_deg, resid_final_deg;
+  std::vector<double> angle_comp_before, angle_comp_after;  // the compensator's angle, baseline / found model
 };
 
 struct Result {
@@ -49,6 +50,7 @@ struct Result {
   nlohmann::json whiteness;      // final residual: ACF, Ljung-Box, noise floor
   nlohmann::json model;          // improved model: coefficients + accepted terms (for model.toml)
   nlohmann::json recording;      // n, rate, duration, reference level
+  nlohmann::json compensated;    // the compensator's angle vs the reference on held-out blocks, before/after
   Series series;
 
   [[nodiscard]] nlohmann::json to_json() const;

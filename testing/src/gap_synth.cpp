@@ -104,7 +104,7 @@ io::Recording synthesise(const SynthConfig& cfg, std::uint64_t seed) {
     acc(i) = (w(b) - w(a)) / (static_cast<double>(b - a) * dt);
   }
 
-  const core::ModelCoefficients m = core::paper_coefficients();
+  const core::ModelCoefficients& m = cfg.model;
   const double rdh = eff("rate_dependent_hysteresis");
   const double creep_g = eff("creep"), tau = cfg.creep_tau_s, acc_g = eff("acceleration_dependence");
   const double k2 = eff("static_nonlinearity");

@@ -47,6 +47,28 @@ TEST(GapCandidates, NoHiddenEffectGivesNoStep) {
   EXPECT_NEAR(r.final_gap_deg, r.baseline_gap_deg, 1e-12);
   EXPECT_LT(r.baseline_gap_deg, 0.2);  // ~ sensor noise 2 mV * 45.7 deg/V
 }
+TEST(GapCandidates, OwnCoefficientsAreNoEffect) {
+  // A sensor of the paper's structure with coefficients of its own (each of c1, c2, c3-c6, c9, c10
+  // 15-30 % off table 2): the baseline is fitted to the recording, so nothing is missing.
+  pof::gap::SynthConfig cfg;
+  cfg.short_protocol = true;
+  cfg.extra_seconds = 60;
+  cfg.reference_wander = 0.02;
+  auto& m = cfg.model;
+  m.c1 *= 1.3;
+  m.c2 *= 0.75;
+  m.c9 *= 1.2;
+  m.c10 *= 0.85;
+  m.flexion.c3 *= 1.25;
+  m.flexion.c5 *= 0.8;
+  m.extension.c4 *= 1.15;
+  m.extension.c6 *= 0.8;
+  m.extension.c7 = 1.0098 / m.extension.c4;  // the chain stays near identity at zero hysteresis
+  m.extension.c8 = 1.0334 * m.extension.c7 * m.extension.c6;
+  const auto r = pof::gap::analyse(pof::gap::synthesise(cfg, 7));
+  EXPECT_TRUE(r.steps.empty()) << r.steps.front().effect << " " << r.steps.front().parameters.dump();
+  EXPECT_LT(r.baseline_gap_deg, 0.2);  // ~ sensor noise 2 mV * ~55 deg/V
+}
 TEST(GapCandidates, StaticNonlinearity) {
   const auto r = run("static_nonlinearity", 1.5);
   expect_named(r, "static_nonlinearity");

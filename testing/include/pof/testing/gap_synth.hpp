@@ -9,6 +9,7 @@
 #include <random>
 #include <string>
 
+#include "pof/core/model.hpp"
 #include "pof/io/recording.hpp"
 
 namespace pof::gap {
@@ -32,6 +33,8 @@ struct SynthConfig {
   ///  1.5 s and 40 s].
   std::map<std::string, double> effects;
   double creep_tau_s = 4.0;
+  /// The sensor's own table-2 coefficients (every real sensor differs from the paper's).
+  core::ModelCoefficients model = core::paper_coefficients();
   double interference_hz = 50.0;
 };
 

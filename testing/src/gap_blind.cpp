@@ -62,86 +62,109 @@ Hidden hide(sim::Scenario& s, const std::string& e, std::mt19937_64& rng) {
   auto sign = [&] { return u(rng) < 0.5 ? -1.0 : 1.0; };
   Hidden h;
   h.effect = e;
-  bool* sw = sim::effect_switch(s, e);
-  if (sw == nullptr) throw std::invalid_argument("blind: unknown effect '" + e + "'");
-  *sw = true;
-  if (e == "static_nonlinearity") {
-    auto& p = s.sensor.static_nonlinearity;
-    p.bow_v = sign() * in(0.01, 0.03);
-    p.s_v = sign() * in(0.0, 0.5) * std::abs(p.bow_v);
-    h.truth = {{"bow_v", p.bow_v}, {"s_v", p.s_v}};
-  } else if (e == "drift") {
-    auto& p = s.sensor.drift;
-    p.rate_v_per_hour = sign() * in(0.04, 0.15);
-    p.random_walk_v_per_sqrt_hour = 0;
-    h.truth = {{"rate_v_per_hour", p.rate_v_per_hour}};
-  } else if (e == "creep") {
-    auto& p = s.sensor.creep;
-    p.terms = {sim::CreepTerm{in(2.0, 10.0), -in(0.0006, 0.002)}};
-    h.truth = {{"tau_s", p.terms[0].tau_s}, {"gain_v_per_deg", p.terms[0].gain_v_per_deg}};
-  } else if (e == "rate_dependent_hysteresis") {
-    auto& p = s.sensor.rate_dependent_hysteresis;
-    p.amplitude_v = sign() * in(0.008, 0.03);
-    p.velocity_scale_rad_s = in(0.05, 0.2);
-    h.truth = {{"amplitude_v", p.amplitude_v}, {"velocity_scale_rad_s", p.velocity_scale_rad_s}};
-  } else if (e == "acceleration_dependence") {
-    auto& p = s.sensor.acceleration_dependence;
-    p.gain_v_per_rad_s2 = sign() * in(0.005, 0.02);
-    h.truth = {{"gain_v_per_rad_s2", p.gain_v_per_rad_s2}};
-  } else if (e == "time_delay") {
-    auto& p = s.daq.time_delay;
-    p.channel = sim::Channel::kSensor;
-    p.delay_s = in(0.01, 0.06);
-    h.truth = {{"delay_s", p.delay_s}};
-  } else if (e == "backlash") {
-    auto& p = s.knee.backlash;
-    p.width_deg = in(0.5, 2.0);
-    h.truth = {{"width_deg", p.width_deg}};
-  } else if (e == "source_power_coupling") {
-    auto& p = s.light.source_power_coupling;
-    p.sensor_exponent = 1.0 + sign() * in(0.1, 0.4);
-    p.reference_offset_v = in(0.0, 0.05);
-    h.truth = {{"sensor_exponent", p.sensor_exponent}, {"reference_offset_v", p.reference_offset_v}};
-  } else if (e == "viscoelastic_relaxation") {
-    // Two or three Prony terms a decade or more apart with comparable gains: a relaxation spectrum
-    // no single time constant follows (one term is `creep`).
-    auto& p = s.sensor.creep;
-    const int terms = u(rng) < 0.5 ? 2 : 3;
-    const std::array<std::pair<double, double>, 3> bands{{{1.0, 3.0}, {10.0, 30.0}, {60.0, 150.0}}};
-    p.terms.clear();
-    h.truth["tau_s"] = nlohmann::json::array();
-    h.truth["gain_v_per_deg"] = nlohmann::json::array();
-    for (int i = 0; i < terms; ++i) {
-      const auto& [lo, hi] = bands[static_cast<std::size_t>(i)];
-      p.terms.push_back(sim::CreepTerm{in(lo, hi), -in(0.0006, 0.0015)});
-      h.truth["tau_s"].push_back(p.terms.back().tau_s);
-      h.truth["gain_v_per_deg"].push_back(p.terms.back().gain_v_per_deg);
+  const auto id = core::effect_of(e);
+  if (!id) throw std::invalid_argument("blind: unknown effect '" + e + "'");
+  sim::effect_switch(s, *id) = true;
+  switch (*id) {  // -Wswitch: an effect added to the catalogue needs a draw here
+    case core::Effect::kStaticNonlinearity: {
+      auto& p = s.sensor.static_nonlinearity;
+      p.bow_v = sign() * in(0.01, 0.03);
+      p.s_v = sign() * in(0.0, 0.5) * std::abs(p.bow_v);
+      h.truth = {{"bow_v", p.bow_v}, {"s_v", p.s_v}};
+      break;
     }
-  } else if (e == "memory_hysteresis") {
-    // Rate-independent hysteresis with memory, either family of the simulator (a smooth Bouc-Wen
-    // loop or Maxwell-slip elements), half-height 0.3-1.2 deg at the paper's sensitivity.
-    auto& p = s.sensor.memory_hysteresis;
-    p.amplitude_v = sign() * in(0.007, 0.026);
-    p.rate_sensitivity_s_per_rad = 0;
-    if (u(rng) < 0.5) {
-      p.family = sim::MemoryHysteresisFamily::kBoucWen;
-      p.width_deg = in(4.0, 20.0);
-      p.shape = in(1.0, 2.0);
-      p.beta_fraction = in(0.3, 0.7);
-      h.truth = {{"family", "bouc_wen"}, {"amplitude_v", p.amplitude_v}, {"width_deg", p.width_deg}};
-    } else {
-      p.family = sim::MemoryHysteresisFamily::kMaxwellSlip;
-      p.thresholds_deg = {in(0.5, 2.0), in(3.0, 6.0), in(8.0, 15.0)};
-      p.weights = {in(0.2, 1.0), in(0.2, 1.0), in(0.2, 1.0)};
-      h.truth = {{"family", "maxwell_slip"}, {"amplitude_v", p.amplitude_v}, {"thresholds_deg", p.thresholds_deg}};
+    case core::Effect::kDrift: {
+      auto& p = s.sensor.drift;
+      p.rate_v_per_hour = sign() * in(0.04, 0.15);
+      p.random_walk_v_per_sqrt_hour = 0;
+      h.truth = {{"rate_v_per_hour", p.rate_v_per_hour}};
+      break;
     }
-  } else if (e == "periodic_interference") {
-    auto& p = s.daq.periodic_interference;
-    p.frequency_hz = u(rng) < 0.5 ? 50.0 : 60.0;
-    p.amplitude_v = in(0.0045, 0.015);  // RMS >= 1.5x the 2.1 mV noise floor
-    p.phase_deg = in(0, 360);
-    p.third_harmonic_rel = 0;
-    h.truth = {{"frequency_hz", p.frequency_hz}, {"amplitude_v", p.amplitude_v}};
+    case core::Effect::kCreep: {
+      auto& p = s.sensor.creep;
+      p.terms = {sim::CreepTerm{in(2.0, 10.0), -in(0.0006, 0.002)}};
+      h.truth = {{"tau_s", p.terms[0].tau_s}, {"gain_v_per_deg", p.terms[0].gain_v_per_deg}};
+      break;
+    }
+    case core::Effect::kRateDependentHysteresis: {
+      auto& p = s.sensor.rate_dependent_hysteresis;
+      p.amplitude_v = sign() * in(0.008, 0.03);
+      p.velocity_scale_rad_s = in(0.05, 0.2);
+      h.truth = {{"amplitude_v", p.amplitude_v}, {"velocity_scale_rad_s", p.velocity_scale_rad_s}};
+      break;
+    }
+    case core::Effect::kAccelerationDependence: {
+      auto& p = s.sensor.acceleration_dependence;
+      p.gain_v_per_rad_s2 = sign() * in(0.005, 0.02);
+      h.truth = {{"gain_v_per_rad_s2", p.gain_v_per_rad_s2}};
+      break;
+    }
+    case core::Effect::kTimeDelay: {
+      auto& p = s.daq.time_delay;
+      p.channel = sim::Channel::kSensor;
+      p.delay_s = in(0.01, 0.06);
+      h.truth = {{"delay_s", p.delay_s}};
+      break;
+    }
+    case core::Effect::kBacklash: {
+      auto& p = s.knee.backlash;
+      p.width_deg = in(0.5, 2.0);
+      h.truth = {{"width_deg", p.width_deg}};
+      break;
+    }
+    case core::Effect::kSourcePowerCoupling: {
+      auto& p = s.light.source_power_coupling;
+      p.sensor_exponent = 1.0 + sign() * in(0.1, 0.4);
+      p.reference_offset_v = in(0.0, 0.05);
+      h.truth = {{"sensor_exponent", p.sensor_exponent}, {"reference_offset_v", p.reference_offset_v}};
+      break;
+    }
+    case core::Effect::kViscoelasticRelaxation: {
+      // Two or three Prony terms a decade or more apart with comparable gains: a relaxation spectrum
+      // no single time constant follows (one term is `creep`).
+      auto& p = s.sensor.creep;
+      const int terms = u(rng) < 0.5 ? 2 : 3;
+      const std::array<std::pair<double, double>, 3> bands{{{1.0, 3.0}, {10.0, 30.0}, {60.0, 150.0}}};
+      p.terms.clear();
+      h.truth["tau_s"] = nlohmann::json::array();
+      h.truth["gain_v_per_deg"] = nlohmann::json::array();
+      for (int i = 0; i < terms; ++i) {
+        const auto& [lo, hi] = bands[static_cast<std::size_t>(i)];
+        p.terms.push_back(sim::CreepTerm{in(lo, hi), -in(0.0006, 0.0015)});
+        h.truth["tau_s"].push_back(p.terms.back().tau_s);
+        h.truth["gain_v_per_deg"].push_back(p.terms.back().gain_v_per_deg);
+      }
+      break;
+    }
+    case core::Effect::kMemoryHysteresis: {
+      // Rate-independent hysteresis with memory, either family of the simulator (a smooth Bouc-Wen
+      // loop or Maxwell-slip elements), half-height 0.3-1.2 deg at the paper's sensitivity.
+      auto& p = s.sensor.memory_hysteresis;
+      p.amplitude_v = sign() * in(0.007, 0.026);
+      p.rate_sensitivity_s_per_rad = 0;
+      if (u(rng) < 0.5) {
+        p.family = sim::MemoryHysteresisFamily::kBoucWen;
+        p.width_deg = in(4.0, 20.0);
+        p.shape = in(1.0, 2.0);
+        p.beta_fraction = in(0.3, 0.7);
+        h.truth = {{"family", "bouc_wen"}, {"amplitude_v", p.amplitude_v}, {"width_deg", p.width_deg}};
+      } else {
+        p.family = sim::MemoryHysteresisFamily::kMaxwellSlip;
+        p.thresholds_deg = {in(0.5, 2.0), in(3.0, 6.0), in(8.0, 15.0)};
+        p.weights = {in(0.2, 1.0), in(0.2, 1.0), in(0.2, 1.0)};
+        h.truth = {{"family", "maxwell_slip"}, {"amplitude_v", p.amplitude_v}, {"thresholds_deg", p.thresholds_deg}};
+      }
+      break;
+    }
+    case core::Effect::kPeriodicInterference: {
+      auto& p = s.daq.periodic_interference;
+      p.frequency_hz = u(rng) < 0.5 ? 50.0 : 60.0;
+      p.amplitude_v = in(0.0045, 0.015);  // RMS >= 1.5x the 2.1 mV noise floor
+      p.phase_deg = in(0, 360);
+      p.third_harmonic_rel = 0;
+      h.truth = {{"frequency_hz", p.frequency_hz}, {"amplitude_v", p.amplitude_v}};
+      break;
+    }
   }
   return h;
 }

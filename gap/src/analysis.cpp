@@ -24,12 +24,6 @@ using Eigen::Index;
 using Eigen::VectorXd;
 using nlohmann::json;
 
-std::vector<std::string> candidate_names() {
-  std::vector<std::string> out;
-  for (std::string_view id : core::kEffectIds) out.emplace_back(id);
-  return out;
-}
-
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();

@@ -14,8 +14,6 @@
 
 namespace pof::gap {
 
-/// The candidate effects, with the identifiers docs/gap.md lists (core/effects.hpp, in catalogue order).
-std::vector<std::string> candidate_names();
 
 struct Options {
   int folds = 5;                 // time-blocked folds (boundaries moved into holds: whole cycles)

@@ -12,14 +12,12 @@
 #include <ctime>
 #include <fstream>
 
-#include <lcm/lcm-cpp.hpp>
 #include <spdlog/spdlog.h>
 
 #include "pof/base/errors.hpp"
-#include "pof/bus/open.hpp"
 #include "pof/bus/channel_filter.hpp"
+#include "pof/bus/receiver.hpp"
 #include "pof/bus/udp_socket.hpp"
-#include "pof/bus/udpm_receiver.hpp"
 #include "pof/bus/url.hpp"
 #include "pof/io/atomic_file.hpp"
 #include "pof/lcm/utime.hpp"
@@ -114,16 +112,16 @@ void Session::start() {
     }
   }
 
-  if (url_.rfind("udpm://", 0) == 0 && !opt_.use_liblcm) {
-    channel_filter_ = std::make_unique<bus::ChannelFilter>(opt_.channels);
-    direct_ = std::make_unique<bus::UdpmReceiver>(url_);
-  } else {
-    lcm_ = std::make_unique<lcm::LCM>(url_);
-    bus::require_usable(*lcm_, url_);
-    lcm_subscription_t* sub = lcm_subscribe(lcm_->getUnderlyingLCM(), opt_.channels.c_str(), &Session::on_lcm_message, this);
-    if (sub == nullptr) throw pof::ConfigError("--channels '" + opt_.channels + "': LCM refused the subscription");
-    lcm_subscription_set_queue_capacity(sub, opt_.lcm_queue_capacity);
-  }
+  bus::ReceiverOptions ro;
+  ro.lcm_queue_capacity = opt_.lcm_queue_capacity;
+  ro.udpm_via_liblcm = opt_.use_liblcm;
+  rx_ = std::make_unique<bus::Receiver>(url_, ro);
+  direct_ = rx_->direct();
+  // The receive thread only copies each message into the hand-off queue (enqueue() does not throw:
+  // the arena is reserved below and never grows).
+  rx_->subscribe_raw(opt_.channels, [this](const bus::Delivery& d, const unsigned char* data, std::size_t size) {
+    enqueue(d.recv_utime, d.channel, data, static_cast<uint32_t>(size));  // <= 16 MiB (UdpmLimits), u32 in liblcm
+  });
 
   if (port_ != 0) {
     const auto socks = bus::udp_sockets(port_);
@@ -147,11 +145,7 @@ void Session::start() {
   lcm_thread_ = std::thread([this] { lcm_loop(); });
 }
 
-// LCM thread: copy and hand off, nothing else (no disk, no logging).
-void Session::on_lcm_message(const lcm_recv_buf_t* rbuf, const char* channel, void* self) {
-  static_cast<Session*>(self)->enqueue(rbuf->recv_utime, channel, rbuf->data, rbuf->data_size);
-}
-
+// Receive thread: copy and hand off, nothing else (no disk, no logging).
 void Session::enqueue(int64_t utime, std::string_view channel, const void* data, uint32_t data_size) {
   const std::size_t size = kRecordHeader + channel.size() + data_size;
   std::lock_guard lk(mu_);
@@ -179,21 +173,11 @@ void Session::lcm_loop() {
   // 100k msg/s); the writer can lag by the whole hand-off queue. Raise its priority when allowed
   // (root or CAP_SYS_NICE; the unit can grant Nice= instead); failure is harmless.
   if (opt_.receive_nice != 0) ::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), opt_.receive_nice);
-  if (direct_) {
-    const bus::UdpmReceiver::Sink sink = [this](int64_t utime, std::string_view channel, const unsigned char* data,
-                                           uint32_t size) {
-      if (channel_filter_->matches(channel)) enqueue(utime, channel, data, size);
-    };
-    while (!stop_lcm_.load()) {
-      direct_->receive(50, sink);
-      malformed_.store(direct_->malformed(), std::memory_order_relaxed);
-      incomplete_.store(direct_->incomplete_messages(), std::memory_order_relaxed);
-      lcm_beats_.fetch_add(1);
-    }
-    return;
-  }
   while (!stop_lcm_.load()) {
-    lcm_->handleTimeout(50);
+    rx_->handle(50);
+    const bus::ReceiverStats st = rx_->stats();
+    malformed_.store(st.malformed_datagrams, std::memory_order_relaxed);
+    incomplete_.store(st.incomplete_messages, std::memory_order_relaxed);
     lcm_beats_.fetch_add(1);
   }
 }
@@ -383,8 +367,7 @@ SessionStats Session::stop() {
   final_udp_drops_ = s.udp_drops;
   final_rcvbuf_ = s.udp_rcvbuf_bytes;
   write_manifest_noexcept(outcome_name(s.outcome));
-  lcm_.reset();
-  direct_.reset();
+  rx_.reset();
   return s;
 }
 

@@ -35,13 +35,8 @@
 #include "pof/recorder/lcmlog_durable.hpp"
 #include "pof/recorder/pof_messages.hpp"
 
-namespace lcm {
-class LCM;
-}  // namespace lcm
-struct _lcm_recv_buf_t;
 namespace pof::bus {
-class UdpmReceiver;
-class ChannelFilter;
+class Receiver;
 }  // namespace pof::bus
 
 namespace pof::recorder {
@@ -60,8 +55,10 @@ struct SessionOptions {
   int lcm_queue_capacity = 1 << 20;    // per-subscription queue [messages] (LCM default: 30)
   std::size_t handoff_bytes = 256u << 20;  // bound of the LCM->writer queue [bytes]
   std::vector<std::filesystem::path> manifest_files;  // copied next to the log and listed
-  // udpm:// is received by UdpmReceiver (recvmmsg batches; udpm_receiver.hpp says why) unless
-  // use_liblcm is set; other providers (memq://, file://) always go through liblcm.
+  // Messages come off the bus through pof::bus::Receiver, pofkit's one receive path (a raw
+  // subscription: bytes and receive time of every message, nothing decoded). On udpm:// that is
+  // UdpmReceiver (recvmmsg batches; udpm_receiver.hpp says why) unless use_liblcm is set; other
+  // providers (memq://, file://) always go through liblcm.
   bool use_liblcm = false;
   int receive_nice = -10;              // nice value of the receive thread (0: leave it)
   nlohmann::json manifest_extra = nlohmann::json::object();  // versions, command line, config
@@ -120,8 +117,6 @@ class Session {
   // i64 utime, u32 channel length, u32 data length (host order), channel bytes, data bytes.
   static constexpr std::size_t kRecordHeader = 16;
 
-  // liblcm's C callback (the C++ template wrappers of lcm-cpp-impl.hpp trip UBSan's vptr check).
-  static void on_lcm_message(const struct _lcm_recv_buf_t* rbuf, const char* channel, void* self);
   void enqueue(int64_t utime, std::string_view channel, const void* data, uint32_t size);
   void lcm_loop();
   void writer_loop();
@@ -137,9 +132,8 @@ class Session {
   std::filesystem::path manifest_path_;
   std::filesystem::path attach_dir_;
   nlohmann::json attachments_ = nlohmann::json::array();
-  std::unique_ptr<lcm::LCM> lcm_;
-  std::unique_ptr<bus::UdpmReceiver> direct_;
-  std::unique_ptr<bus::ChannelFilter> channel_filter_;  // receive thread only
+  std::unique_ptr<bus::Receiver> rx_;  // receive thread only, once started
+  bool direct_ = false;                // rx_->direct(), kept for the manifest after rx_ is gone
   uint16_t port_ = 0;
   uint64_t udp_drops_at_start_ = 0;
   int64_t start_utime_ = 0;
@@ -160,7 +154,7 @@ class Session {
   std::atomic<bool> stop_writer_{false};
   std::atomic<uint64_t> writer_beats_{0};
   std::atomic<uint64_t> lcm_beats_{0};
-  // The direct receiver's counters, published by the receive thread after each receive().
+  // The receiver's udpm counters, published by the receive thread after each handle().
   std::atomic<uint64_t> malformed_{0}, incomplete_{0};
   std::thread lcm_thread_;
   std::thread writer_thread_;

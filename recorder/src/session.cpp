@@ -3,6 +3,7 @@
 
 #include <fcntl.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -29,6 +30,41 @@ namespace {
 using pof::lcmutil::iso_utc;
 using pof::lcmutil::now_utime;
 
+// Overwrites `path` with `text` in the blocks it already has. The manifest is normally replaced by
+// write-then-rename (io::write_file_atomic), which needs room for a second copy: on a file system
+// that filled up during the session there is none, and the manifest would go on saying
+// "recording" for a session that failed. The old manifest's own blocks need no allocation, so the
+// text is written there, but only when it fits in them (st_blocks) and under RLIMIT_FSIZE: the
+// write then cannot stop half-way for lack of space. Not atomic against a crash in the middle,
+// hence the fallback only. Returns "" or why it did not.
+std::string overwrite_in_place(const fs::path& path, const std::string& text) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+  if (fd < 0) return std::string("cannot open: ") + std::strerror(errno);
+  std::string why;
+  struct stat st {};
+  rlimit fsize{};
+  if (::fstat(fd, &st) != 0) {
+    why = std::string("cannot stat: ") + std::strerror(errno);
+  } else if (static_cast<uint64_t>(st.st_blocks) * 512u < text.size()) {
+    why = "the new text (" + std::to_string(text.size()) + " bytes) does not fit in the " +
+          std::to_string(st.st_blocks * 512) + " bytes the file has";
+  } else if (::getrlimit(RLIMIT_FSIZE, &fsize) == 0 && fsize.rlim_cur != RLIM_INFINITY && fsize.rlim_cur < text.size()) {
+    why = "the new text (" + std::to_string(text.size()) + " bytes) exceeds the file size limit";
+  } else {
+    std::size_t done = 0;
+    while (done < text.size() && why.empty()) {
+      const ssize_t w = ::pwrite(fd, text.data() + done, text.size() - done, static_cast<off_t>(done));
+      if (w < 0 && errno == EINTR) continue;
+      if (w <= 0) why = std::string("write failed: ") + std::strerror(w < 0 ? errno : ENOSPC);
+      else done += static_cast<std::size_t>(w);
+    }
+    if (why.empty() && (::ftruncate(fd, static_cast<off_t>(text.size())) != 0 || ::fdatasync(fd) != 0))
+      why = std::string("cannot truncate or sync: ") + std::strerror(errno);
+  }
+  ::close(fd);
+  return why;
+}
+
 }  // namespace
 
 const char* outcome_name(Outcome o) {
@@ -37,6 +73,7 @@ const char* outcome_name(Outcome o) {
     case Outcome::kStopped: return "stopped";
     case Outcome::kDiskFull: return "disk_full";
     case Outcome::kIoError: return "io_error";
+    case Outcome::kFailed: return "failed";
   }
   return "?";
 }
@@ -139,7 +176,17 @@ void Session::start() {
   // receive thread's critical section while datagrams pile up in the kernel). Reserving is virtual
   // memory only: pages are touched as the queue first fills.
   pending_.reserve(opt_.handoff_bytes);
-  write_manifest("recording");
+  try {
+    write_manifest("recording");
+  } catch (...) {
+    // No room even for the manifest: nothing is recorded, so the log just created goes too.
+    const fs::path p = writer_->path();
+    writer_.reset();
+    files_.clear();
+    std::error_code ec;
+    fs::remove(p, ec);
+    throw;
+  }
   started_ = true;
   writer_thread_ = std::thread([this] { writer_loop(); });
   lcm_thread_ = std::thread([this] { lcm_loop(); });
@@ -212,6 +259,35 @@ bool Session::rotate() {
   if (!open_next_file()) return false;
   write_manifest_noexcept("recording");
   return true;
+}
+
+void Session::note_write_failure() {
+  const fs::path p = writer_->path();
+  const std::string why = std::strerror(writer_->error_errno());
+  const Outcome stopped = writer_->status() == WriteStatus::kNoSpace ? Outcome::kDiskFull : Outcome::kIoError;
+  if (writer_->bytes_written() > 0) {
+    outcome_ = stopped;
+    error_ = p.string() + ": " + why + " after " + std::to_string(writer_->events_written()) + " events (" +
+             std::to_string(writer_->bytes_written()) + " bytes) in this file; the log is complete up to there";
+    return;
+  }
+  // Not one complete event in the file (the writer cut the failed batch back to 0 bytes): remove it,
+  // never leave a 0-byte log behind.
+  writer_->close();
+  writer_.reset();
+  files_.pop_back();
+  std::error_code ec;
+  fs::remove(p, ec);
+  const std::string removed =
+      ec ? "; the empty log file could not be removed: " + ec.message() : "; the empty log file was removed";
+  if (files_.empty()) {
+    outcome_ = Outcome::kFailed;
+    error_ = p.string() + ": cannot write the first event: " + why + "; nothing was recorded" + removed;
+  } else {
+    outcome_ = stopped;
+    error_ = p.string() + ": cannot write its first event: " + why + removed + "; the log is complete up to " +
+             files_.back().path.string();
+  }
 }
 
 void Session::write_manifest_noexcept(const char* status) noexcept {
@@ -295,12 +371,7 @@ void Session::writer_loop() {
         }
         written_ = 0;
         for (const auto& f : files_) written_ += f.events;
-        if (writer_ && writer_->status() != WriteStatus::kOk && outcome_ == Outcome::kRunning) {
-          outcome_ = writer_->status() == WriteStatus::kNoSpace ? Outcome::kDiskFull : Outcome::kIoError;
-          error_ = writer_->path().string() + ": " + std::strerror(writer_->error_errno()) + " after " +
-                   std::to_string(writer_->events_written()) + " events (" + std::to_string(writer_->bytes_written()) +
-                   " bytes) in this file; the log is complete up to there";
-        }
+        if (writer_ && writer_->status() != WriteStatus::kOk && outcome_ == Outcome::kRunning) note_write_failure();
         failed = outcome_ != Outcome::kRunning;
       }
       if (failed) {
@@ -366,12 +437,34 @@ SessionStats Session::stop() {
   }
   final_udp_drops_ = s.udp_drops;
   final_rcvbuf_ = s.udp_rcvbuf_bytes;
-  write_manifest_noexcept(outcome_name(s.outcome));
+  write_final_manifest(outcome_name(s.outcome));
   rx_.reset();
   return s;
 }
 
-void Session::write_manifest(const char* status) {
+void Session::write_manifest(const char* status) { io::write_file_atomic(manifest_path_, manifest_text(status)); }
+
+void Session::write_final_manifest(const char* status) noexcept {
+  std::string text;
+  try {
+    text = manifest_text(status);
+    io::write_file_atomic(manifest_path_, text);
+    return;
+  } catch (const std::exception& e) {
+    if (text.empty()) {
+      spdlog::warn("manifest not updated: {}", e.what());
+      return;
+    }
+    const std::string why = overwrite_in_place(manifest_path_, text);
+    if (why.empty()) {
+      spdlog::warn("{}; the manifest was rewritten in place instead", e.what());
+    } else {
+      spdlog::warn("manifest not updated: {}; nor in place: {}", e.what(), why);
+    }
+  }
+}
+
+std::string Session::manifest_text(const char* status) {
   nlohmann::json m;
   m["schema_version"] = 1;
   m["kind"] = "pof record session";
@@ -436,7 +529,7 @@ void Session::write_manifest(const char* status) {
                    {"incomplete_messages", incomplete_.load(std::memory_order_relaxed)},
                    {"udp_rcvbuf_bytes", final_rcvbuf_},
                    {"handoff_peak_bytes", peak}};
-  io::write_file_atomic(manifest_path_, m.dump(2) + "\n");
+  return m.dump(2) + "\n";
 }
 
 }  // namespace pof::recorder

@@ -64,7 +64,10 @@ struct SessionOptions {
   nlohmann::json manifest_extra = nlohmann::json::object();  // versions, command line, config
 };
 
-enum class Outcome { kRunning, kStopped, kDiskFull, kIoError };
+// kDiskFull / kIoError: writing stopped, the log is complete up to the failure. kFailed: not even
+// the first event could be written (a full disk at start, a file size limit): nothing recorded, and
+// the empty log file removed (a 0-byte log would pass for a recording of a silent bus).
+enum class Outcome { kRunning, kStopped, kDiskFull, kIoError, kFailed };
 
 struct ChannelStats {
   uint64_t events = 0;
@@ -121,8 +124,14 @@ class Session {
   void lcm_loop();
   void writer_loop();
   bool open_next_file();
+  std::string manifest_text(const char* status);
   void write_manifest(const char* status);
   void write_manifest_noexcept(const char* status) noexcept;
+  /// The manifest at stop, rewritten in place when write-then-rename fails (see session.cpp).
+  void write_final_manifest(const char* status) noexcept;
+  /// A writer failure, under stats_mu_: sets outcome_ and error_; a file with no complete event is
+  /// closed and removed.
+  void note_write_failure();
   bool rotate();
   std::filesystem::path file_path(unsigned index) const;
 

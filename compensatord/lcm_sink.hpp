@@ -1,15 +1,16 @@
 #pragma once
-// pof-compensatord's Sink on the bus: publishes angles and cycle statistics with liblcm. A message
-// LCM refuses (publish() != 0, e.g. a channel name longer than LCM_MAX_CHANNEL_NAME_LENGTH) is
+// pof-compensatord's Sink on the bus: publishes angles and cycle statistics through the daemon's
+// pof::bus::Publisher (liblcm's publish(), signed in the authenticated mode). A message LCM refuses
+// or the publisher cannot sign (publish() != 0, e.g. a channel name longer than
+// LCM_MAX_CHANNEL_NAME_LENGTH) is
 // reported to the pipeline, which counts it in compensator_status_t.publish_failures, and logged
 // rate-limited through `errors`. The log lines are made at setup: publishing allocates nothing and
 // never throws.
 #include <string>
 
-#include <lcm/lcm-cpp.hpp>
-
 #include "pipeline.hpp"
 #include "pof/bus/error_log.hpp"
+#include "pof/bus/publisher.hpp"
 
 namespace pof::compensatord {
 
@@ -21,14 +22,14 @@ class LcmSink final : public Sink {
     std::string channel, refused;
   };
 
-  LcmSink(lcm::LCM& lc, std::string angle_channel, std::string stats_channel, bus::ErrorLog& errors);
-  bool angle(const pof::angle_t& m) override { return sent(lc_.publish(angle_.channel, &m), angle_); }
-  bool cycle(const pof::cycle_stats_t& m) override { return sent(lc_.publish(stats_.channel, &m), stats_); }
-  /// liblcm's publish() result `rc` for a message on out.channel: true when published, else logged.
+  LcmSink(bus::Publisher& pub, std::string angle_channel, std::string stats_channel, bus::ErrorLog& errors);
+  bool angle(const pof::angle_t& m) override { return sent(pub_.publish(angle_.channel, m), angle_); }
+  bool cycle(const pof::cycle_stats_t& m) override { return sent(pub_.publish(stats_.channel, m), stats_); }
+  /// The publisher's result `rc` for a message on out.channel: true when published, else logged.
   bool sent(int rc, const Out& out) noexcept;
 
  private:
-  lcm::LCM& lc_;
+  bus::Publisher& pub_;
   Out angle_, stats_;
   bus::ErrorLog& errors_;
 };

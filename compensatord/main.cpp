@@ -6,7 +6,10 @@
 // One thread: pof::bus::Receiver delivers blocks into the pipeline and the same loop publishes.
 // Whatever arrives on the bus, the loop keeps turning: undecodable messages, malformed datagrams
 // and duplicated or replayed blocks are counted in the status and logged rate-limited
-// (docs/deployment.md, "Threat model"). The loop takes signals itself (pof::service::SignalWaiter)
+// (docs/deployment.md, "Threat model"). With a bus key (--auth-key-file, or $POF_LCM_AUTH_KEY_FILE)
+// it runs in the authenticated mode (pof/bus/auth.hpp): POF_RAW messages are verified before they
+// are decoded (unsigned, forged, stale and replayed ones dropped and counted in the status) and
+// everything it publishes is signed. The loop takes signals itself (pof::service::SignalWaiter)
 // once per turn, at least every 100 ms: SIGTERM/SIGINT stop, SIGHUP reloads the calibration between
 // blocks (a bad file keeps the old calibration, is counted and named in the status). Under systemd
 // (Type=notify) the loop sends READY once subscribed and feeds the watchdog only while it keeps
@@ -15,10 +18,13 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 
 #include <CLI/CLI.hpp>
 #include <lcm/lcm-cpp.hpp>
@@ -27,9 +33,11 @@
 
 #include "lcm_sink.hpp"
 #include "pipeline.hpp"
+#include "pof/bus/auth_key.hpp"
 #include "pof/bus/channels.hpp"
 #include "pof/bus/error_log.hpp"
 #include "pof/bus/open.hpp"
+#include "pof/bus/publisher.hpp"
 #include "pof/bus/receiver.hpp"
 #include "pof/bus/url.hpp"
 #include "pof/io/calibration_file.hpp"
@@ -55,10 +63,13 @@ struct Options {
   std::string velocity_source = "sensor";
   std::string model = "file";
   double output_rate_hz = 0;
+  double scan_rate_hz = 200;  // what the calibration's [gap] terms are checked at (blocks carry their own)
   double velocity_window_s = 0.5;
   double reversal_window_s = pof::core::CompensatorSettings{}.reversal_window_s;
   int queue_capacity = 10000;
   double duration_s = 0;
+  std::string auth_key_file;
+  double auth_window_s = 2.0;
 };
 
 int run(const Options& o) {
@@ -68,6 +79,7 @@ int run(const Options& o) {
   pof::compensatord::PipelineSettings ps;
   ps.sensor_id = o.sensor_id;
   ps.output_rate_hz = o.output_rate_hz;
+  ps.compensator.scan_rate_hz = o.scan_rate_hz;
   ps.compensator.velocity_window_s = o.velocity_window_s;
   ps.compensator.reversal_window_s = o.reversal_window_s;
   ps.compensator.velocity_source =
@@ -75,17 +87,22 @@ int run(const Options& o) {
   std::optional<pof::core::PotentiometerCalibration> pot;
   if (!o.pot_cal.empty()) pot = pof::io::load_potentiometer(o.pot_cal);
 
-  pof::compensatord::Pipeline pipeline(pof::io::load_calibration(o.cal, o.model), o.cal, ps, pot);
+  // A calibration with a [gap] term the compensator cannot apply is refused here (exit 78).
+  pof::compensatord::Pipeline pipeline(pof::io::load_calibration(o.cal, o.model, o.scan_rate_hz), o.cal, ps, pot);
+  const std::string key_file = pof::bus::auth::resolve_key_file(o.auth_key_file);
+  const std::shared_ptr<const pof::bus::auth::Key> key =
+      key_file.empty() ? nullptr : pof::bus::auth::load_key_file(key_file);  // ConfigError (78) naming the file
 
   const std::string url = pof::bus::resolve_url(o.lcm_url);
   lcm::LCM lc(url);
   pof::bus::require_usable(lc, url);
+  pof::bus::Publisher pub(lc, key);
   using pof::bus::Stream;
   const std::string raw_ch = pof::bus::channel(Stream::kRaw, o.sensor_id);
   const std::string angle_ch = pof::bus::channel(Stream::kAngle, o.sensor_id);
   // Bad input and refused publishes are logged: the first of each kind in full, then a count every 10 s.
   pof::bus::ErrorLog errors([](const std::string& line) { spdlog::warn("{}", line); });
-  pof::compensatord::LcmSink sink(lc, angle_ch, pof::bus::channel(Stream::kStats, o.sensor_id), errors);
+  pof::compensatord::LcmSink sink(pub, angle_ch, pof::bus::channel(Stream::kStats, o.sensor_id), errors);
   const pof::compensatord::LcmSink::Out status_out(pof::bus::channel(Stream::kCompensatorStatus, o.sensor_id));
 
   // The stream counts as quiet after kQuiet without blocks: the cycle in progress is closed then
@@ -95,19 +112,28 @@ int run(const Options& o) {
   bool quiet = true;
   pof::bus::ReceiverOptions ro;
   ro.lcm_queue_capacity = o.queue_capacity;
+  ro.auth_key = key;
+  ro.auth.window_us = static_cast<std::uint64_t>(std::llround(o.auth_window_s * 1e6));
   pof::bus::Receiver rx(lc, url, ro);
   rx.subscribe<pof::raw_block_t>(raw_ch, [&](const pof::raw_block_t& b, const pof::bus::Delivery&) {
     pipeline.on_block(b, now_utime(), sink);  // noexcept
     last_block = std::chrono::steady_clock::now();
     quiet = false;
   });
-  rx.on_error([&](const pof::bus::ReceiveError& e) { errors.note(e.channel, e.describe(), now_utime()); });
+  const std::string auth_errors_key = raw_ch + " (authentication)";  // rate-limited apart from decode errors
+  rx.on_error([&](const pof::bus::ReceiveError& e) {
+    errors.note(e.kind == pof::bus::ReceiveError::Kind::kAuth ? std::string_view(auth_errors_key) : e.channel,
+                e.describe(), now_utime());
+  });
   std::uint64_t malformed_seen = 0, incomplete_seen = 0;
 
   pof::service::ServiceNotifier notifier;
   notifier.ready("compensating " + raw_ch + " with " + o.cal);
   spdlog::info("{} -> {} on {} (calibration {}, output {})", raw_ch, angle_ch,
                url, o.cal, o.output_rate_hz > 0 ? std::to_string(o.output_rate_hz) + " Hz" : std::string("every scan"));
+  if (key)
+    spdlog::info("authenticated mode: bus key {} (key id {}), freshness window {} s; publishing as sender {:016x}",
+                 key_file, pof::bus::auth::key_id_hex(key->id()), o.auth_window_s, pub.signer()->sender_id());
 
   std::int64_t status_seq = 0;
   auto next_status = std::chrono::steady_clock::now();
@@ -123,7 +149,7 @@ int run(const Options& o) {
     }
     if (sig == SIGHUP) {
       try {
-        pipeline.replace_calibration(pof::io::load_calibration(o.cal, o.model), o.cal);
+        pipeline.replace_calibration(pof::io::load_calibration(o.cal, o.model, o.scan_rate_hz), o.cal);
         spdlog::info("reloaded calibration {}", o.cal);
       } catch (const std::exception& e) {
         pipeline.note_reload_failure(e.what());
@@ -141,6 +167,11 @@ int run(const Options& o) {
       const pof::bus::ReceiverStats rs = rx.stats();
       st.decode_errors = clamp_count(rs.decode_errors);
       st.malformed_datagrams = clamp_count(rs.malformed_datagrams + rs.incomplete_messages);
+      st.authenticated = rs.authenticated;
+      st.auth_unsigned = clamp_count(rs.auth_unsigned);
+      st.auth_bad_mac = clamp_count(rs.auth_bad_mac);
+      st.auth_stale = clamp_count(rs.auth_stale);
+      st.auth_replayed = clamp_count(rs.auth_replayed);
       if (rs.malformed_datagrams > malformed_seen || rs.incomplete_messages > incomplete_seen)
         errors.note("(udpm)",
                     url + ": " + std::to_string(rs.malformed_datagrams - malformed_seen) +
@@ -151,7 +182,7 @@ int run(const Options& o) {
       malformed_seen = rs.malformed_datagrams;
       incomplete_seen = rs.incomplete_messages;
       errors.tick(now_utime());
-      if (!sink.sent(lc.publish(status_out.channel, &st), status_out)) pipeline.note_publish_failure();  // in the next status
+      if (!sink.sent(pub.publish(status_out.channel, st), status_out)) pipeline.note_publish_failure();  // in the next status
       next_status = now + std::chrono::seconds(1);
     }
     notifier.watchdog_if_due();
@@ -164,6 +195,9 @@ int run(const Options& o) {
                "errors, {} malformed datagrams, {} incomplete messages; {} publish failures",
                fin.blocks, fin.scans, fin.lost_scans, fin.angles, fin.cycles, fin.duplicate_blocks, rs.decode_errors,
                rs.malformed_datagrams, rs.incomplete_messages, fin.publish_failures);
+  if (rs.authenticated)
+    spdlog::info("authentication dropped: {} unsigned, {} bad MAC, {} stale, {} replayed", rs.auth_unsigned,
+                 rs.auth_bad_mac, rs.auth_stale, rs.auth_replayed);
   return 0;
 }
 
@@ -186,6 +220,10 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"file", "paper", "dynamic"}))->capture_default_str();
   app.add_option("--output-rate", o.output_rate_hz, "Published angle rate [Hz] (boxcar decimation); 0 = every scan")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--scan-rate", o.scan_rate_hz,
+                 "Expected scan rate [Hz]: the calibration's [gap] terms are checked at it at start and on SIGHUP "
+                 "(blocks carry their own rate; a block at a rate the terms cannot run at is rejected)")
+      ->check(CLI::PositiveNumber)->capture_default_str();
   app.add_option("--velocity-window", o.velocity_window_s, "Velocity estimator window [s]")
       ->check(CLI::PositiveNumber)->capture_default_str();
   app.add_option("--reversal-window", o.reversal_window_s,
@@ -195,6 +233,12 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   app.add_option("--queue-capacity", o.queue_capacity, "LCM subscription queue [messages] (transports other than udpm://)")
       ->check(CLI::Range(1, 1000000))->capture_default_str();
+  app.add_option("--auth-key-file", o.auth_key_file,
+                 std::string("Bus key: verify POF_RAW and sign what is published (default: $") +
+                     pof::bus::auth::kKeyFileEnv + ", else unauthenticated; docs/deployment.md)");
+  app.add_option("--auth-window", o.auth_window_s,
+                 "Authenticated mode: largest difference between a message's counter and this host's clock [s]")
+      ->check(CLI::Range(0.001, 3600.0))->capture_default_str();
   return pof::service::run_main("pof-compensatord", app, argc, argv, [&] {
     if (o.velocity_source != "sensor" && o.velocity_source != "reference")
       throw CLI::ValidationError("--velocity-source", "expected 'sensor' or 'reference', got '" + o.velocity_source + "'");

@@ -1,5 +1,7 @@
 #include "pipeline.hpp"
 
+#include "pof/base/errors.hpp"
+
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -50,8 +52,14 @@ Pipeline::Pipeline(io::CalibrationFile cal, std::string cal_path, PipelineSettin
 
 void Pipeline::replace_calibration(io::CalibrationFile cal, std::string cal_path) {
   core::CompensatorSettings probe = s_.compensator;
-  probe.scan_rate_hz = rate_ > 0 ? rate_ : 200.0;
-  auto fresh = std::make_unique<core::OnlineCompensator>(cal.cal, probe);  // throws before any change
+  if (rate_ > 0) probe.scan_rate_hz = rate_;
+  else if (probe.scan_rate_hz <= 0) probe.scan_rate_hz = 200.0;
+  std::unique_ptr<core::OnlineCompensator> fresh;
+  try {
+    fresh = std::make_unique<core::OnlineCompensator>(cal.cal, probe);  // throws before any change
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(cal_path + ": " + e.what());
+  }
   cal_ = std::move(cal);
   cal_path_ = std::move(cal_path);
   if (!pot_ || cal_.potentiometer) pot_ = cal_.potentiometer ? cal_.potentiometer : pot_;
@@ -140,7 +148,9 @@ void Pipeline::on_block(const pof::raw_block_t& b, std::int64_t publish_utime, S
   }
   try {
     ensure_compensator(b.scan_rate_hz);
-  } catch (...) {  // only a nonsensical rate gets here; the block is dropped and counted
+  } catch (...) {
+    // A nonsensical rate, or one the calibration's [gap] terms cannot run at (a notch at or above
+    // its Nyquist frequency; --scan-rate checks the expected one at start): dropped and counted.
     sat_add(counters_.rejected_blocks, 1);
     return;
   }

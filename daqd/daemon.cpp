@@ -9,8 +9,10 @@
 #include <lcm/lcm-cpp.hpp>
 #include <spdlog/spdlog.h>
 
+#include "pof/bus/auth_key.hpp"
 #include "pof/bus/open.hpp"
 #include "pof/bus/error_log.hpp"
+#include "pof/bus/publisher.hpp"
 #include "pof/daq_status_t.hpp"
 #include "pof/service/sd_notify.hpp"
 #include "pof/base/errors.hpp"
@@ -21,6 +23,10 @@ namespace pof::daq {
 namespace {
 
 using pof::lcmutil::now_utime;
+
+std::shared_ptr<const bus::auth::Key> load_key(const DaqConfig& cfg) {
+  return cfg.auth_key_file.empty() ? nullptr : bus::auth::load_key_file(cfg.auth_key_file);
+}
 
 }  // namespace
 
@@ -40,6 +46,7 @@ Daemon::Daemon(DaqConfig cfg, std::unique_ptr<Backend> backend)
       backend_(std::move(backend)),
       owned_lcm_(std::make_unique<lcm::LCM>(cfg_.lcm_url)),
       lcm_(owned_lcm_.get()),
+      key_(load_key(cfg_)),
       queue_(static_cast<std::size_t>(cfg_.queue_blocks)) {
   bus::require_usable(*lcm_, cfg_.lcm_url);
 }
@@ -48,6 +55,7 @@ Daemon::Daemon(DaqConfig cfg, std::unique_ptr<Backend> backend, lcm::LCM& bus)
     : cfg_(std::move(cfg)),
       backend_(std::move(backend)),
       lcm_(&bus),
+      key_(load_key(cfg_)),
       queue_(static_cast<std::size_t>(cfg_.queue_blocks)) {
   if (!lcm_->good()) throw pof::IoError("the LCM instance given to pof-daqd's Daemon is not usable");
 }
@@ -259,6 +267,11 @@ void Daemon::publisher_main() {
   msg.volts.assign(kMaxBlockScans, std::vector<float>(chans.size(), 0.0F));
   msg.n_scans = static_cast<std::int32_t>(kMaxBlockScans);
   std::vector<std::uint8_t> buf(static_cast<std::size_t>(msg.getEncodedSize()));
+  // Everything goes out through one Publisher: liblcm's publish(), signed in the authenticated mode.
+  pof::bus::Publisher pub(*lcm_, key_);
+  if (key_)
+    spdlog::info("authenticated mode: bus key {} (key id {}); publishing as sender {:016x}", cfg_.auth_key_file,
+                 bus::auth::key_id_hex(key_->id()), pub.signer()->sender_id());
   std::int64_t seq = 0;
   std::int64_t status_seq = 0;
   const bool simulated = cfg_.device_kind.rfind("sim:", 0) == 0;
@@ -272,7 +285,7 @@ void Daemon::publisher_main() {
   pof::bus::ErrorLog errors([](const std::string& line) { spdlog::warn("{}", line); });
   const auto refusal = [&](const std::string& channel, const char* type) {
     return "LCM refused to publish a " + std::string(type) + " on " + channel + " (" + cfg_.lcm_url +
-           "; counted in publish_failures)";
+           (key_ ? "; or it could not be signed" : "") + "; counted in publish_failures)";
   };
   const std::string raw_refused = refusal(raw_channel, "raw_block_t");
   const std::string status_refused = refusal(status_channel, "daq_status_t");
@@ -283,7 +296,7 @@ void Daemon::publisher_main() {
   auto publish_status = [&](State state, const std::string& text) {
     pof::daq_status_t s = status(state, text);
     s.seq = status_seq++;
-    if (lcm_->publish(status_channel, &s) != 0) refused(status_channel, status_refused);
+    if (pub.publish(status_channel, s) != 0) refused(status_channel, status_refused);
   };
 
   const auto period = std::chrono::duration<double>(cfg_.status_period_s);
@@ -319,7 +332,7 @@ void Daemon::publisher_main() {
       queue_.pop();
       msg.publish_utime = now_utime();
       const int len = msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
-      if (len <= 0 || lcm_->publish(raw_channel, buf.data(), static_cast<unsigned>(len)) != 0)
+      if (len <= 0 || pub.publish(raw_channel, buf.data(), static_cast<std::size_t>(len)) != 0)
         refused(raw_channel, raw_refused);
       counters_.blocks.fetch_add(1, std::memory_order_relaxed);
     }

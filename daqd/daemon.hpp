@@ -18,6 +18,9 @@
 namespace lcm {
 class LCM;
 }  // namespace lcm
+namespace pof::bus::auth {
+class Key;
+}  // namespace pof::bus::auth
 
 namespace pof::daq {
 
@@ -36,7 +39,8 @@ const char* state_name(State s);
 class Daemon {
  public:
   /// Setup: opens LCM on cfg.lcm_url (as pof::bus::resolve_url() gave it; throws pof::IoError
-  /// when the URL does not work) and allocates the queue. `backend` is opened, streamed and closed
+  /// when the URL does not work), reads the bus key when cfg.auth_key_file names one (throws
+  /// pof::ConfigError naming the file: pof/bus/auth_key.hpp) and allocates the queue. `backend` is opened, streamed and closed
   /// again on every attempt.
   Daemon(DaqConfig cfg, std::unique_ptr<Backend> backend);
   /// The same, publishing on the caller's `bus` instead of opening cfg.lcm_url. liblcm's memq://
@@ -83,6 +87,7 @@ class Daemon {
   std::unique_ptr<Backend> backend_;
   std::unique_ptr<lcm::LCM> owned_lcm_;  // opened from cfg.lcm_url, unless the caller gave a bus
   lcm::LCM* lcm_;
+  std::shared_ptr<const bus::auth::Key> key_;  // authenticated mode; null: unauthenticated
   SpscQueue<Block> queue_;
   Counters counters_;
   Doorbell wake_;

@@ -20,6 +20,7 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "pof/bus/auth_key.hpp"
 #include "pof/bus/url.hpp"
 #include "pof/daq/stream/backend.hpp"
 #include "pof/daq/stream/config.hpp"
@@ -48,6 +49,7 @@ int main(int argc, char** argv) {
   std::string serial;
   std::string lcm_url;
   std::string sensor_id;
+  std::string auth_key_file;
   double rate = 0;
   int decimate = 0;
   int block_scans = 0;
@@ -65,6 +67,9 @@ int main(int argc, char** argv) {
   app.add_option("--block-scans", block_scans, "acquisition.block_scans");
   app.add_option("--lcm-url", lcm_url, "lcm.url (default: $LCM_DEFAULT_URL, else udpm on this host, ttl=0)");
   app.add_option("--sensor-id", sensor_id, "lcm.sensor_id (channel suffix)");
+  app.add_option("--auth-key-file", auth_key_file,
+                 std::string("lcm.auth_key_file: bus key, sign everything published (default: $") +
+                     bus::auth::kKeyFileEnv + ", else unauthenticated; docs/deployment.md)");
   app.add_option("-s,--set", sets, "override any key: section.key=value (repeatable)");
   app.add_option("--duration", duration_s, "stop after this many seconds (tests, benchmarks)")
       ->check(CLI::NonNegativeNumber);
@@ -99,15 +104,19 @@ int main(int argc, char** argv) {
     if (block_scans > 0) pof::set_toml_path(table, "acquisition.block_scans", static_cast<std::int64_t>(block_scans));
     if (!lcm_url.empty()) pof::set_toml_path(table, "lcm.url", lcm_url);
     if (!sensor_id.empty()) pof::set_toml_path(table, "lcm.sensor_id", sensor_id);
+    if (!auth_key_file.empty()) pof::set_toml_path(table, "lcm.auth_key_file", auth_key_file);
     for (const auto& s : sets) pof::apply_toml_override(table, s);
     if (!sets.empty() || !device.empty() || rate > 0 || decimate > 0 || block_scans > 0 ||
-        !lcm_url.empty() || !sensor_id.empty() || !serial.empty()) {
+        !lcm_url.empty() || !sensor_id.empty() || !serial.empty() || !auth_key_file.empty()) {
       source += " + command line";
     }
     daq::DaqConfig cfg = daq::config_from_table(table, source);
     // --lcm-url, else lcm.url of the file, else $LCM_DEFAULT_URL, else this host only: the rule of
     // every pofkit process (pof/bus/url.hpp); --print-config shows the URL it resolved to.
     cfg.lcm_url = bus::resolve_url(cfg.lcm_url);
+    // The bus key, by the same precedence: --auth-key-file, lcm.auth_key_file, $POF_LCM_AUTH_KEY_FILE
+    // (pof/bus/auth_key.hpp); the Daemon reads and checks it.
+    cfg.auth_key_file = bus::auth::resolve_key_file(cfg.auth_key_file);
     if (print_config) {
       std::cout << daq::to_toml(cfg);
       return pof::kExitOk;

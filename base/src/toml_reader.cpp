@@ -214,6 +214,24 @@ std::string TomlSection::key_path(std::string_view key) const {
 
 bool TomlSection::has(std::string_view key) const { return table_->contains(key); }
 
+std::vector<std::string> TomlSection::keys() const {
+  std::vector<const toml::key*> in_order;
+  for (const auto& [k, v] : *table_) in_order.push_back(&k);
+  // toml++ keeps a table's keys sorted by name; the file's order is the order of their lines (and
+  // columns, for an inline table).
+  std::stable_sort(in_order.begin(), in_order.end(), [](const toml::key* a, const toml::key* b) {
+    const auto& x = a->source().begin;
+    const auto& y = b->source().begin;
+    return x.line != y.line ? x.line < y.line : x.column < y.column;
+  });
+  std::vector<std::string> out;
+  out.reserve(in_order.size());
+  for (const toml::key* k : in_order) out.emplace_back(k->str());
+  return out;
+}
+
+int TomlSection::line() const { return at_ != nullptr ? static_cast<int>(at_->source().begin.line) : 0; }
+
 const toml::node* TomlSection::take(std::string_view key) {
   if (read_.insert(std::string(key)).second) read_order_.emplace_back(key);
   return table_->get(key);

@@ -32,6 +32,7 @@ constexpr int kMaxLcmMessagesPerHandle = 1024;
 std::string ReceiveError::describe() const {
   std::string s(channel);
   if (kind == Kind::kDecode) return s + ": " + decode.describe();
+  if (kind == Kind::kAuth) return s + ": " + auth.describe();
   constexpr std::size_t kMaxWhat = 200;  // bounded: a handler's message may quote input
   return s + ": handler failed: " + std::string(what.substr(0, kMaxWhat));
 }
@@ -46,10 +47,12 @@ bool Receiver::open_direct(const std::string& url) {
 }
 
 Receiver::Receiver(lcm::LCM& lc, const std::string& url, ReceiverOptions options) : lc_(&lc), opt_(options) {
+  if (opt_.auth_key) verifier_ = std::make_unique<auth::Verifier>(opt_.auth_key, opt_.auth);
   if (!open_direct(url)) require_usable(*lc_, url);
 }
 
 Receiver::Receiver(const std::string& url, ReceiverOptions options) : opt_(options) {
+  if (opt_.auth_key) verifier_ = std::make_unique<auth::Verifier>(opt_.auth_key, opt_.auth);
   if (open_direct(url)) return;
   own_lc_ = std::make_unique<lcm::LCM>(url);
   lc_ = own_lc_.get();
@@ -91,30 +94,62 @@ void Receiver::subscribe_raw(const std::string& regex, RawHandler fn) {
 }
 
 void Receiver::on_lcm_message(const lcm_recv_buf_t* rbuf, const char* channel, void* hook) {
-  // liblcm's C callback: nothing may propagate out of here (deliver_* are noexcept).
+  // liblcm's C callback: nothing may propagate out of here (authentic() and deliver_* are noexcept).
   const auto* h = static_cast<const Hook*>(hook);
+  Receiver& rx = *h->rx;
   const Delivery d{channel, rbuf->recv_utime};
   const auto* data = static_cast<const unsigned char*>(rbuf->data);
+  std::size_t size = rbuf->data_size;
+  if (rx.verifier_) {
+    if (rx.lcm_verdict_.generation != rx.lcm_generation_) {  // the first subscription to see this message
+      rx.lcm_verdict_.generation = rx.lcm_generation_;
+      rx.lcm_verdict_.ok = rx.authentic(d.channel, data, size, d.recv_utime);
+      rx.lcm_verdict_.size = size;
+    }
+    if (!rx.lcm_verdict_.ok) return;
+    size = rx.lcm_verdict_.size;
+  }
   if (h->raw != nullptr) {
-    h->rx->deliver_raw(*h->raw, d, data, rbuf->data_size);
+    rx.deliver_raw(*h->raw, d, data, size);
     return;
   }
-  const auto it = h->rx->channels_.find(d.channel);
-  if (it != h->rx->channels_.end()) h->rx->deliver_typed(it->second, d, data, rbuf->data_size);
+  const auto it = rx.channels_.find(d.channel);
+  if (it != rx.channels_.end()) rx.deliver_typed(it->second, d, data, size);
+}
+
+bool Receiver::raw_matches(Raw& r, std::string_view channel) noexcept {
+  try {
+    return r.filter->matches(channel);  // may allocate its verdict cache
+  } catch (...) {
+    return false;
+  }
+}
+
+bool Receiver::authentic(std::string_view channel, const unsigned char* data, std::size_t& size, int64_t utime) noexcept {
+  const auth::Verification v = verifier_->verify(channel, data, size, auth::counter_time(utime));
+  if (v.ok()) {
+    size = v.message_size;
+    return true;
+  }
+  if (const auto it = channels_.find(channel); it != channels_.end()) ++it->second.stats.auth_dropped;
+  ReceiveError e;
+  e.kind = ReceiveError::Kind::kAuth;
+  e.channel = channel;
+  e.auth = v;
+  report(e);
+  return false;
 }
 
 void Receiver::dispatch(std::string_view channel, const unsigned char* data, std::size_t size, int64_t utime) noexcept {
+  const auto typed = channels_.find(channel);
+  bool wanted = typed != channels_.end();
+  for (std::size_t i = 0; !wanted && i < raw_.size(); ++i) wanted = raw_matches(*raw_[i], channel);
+  if (!wanted) return;  // nobody's: not verified, not counted
+  if (verifier_ && !authentic(channel, data, size, utime)) return;
   const Delivery d{channel, utime};
-  if (const auto it = channels_.find(channel); it != channels_.end()) deliver_typed(it->second, d, data, size);
-  for (const auto& r : raw_) {
-    bool match = false;
-    try {
-      match = r->filter->matches(channel);  // may allocate its verdict cache
-    } catch (...) {
-      continue;
-    }
-    if (match) deliver_raw(*r, d, data, size);
-  }
+  if (typed != channels_.end()) deliver_typed(typed->second, d, data, size);
+  for (const auto& r : raw_)
+    if (raw_matches(*r, channel)) deliver_raw(*r, d, data, size);
 }
 
 void Receiver::deliver_typed(Channel& c, const Delivery& d, const unsigned char* data, std::size_t size) noexcept {
@@ -172,9 +207,14 @@ void Receiver::report(const ReceiveError& e) noexcept {
 int Receiver::handle(int timeout_ms) noexcept {
   if (udpm_) return udpm_->receive(timeout_ms, sink_);
   try {
+    ++lcm_generation_;  // one message per call (see lcm_verdict_)
     int n = lc_->handleTimeout(timeout_ms);
     if (n <= 0) return n < 0 ? -1 : 0;
-    while (n < kMaxLcmMessagesPerHandle && lc_->handleTimeout(0) > 0) ++n;
+    while (n < kMaxLcmMessagesPerHandle) {
+      ++lcm_generation_;
+      if (lc_->handleTimeout(0) <= 0) break;
+      ++n;
+    }
     return n;
   } catch (...) {  // liblcm's C++ wrapper does not throw; kept total regardless
     return -1;
@@ -193,6 +233,13 @@ ReceiverStats Receiver::stats() const {
   for (const auto& [name, c] : channels_) {
     s.decode_errors += c.stats.decode_errors;
     s.handler_errors += c.stats.handler_errors;
+  }
+  if (verifier_) {
+    s.authenticated = true;
+    s.auth_unsigned = verifier_->count(auth::Verdict::kUnsigned);
+    s.auth_bad_mac = verifier_->count(auth::Verdict::kBadMac);
+    s.auth_stale = verifier_->count(auth::Verdict::kStale);
+    s.auth_replayed = verifier_->count(auth::Verdict::kReplayed);
   }
   return s;
 }

@@ -4,6 +4,8 @@
 // quantisation), replayed scan by scan; items/s = scans/s.
 #include <benchmark/benchmark.h>
 
+#include <vector>
+
 #include "pof/testing/paper_protocol.hpp"
 #include "pof/core/compensator.hpp"
 #include "pof/core/dynamic_fit.hpp"
@@ -113,6 +115,42 @@ void BM_OnlineCompensatorStepDynamic(benchmark::State& state) {
   run_steps(state, comp);
 }
 BENCHMARK(BM_OnlineCompensatorStepDynamic)->Arg(0)->Arg(1);
+
+// Every effect the compensator can apply from a calibration's [gap] (gap_terms.hpp) on top of
+// the paper's chain (arg 0) or the fitted dynamic model (arg 1): the notch, seven voltage terms
+// (two Prony-like and three stop-operator bases among them), the delay's extrapolation and the
+// play. Compare with BM_OnlineCompensatorStep and BM_OnlineCompensatorStepDynamic/0.
+pof::core::GapModel all_appliable_terms() {
+  auto term = [](const char* effect, double theta, std::vector<double> c) {
+    pof::core::GapTerm t;
+    t.effect = effect;
+    t.theta = theta;
+    t.coefficients_v = std::move(c);
+    return t;
+  };
+  pof::core::GapModel g;
+  g.delay_s = 0.012;
+  g.backlash_deg = 0.8;
+  g.terms = {term("static_nonlinearity", 0, {0.01, -0.008, 0.005, 0.004}),
+             term("creep", 5.0, {-0.001}),
+             term("viscoelastic_relaxation", 0, {-0.0005, -0.0002}),
+             term("memory_hysteresis", 0, {0.0003, 0.0003, 0.0003}),
+             term("rate_dependent_hysteresis", 0.2, {0.005, 0.2}),
+             term("acceleration_dependence", 0.05, {0.002}),
+             term("source_power_coupling", 0, {0.1, 0.02}),
+             term("periodic_interference", 50, {0.003, 0.002, 0.001, 0.001})};
+  g.terms[2].time_constants_s = {1.5, 20};
+  g.terms[3].thresholds_deg = {1, 3, 6};
+  return g;
+}
+
+void BM_OnlineCompensatorStepGap(benchmark::State& state) {
+  auto cal = state.range(0) == 1 ? dynamic_calibration(false) : calibration();
+  cal.gap = all_appliable_terms();
+  pof::core::OnlineCompensator comp(cal);
+  run_steps(state, comp);
+}
+BENCHMARK(BM_OnlineCompensatorStepGap)->Arg(0)->Arg(1);
 
 }  // namespace
 

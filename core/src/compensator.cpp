@@ -41,6 +41,12 @@ OnlineCompensator::OnlineCompensator(const Calibration& cal, const CompensatorSe
     dynamic_ = true;
     inverter_ = DynamicInverter(*cal.dynamic, s.scan_rate_hz);
   }
+  if (cal.gap && !cal.gap->empty()) {
+    if (const auto problems = gap_problems(*cal.gap, s.scan_rate_hz); !problems.empty())
+      throw std::invalid_argument("compensator: " + problems.front().describe());
+    terms_corrector_ = GapCorrector(cal, s.scan_rate_hz);
+    terms_ = true;
+  }
   guard_.level_v = cal.reference_level_v;
   guard_.min_ratio = s.reference_min_ratio;
   guard_.max_ratio = s.reference_max_ratio;
@@ -57,7 +63,46 @@ void OnlineCompensator::clear_window() noexcept {
 void OnlineCompensator::reset() noexcept {
   clear_window();
   inverter_.reset();  // the memory of the lost scans is unknown: start from a relaxed state
+  terms_corrector_.reset();
+  terms_angle_ = terms_w_ = std::nan("");
   gap_pending_ = true;
+}
+
+double OnlineCompensator::terms_voltage(double v, double reference_v, double w, Direction d) const noexcept {
+  if (!terms_) return 0.0;
+  const double guess = std::isfinite(terms_angle_) ? terms_angle_ : quasi_static_angle(cal_.model, v);
+  return terms_corrector_.voltage_at(guess, reference_v, w, d);
+}
+
+double OnlineCompensator::angle_of(double v, double reference_v, double w, Direction d, bool* clamped) noexcept {
+  double angle = 0;
+  if (dynamic_) {
+    const DynamicInverter::Result r = inverter_.step(v);
+    angle = r.angle_deg;
+    *clamped = r.clamped;
+  } else {
+    angle = compensated_angle(cal_.model, v, std::abs(w), d);  // f5 alone in holds
+  }
+  if (!terms_) return angle;
+  if (!std::isfinite(angle)) {
+    terms_corrector_.interrupt();
+    return angle;
+  }
+  terms_angle_ = angle;
+  // dA/dv of the model here, for the acceleration term (GapCorrector::advance): f3..f5 are affine
+  // in v (f5 alone in holds); the dynamic model's quasi-static slope (its loop's is small).
+  double angle_per_volt = 0;
+  if (terms_corrector_.has_acceleration()) {
+    if (dynamic_) {
+      angle_per_volt = 1.0 / cal_.dynamic->quasi_static_slope(angle);
+    } else if (d == Direction::kHold) {
+      angle_per_volt = -cal_.model.c9;
+    } else {
+      const DirectionCoefficients& x = cal_.model.of(d);
+      angle_per_volt = -cal_.model.c9 * x.c7 * f3_line(cal_.model, x, std::abs(w)).a;
+    }
+  }
+  return terms_corrector_.advance(angle, reference_v, angle_per_volt);  // delay and backlash undone
 }
 
 double OnlineCompensator::delay_s() const noexcept { return (n_ - 1) / (2.0 * s_.scan_rate_hz); }
@@ -123,22 +168,32 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
     // Unusable scan: the window is emptied so that the velocity is never computed across it.
     out.quality |= nz.finite_input ? quality::kReferenceLost : quality::kInvalidInput;
     out.quality |= quality::kSettling;
-    out.angle_deg = out.angle_uncomp_deg = out.velocity_rad_s = nan;
+    out.angle_deg = out.angle_uncomp_deg = out.velocity_rad_s = terms_w_ = nan;
     clear_window();
+    if (terms_) terms_corrector_.interrupt();
     return out;
   }
   out.angle_uncomp_deg = quasi_static_angle(cal_.model, nz.v);
-  const double y = s_.velocity_source == VelocitySource::kReference ? angle_ref_deg : out.angle_uncomp_deg;
+  // [gap] periodic interference is notched out before either model sees the voltage; the other
+  // terms' voltage is predicted with the previous scan's velocity and direction (again below with
+  // this scan's when a term depends on them).
+  const double v = terms_ ? terms_corrector_.filter(nz.v) : nz.v;
+  double g = terms_voltage(v, reference_v, terms_w_, phase_);
+  bool clamped = false;
+  const double y = s_.velocity_source == VelocitySource::kReference ? angle_ref_deg
+                   : terms_                                         ? quasi_static_angle(cal_.model, v - g)
+                                                                    : out.angle_uncomp_deg;
   if (!std::isfinite(y)) {
     out.quality |= quality::kInvalidInput | quality::kSettling;
     // The dynamic model needs no velocity; the paper's falls back to f5 without one.
-    out.angle_deg = dynamic_ ? inverter_.step(nz.v).angle_deg : out.angle_uncomp_deg;
-    out.velocity_rad_s = nan;
+    if (terms_corrector_.uses_velocity()) g = terms_voltage(v, reference_v, nan, Direction::kHold);
+    out.angle_deg = angle_of(v - g, reference_v, nan, Direction::kHold, &clamped);
+    out.velocity_rad_s = terms_w_ = nan;
     clear_window();
     return out;
   }
   const double w = push(y) * s_.scan_rate_hz * kRadPerDeg;
-  out.velocity_rad_s = w;
+  out.velocity_rad_s = terms_w_ = w;
   // Direction with a dead band (hold_rad_s < move_rad_s). With the reversal window on, its slope
   // ws (lag ~(M-1)/2fs) flips flexion <-> extension as soon as it clearly sees the opposite sense,
   // the long window may only flip when ws agrees (no flip-back while it still lags), and a hold
@@ -162,13 +217,9 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
   }
   out.phase = phase_;
   const double aw = std::abs(w);
-  if (dynamic_) {
-    const DynamicInverter::Result d = inverter_.step(nz.v);
-    out.angle_deg = d.angle_deg;
-    if (d.clamped) out.quality |= quality::kAngleExtrapolated;
-  } else {
-    out.angle_deg = compensated_angle(cal_.model, nz.v, aw, phase_);
-  }
+  if (terms_corrector_.uses_velocity()) g = terms_voltage(v, reference_v, w, phase_);
+  out.angle_deg = angle_of(v - g, reference_v, w, phase_, &clamped);
+  if (clamped) out.quality |= quality::kAngleExtrapolated;
   if (phase_ != Direction::kHold &&
       (aw < cal_.velocity_min_rad_s * (1 - s_.velocity_tolerance) || aw > cal_.velocity_max_rad_s * (1 + s_.velocity_tolerance)))
     out.quality |= quality::kVelocityExtrapolated;

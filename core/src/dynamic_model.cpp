@@ -146,15 +146,9 @@ double DynamicKernel::voltage_at(const DynamicState& s, double theta, double* dv
   for (int i = 0; i < m.n_operators; ++i) {
     const auto u = static_cast<std::size_t>(i);
     const double r = m.threshold_deg[u];
-    const double z = s.stop[u] + d;
-    if (z >= r) {
-      hyst += m.weight_v_per_deg[u] * r;
-    } else if (z <= -r) {
-      hyst -= m.weight_v_per_deg[u] * r;
-    } else {
-      hyst += m.weight_v_per_deg[u] * z;
-      hyst_slope += m.weight_v_per_deg[u];
-    }
+    const double z = stop_operator(s.stop[u], d, r);
+    hyst += m.weight_v_per_deg[u] * z;
+    if (z > -r && z < r) hyst_slope += m.weight_v_per_deg[u];  // elastic: moves with theta
   }
   v += phi * hyst;
   slope += dd * phi * hyst_slope;
@@ -172,7 +166,7 @@ void DynamicKernel::advance(DynamicState& s, double theta) const {
   const double d = s.started ? theta - s.angle_deg : 0.0;
   for (int i = 0; i < m.n_operators; ++i) {
     const auto u = static_cast<std::size_t>(i);
-    s.stop[u] = std::clamp(s.stop[u] + d, -m.threshold_deg[u], m.threshold_deg[u]);
+    s.stop[u] = stop_operator(s.stop[u], d, m.threshold_deg[u]);
   }
   for (int j = 0; j < m.n_prony; ++j) {
     const auto u = static_cast<std::size_t>(j);

@@ -1,7 +1,6 @@
 // Files of `pof gap` (see io.hpp).
 #include "pof/gap/io.hpp"
 
-#include <charconv>
 #include <cmath>
 #include <ctime>
 #include <cstdio>
@@ -11,7 +10,9 @@
 #include <vector>
 
 
+#include "pof/core/gap_terms.hpp"
 #include "pof/io/atomic_file.hpp"
+#include "pof/io/calibration_file.hpp"
 #include "pof/base/errors.hpp"
 
 namespace pof::gap {
@@ -20,21 +21,6 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 namespace {
-
-std::string num(double x) {
-  char b[40];
-  std::snprintf(b, sizeof b, "%.17g", x);
-  return b;
-}
-
-std::string quoted(const std::string& x) {
-  std::string o = "\"";
-  for (char c : x) {
-    if (c == '"' || c == '\\') o += '\\';
-    o += c;
-  }
-  return o + "\"";
-}
 
 std::string utc_now() {
   const std::time_t t = std::time(nullptr);
@@ -45,67 +31,56 @@ std::string utc_now() {
   return b;
 }
 
-// The calibration-file layout of `pof calibrate` (docs/calibration.md, schema_version 1), so
-// `pof compensate --cal model.toml` reads the refitted model; the accepted effects go in [gap],
-// which that loader (strict about every other key) skips by name (docs/gap.md).
+// The calibration file of `pof calibrate` (io/calibration_file.hpp, one writer for both), so
+// `pof compensate --cal model.toml` and pof-compensatord run the refitted model with the accepted
+// effects ([gap], applied online: docs/calibration.md).
 std::string model_toml(const Result& r, const std::string& source) {
   const json& m = r.model;
-  std::ostringstream o;
-  o << "# Improved sensor model written by `pof gap` (docs/gap.md). The calibration-file layout of\n"
-       "# `pof calibrate` (docs/calibration.md): c9, c10 refitted on the recording, c1..c8 the paper's\n"
-       "# table 2; [gap] holds the accepted effect terms, added to the model voltage.\n"
-    << "schema_version = 1\n"
-    << "sensor_id = \"pof-gap\"\n"
-    << "date = " << quoted(utc_now()) << "\n"
-    << "source_recording = " << quoted(source) << "\n"
-    << "reference_level_v = " << num(m["reference_level_v"].get<double>()) << "    # the level c1..c10 apply at\n"
-    << "\n[model]\n"
-    << "c1 = " << num(m["c1"].get<double>()) << "\n"
-    << "c2 = " << num(m["c2"].get<double>()) << "\n"
-    << "c9 = " << num(m["c9"].get<double>()) << "\n"
-    << "c10 = " << num(m["c10"].get<double>()) << "\n";
-  for (const char* d : {"flexion", "extension"}) {
-    const auto& v = m[d];
-    o << "\n[model." << d << "]\n";
-    for (int i = 0; i < 6; ++i) o << "c" << i + 3 << " = " << num(v[static_cast<std::size_t>(i)].get<double>()) << "\n";
+  io::CalibrationFile f;
+  f.sensor_id = "pof-gap";
+  f.date = utc_now();
+  f.source_recording = source;
+  core::Calibration& cal = f.cal;
+  auto dir = [](const json& a) {
+    return core::DirectionCoefficients{a[0].get<double>(), a[1].get<double>(), a[2].get<double>(),
+                                       a[3].get<double>(), a[4].get<double>(), a[5].get<double>()};
+  };
+  cal.model.c1 = m["c1"].get<double>();
+  cal.model.c2 = m["c2"].get<double>();
+  cal.model.c9 = m["c9"].get<double>();
+  cal.model.c10 = m["c10"].get<double>();
+  cal.model.flexion = dir(m["flexion"]);
+  cal.model.extension = dir(m["extension"]);
+  cal.active = core::ModelKind::kPaper;
+  cal.reference_level_v = m["reference_level_v"].get<double>();
+  const json& rg = m["range"];
+  cal.angle_min_deg = rg["angle_min_deg"].get<double>();
+  cal.angle_max_deg = rg["angle_max_deg"].get<double>();
+  cal.velocity_min_rad_s = rg["velocity_min_rad_s"].get<double>();
+  cal.velocity_max_rad_s = rg["velocity_max_rad_s"].get<double>();
+  // `pof gap` fits the voltage, not f1-f4 one by one: their R^2 / RMSE are given as -1.
+  f.quality.sensitivity_v_per_deg = 1.0 / std::abs(cal.model.c9);
+  f.quality.linearity_r2 = m["linearity_r2"].get<double>();
+  f.quality.f1_r2 = f.quality.f1_rmse_pct = f.quality.f4_flexion_r2 = f.quality.f4_extension_r2 = -1;
+  f.quality.n_holds = m["n_holds"].get<std::int64_t>();
+  f.equation_flexion = "paper eq. (11), coefficients refitted to the voltage by pof gap";
+  f.equation_extension = "paper eq. (12), coefficients refitted to the voltage by pof gap";
+  core::GapModel g;
+  g.delay_s = m["delay_s"].get<double>();
+  g.backlash_deg = m["backlash_deg"].get<double>();
+  for (const json& t : m["terms"]) {
+    core::GapTerm term;
+    term.effect = t["effect"].get<std::string>();
+    term.theta = t["theta"].get<double>();
+    term.coefficients_v = t["coefficients_v"].get<std::vector<double>>();
+    if (t.contains("thresholds_deg")) term.thresholds_deg = t["thresholds_deg"].get<std::vector<double>>();
+    if (t.contains("time_constants_s")) term.time_constants_s = t["time_constants_s"].get<std::vector<double>>();
+    for (auto it = t["parameters"].begin(); it != t["parameters"].end(); ++it)
+      term.parameters.emplace_back(it.key(), it.value().get<double>());
+    g.terms.push_back(std::move(term));
   }
-  const auto& rg = m["range"];
-  o << "\n[range]\n"
-    << "angle_min_deg = " << num(rg["angle_min_deg"].get<double>()) << "\n"
-    << "angle_max_deg = " << num(rg["angle_max_deg"].get<double>()) << "\n"
-    << "velocity_min_rad_s = " << num(rg["velocity_min_rad_s"].get<double>()) << "\n"
-    << "velocity_max_rad_s = " << num(rg["velocity_max_rad_s"].get<double>()) << "\n"
-    << "\n[fit_quality]    # f1..f4 are not refitted by `pof gap`: their R^2 / RMSE are given as -1\n"
-    << "sensitivity_v_per_deg = " << num(1.0 / m["c9"].get<double>()) << "\n"
-    << "linearity_r2 = " << num(m["linearity_r2"].get<double>()) << "\n"
-    << "f1_r2 = -1\nf1_rmse_pct = -1\nf4_flexion_r2 = -1\nf4_extension_r2 = -1\n"
-    << "n_holds = " << m["n_holds"].get<long long>() << "\n"
-    << "n_velocity_tests = 0\n"
-    << "\n[equations]    # informational\n"
-    << "flexion = \"paper eq. (11) with c9, c10 refitted\"\nextension = \"paper eq. (12) with c9, c10 refitted\"\n"
-    << "\n[gap]    # `pof gap` extension: v_model += sum of the terms (docs/gap.md)\n"
-    << "source = " << quoted(source) << "\n"
-    << "baseline_gap_deg = " << num(r.baseline_gap_deg) << "\n"
-    << "final_gap_deg = " << num(r.final_gap_deg) << "\n"
-    << "kappa = " << num(m["kappa"].get<double>()) << "    # v_model = v_norm / kappa at the recording's median reference\n"
-    << "delay_s = " << num(m["delay_s"].get<double>()) << "    # sensor lags the reference angle by this\n"
-    << "backlash_deg = " << num(m["backlash_deg"].get<double>()) << "    # belt dead band between joint and potentiometer\n"
-    << "duration_s = " << num(m["duration_s"].get<double>()) << "    # drift is linear in t / duration_s - 1/2\n";
-  for (const auto& term : m["terms"]) {
-    o << "\n[[gap.terms]]\neffect = " << quoted(term["effect"].get<std::string>()) << "\n"
-      << "theta = " << num(term["theta"].get<double>()) << "\n"
-      << "coefficients_v = [";
-    bool first = true;
-    for (const auto& c : term["coefficients_v"]) {
-      o << (first ? "" : ", ") << num(c.get<double>());
-      first = false;
-    }
-    o << "]\n";
-    o << "[gap.terms.parameters]\n";
-    for (auto it = term["parameters"].begin(); it != term["parameters"].end(); ++it)
-      o << it.key() << " = " << num(it.value().get<double>()) << "\n";
-  }
-  return o.str();
+  if (!g.empty()) cal.gap = std::move(g);
+  return io::to_toml(f);
 }
 
 std::string report_md(const Result& r, const std::string& source) {
@@ -115,17 +90,32 @@ std::string report_md(const Result& r, const std::string& source) {
   o << "# Model gap report: " << source << "\n\n"
     << "Held-out RMS residual (time-blocked " << r.recording["folds"].get<std::size_t>() << "-fold CV) in degrees.\n\n"
     << "| step | effect | held-out gap [deg] | parameters |\n|---|---|---|---|\n"
-    << "| 0 | baseline (paper model, c9/c10 refitted) | " << r.baseline_gap_deg << " | c9 = "
+    << "| 0 | baseline (paper structure, coefficients fitted to the recording) | " << r.baseline_gap_deg << " | c9 = "
     << r.baseline["c9_deg_per_v"].get<double>() << " deg/V, c10 = " << r.baseline["c10_deg"].get<double>() << " deg |\n";
   int i = 1;
   for (const Step& s : r.steps) o << "| " << i++ << " | " << s.effect << " | " << s.gap_deg << " | `" << s.parameters.dump() << "` |\n";
-  o << "\n**Baseline residual:** " << r.baseline["where"].get<std::string>() << "\n\n";
+  o << "\n**Baseline:** " << r.baseline["start"].get<std::string>() << ", then every identifiable coefficient refitted "
+    << "on the voltage (RMS " << r.baseline["refit_rms_mv"]["start"].get<double>() << " -> "
+    << r.baseline["refit_rms_mv"]["refitted"].get<double>() << " mV).";
+  if (r.baseline.contains("dynamic") && r.baseline["dynamic"].contains("heldout_rmse_deg"))
+    o << " Second baseline, the dynamic model (docs/calibration.md): held-out RMSE "
+      << r.baseline["dynamic"]["heldout_rmse_deg"].get<double>() << " deg over its own folds.";
+  o << "\n\n**Baseline residual:** " << r.baseline["where"].get<std::string>() << "\n\n";
   i = 1;
   for (const Step& s : r.steps) {
     o << "## Step " << i++ << ": " << s.effect << "\n\n- where: " << s.where << "\n- held-out gap "
       << s.evidence["heldout_gap_before_deg"].get<double>() << " -> " << s.gap_deg << " deg ("
       << s.evidence["reduction_pct"].get<double>() << " %), delta BIC " << s.evidence["delta_bic"].get<double>()
       << ", runner-up " << s.evidence["runner_up"].get<std::string>() << "\n\n";
+  }
+  if (r.compensated.contains("rmse_before_deg")) {
+    const json& c = r.compensated;
+    o << "## The angle the compensator outputs\n\n"
+      << "On held-out blocks, `pof compensate`'s angle against the reference: RMSE " << c["rmse_before_deg"].get<double>()
+      << " deg with the baseline, " << c["rmse_after_deg"].get<double>() << " deg with the found model applied ("
+      << c["reduction_pct"].get<double>() << " % lower)";
+    if (!c["not_applied"].empty()) o << "; not applied online (the compensator refuses them): " << c["not_applied"].dump();
+    o << ".\n\n![compensated angle](compensated.png)\n\n";
   }
   o << "## What is left\n\n" << (r.unexplained ? "Structure remains that no candidate explains" : "No significant structure left")
     << ": residual RMS / scan-to-scan noise floor = " << r.whiteness["rms_over_noise_floor"].get<double>()
@@ -146,12 +136,15 @@ void write_outputs(const Result& r, const std::string& source, const fs::path& d
   j["source"] = source;
   io::write_file_atomic(dir / "gap.json", j.dump(2) + "\n");
   io::write_file_atomic(dir / "model.toml", model_toml(r, source));
-  std::string csv = "t_s,angle_deg,w_rad_s,v,model_baseline_v,model_final_v,resid_baseline_deg,resid_final_deg\n";
+  std::string csv =
+      "t_s,angle_deg,w_rad_s,v,model_baseline_v,model_final_v,resid_baseline_deg,resid_final_deg,angle_comp_before_deg,"
+      "angle_comp_after_deg\n";
   char buf[256];
   const Series& s = r.series;
   for (std::size_t i = 0; i < s.t.size(); ++i) {
-    const int n = std::snprintf(buf, sizeof buf, "%.4f,%.4f,%.5f,%.6f,%.6f,%.6f,%.5f,%.5f\n", s.t[i], s.angle[i], s.w[i], s.v[i],
-                                s.model_baseline[i], s.model_final[i], s.resid_baseline_deg[i], s.resid_final_deg[i]);
+    const int n = std::snprintf(buf, sizeof buf, "%.4f,%.4f,%.5f,%.6f,%.6f,%.6f,%.5f,%.5f,%.5f,%.5f\n", s.t[i], s.angle[i], s.w[i],
+                                s.v[i], s.model_baseline[i], s.model_final[i], s.resid_baseline_deg[i], s.resid_final_deg[i],
+                                s.angle_comp_before[i], s.angle_comp_after[i]);
     csv.append(buf, static_cast<std::size_t>(n));
   }
   io::write_file_atomic(dir / "series.csv", csv);

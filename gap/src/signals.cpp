@@ -2,6 +2,7 @@
 #include "pof/gap/signals.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -22,6 +23,27 @@ double median(VectorXd x) {
   auto mid = s.begin() + static_cast<std::ptrdiff_t>(s.size() / 2);
   std::nth_element(s.begin(), mid, s.end());
   return *mid;
+}
+
+// Centred quadratic least squares over +-h (Savitzky & Golay 1964, Anal. Chem. 36: 1627-1639),
+// evaluated at the centre; the window shrinks symmetrically at the ends.
+VectorXd smooth_quadratic(const VectorXd& x, Index half) {
+  const Index n = x.size();
+  VectorXd out(n);
+  for (Index i = 0; i < n; ++i) {
+    const Index h = std::min({half, i, n - 1 - i});
+    if (h < 2) { out(i) = x(i); continue; }
+    // Weights of the quadratic fit at the centre: (3(3h^2 + 3h - 1) - 15 k^2) / ((2h-1)(2h+1)(2h+3)).
+    const double hh = static_cast<double>(h);
+    const double den = (2 * hh - 1) * (2 * hh + 1) * (2 * hh + 3);
+    double acc = 0;
+    for (Index k = -h; k <= h; ++k) {
+      const double kk = static_cast<double>(k);
+      acc += (3 * (3 * hh * hh + 3 * hh - 1) - 15 * kk * kk) / den * x(i + k);
+    }
+    out(i) = acc;
+  }
+  return out;
 }
 
 }  // namespace
@@ -56,7 +78,12 @@ Signals make_signals(const io::Recording& rec) {
   s.reference_level_v = median(rec.reference_v);
   s.t = rec.t_s.array() - rec.t_s(0);
   s.v = rec.sensor_v.array() * (s.reference_level_v / rec.reference_v.array());
-  s.angle = rec.angle_ref_deg;
+  // The model's input: the reference angle through a centred quadratic Savitzky-Golay filter over
+  // +-25 ms (-3 dB near 25 Hz at any rate). The knee cannot move at the frequencies it removes, so
+  // what it removes is the potentiometer's noise and pick-up; left in, mains on the reference
+  // channel becomes 60 Hz in the model voltage, which a fractional time_delay (its linear
+  // interpolation is a low-pass filter) then "explains".
+  s.angle = smooth_quadratic(rec.angle_ref_deg, std::max<Index>(1, static_cast<Index>(std::lround(0.025 / s.dt))));
   // The light source wanders slowly (seconds to minutes); a centred 1 s mean keeps that and drops
   // the reference channel's own noise, which the per-scan normalisation already passes into v and
   // which must not pass for "source power coupling".
@@ -99,10 +126,9 @@ void compute_factors(Kinematics& k, const core::ModelCoefficients& m) {
   k.s_move.resize(n);
   k.s_last.resize(n);
   k.dir.resize(static_cast<std::size_t>(n));
-  k.col_p.resize(n);
-  k.col_q.resize(n);
-  k.offset.resize(n);
-  k.hyst_v.resize(n);
+  k.v0.resize(n);
+  k.gradient.resize(n, core::kRefitParameters);
+  std::array<double, core::kRefitParameters> g{};
   double last = 0;
   for (Index i = 0; i < n; ++i) {
     const double w = k.w(i), aw = std::abs(w);
@@ -113,22 +139,8 @@ void compute_factors(Kinematics& k, const core::ModelCoefficients& m) {
     k.s_move(i) = sm;
     if (sm != 0) last = sm;
     k.s_last(i) = last;
-    const double a_deg = k.angle(i);
-    if (d == core::Direction::kHold) {
-      k.col_p(i) = -a_deg;
-      k.col_q(i) = 1;
-      k.offset(i) = 0;
-      k.hyst_v(i) = 0;
-    } else {
-      // model_voltage = ((q - A p) + c8) / (c7 a) - b / a   (inverse of f5, f4, f3; table 2)
-      const core::DirectionCoefficients& x = m.of(d);
-      const double h = core::hysteresis_pct(m, aw);
-      const double a = x.c3 * h + x.c4, b = x.c5 * h + x.c6;
-      k.col_p(i) = -a_deg / (x.c7 * a);
-      k.col_q(i) = 1.0 / (x.c7 * a);
-      k.offset(i) = x.c8 / (x.c7 * a) - b / a;
-      k.hyst_v(i) = core::model_voltage(m, a_deg, aw, d) - core::quasi_static_voltage(m, a_deg);
-    }
+    k.v0(i) = core::model_voltage_gradient(m, k.angle(i), aw, d, g.data());
+    for (int j = 0; j < core::kRefitParameters; ++j) k.gradient(i, j) = g[static_cast<std::size_t>(j)];
   }
 }
 

@@ -15,7 +15,8 @@
 
 namespace pof::io {
 
-AtomicFile::AtomicFile(std::filesystem::path dest) : dest_(std::move(dest)) {
+AtomicFile::AtomicFile(std::filesystem::path dest, mode_t permissions, Replace replace)
+    : dest_(std::move(dest)), replace_(replace) {
   const std::filesystem::path dir = dest_.has_parent_path() ? dest_.parent_path() : std::filesystem::path(".");
   std::string pattern = (dir / ("." + dest_.filename().string() + ".tmp-XXXXXX")).string();
   std::vector<char> buf(pattern.begin(), pattern.end());
@@ -23,10 +24,10 @@ AtomicFile::AtomicFile(std::filesystem::path dest) : dest_(std::move(dest)) {
   const int fd = ::mkstemp(buf.data());
   if (fd < 0)
     throw IoError(dest_.string() + ": cannot create a temporary file in '" + dir.string() + "': " + std::strerror(errno));
-  // mkstemp makes 0600; a recording is an ordinary file (0666 & ~umask).
+  // mkstemp makes 0600; a recording is an ordinary file (0666 & ~umask), a key keeps 0600.
   const mode_t mask = ::umask(0);
   ::umask(mask);
-  (void)::fchmod(fd, static_cast<mode_t>(0666 & ~mask));
+  (void)::fchmod(fd, static_cast<mode_t>(permissions & 0777 & ~mask));
   ::close(fd);
   tmp_ = buf.data();
 }
@@ -46,13 +47,25 @@ void AtomicFile::commit() {
     throw IoError(dest_.string() + ": cannot sync '" + tmp_.string() + "': " + std::strerror(e));
   }
   ::close(fd);
+  if (replace_ == Replace::kNo) {
+    // link(2) refuses an existing name (EEXIST), atomically; rename(2) would replace it.
+    if (::link(tmp_.c_str(), dest_.c_str()) != 0) {
+      const int e = errno;
+      throw IoError(dest_.string() + (e == EEXIST ? ": exists; not overwritten" : ": cannot link '" + tmp_.string() +
+                                                                                      "' to it: " + std::strerror(e)));
+    }
+    ::unlink(tmp_.c_str());
+    committed_ = true;
+    return;
+  }
   if (::rename(tmp_.c_str(), dest_.c_str()) != 0)
     throw IoError(dest_.string() + ": cannot rename '" + tmp_.string() + "' onto it: " + std::strerror(errno));
   committed_ = true;
 }
 
-void write_file_atomic(const std::filesystem::path& path, const std::string& content) {
-  AtomicFile file(path);
+void write_file_atomic(const std::filesystem::path& path, const std::string& content, mode_t permissions,
+                       Replace replace) {
+  AtomicFile file(path, permissions, replace);
   const int fd = ::open(file.temp_path().c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
   if (fd < 0) throw IoError(path.string() + ": cannot open '" + file.temp_path().string() + "': " + std::strerror(errno));
   std::size_t done = 0;

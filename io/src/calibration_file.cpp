@@ -2,6 +2,7 @@
 // a local value that is returned only when complete: a bad file never half-loads.
 #include "pof/io/calibration_file.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <cmath>
@@ -106,6 +107,64 @@ pof::core::DynamicModel read_dynamic(TomlSection& d) {
   m.lag_window_s = d.get_or("lag_window_s", m.lag_window_s, toml_check::positive());
   if (const char* why = m.invalid_reason(); *why != '\0') d.fail(why);
   return m;
+}
+
+// [gap] (docs/calibration.md, "`[gap]`: effect terms and how the compensator applies them"):
+// every key typed and finite, unknown keys refused. Whether the compensator can apply the terms
+// (drift, an unknown effect, counts, ranges) is gap_problems()'s question, asked by
+// load_calibration(path, model, rate): a file with terms it cannot apply still parses, so `pof gap`
+// can write and check whatever it found.
+pof::core::GapModel read_gap(TomlSection& g) {
+  pof::core::GapModel m;
+  (void)g.schema_version({pof::core::kGapSchemaVersion});
+  m.delay_s = g.get_or("delay_s", 0.0);
+  m.backlash_deg = g.get_or("backlash_deg", 0.0);
+  if (const std::optional<TomlArray> terms = g.find_array("terms")) {
+    for (std::size_t i = 0; i < terms->size(); ++i) {
+      TomlSection t = terms->section(i);
+      pof::core::GapTerm term;
+      term.line = t.line();
+      term.effect = t.get<std::string>("effect");
+      term.theta = t.get_or("theta", 0.0);
+      term.coefficients_v = t.array("coefficients_v").values<double>();
+      if (const auto r = t.find_array("thresholds_deg")) term.thresholds_deg = r->values<double>();
+      if (const auto tau = t.find_array("time_constants_s")) term.time_constants_s = tau->values<double>();
+      t.with_section("parameters", [&](TomlSection& p) {
+        for (const std::string& key : p.keys()) term.parameters.emplace_back(key, p.get<double>(key));
+      });
+      t.finish();
+      m.terms.push_back(std::move(term));
+    }
+  }
+  return m;
+}
+
+// A parameter name as a TOML key: bare when it can be, else quoted.
+std::string toml_key(const std::string& k) {
+  const bool bare = !k.empty() && std::all_of(k.begin(), k.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
+  });
+  return bare ? k : quoted(k);
+}
+
+void write_gap(std::ostringstream& o, const pof::core::GapModel& g) {
+  auto list = [](const std::vector<double>& v) { return number_list(v.data(), static_cast<int>(v.size())); };
+  o << "\n[gap]    # effect terms found by `pof gap`, applied by the compensator (docs/calibration.md, \"[gap]\")\n"
+    << "schema_version = " << pof::core::kGapSchemaVersion << "\n"
+    << "delay_s = " << num(g.delay_s) << "    # time_delay: the sensor sees A(t - delay_s); 0 = none\n"
+    << "backlash_deg = " << num(g.backlash_deg) << "    # backlash: belt play between the reference and the joint; 0 = none\n";
+  for (const pof::core::GapTerm& t : g.terms) {
+    o << "\n[[gap.terms]]\n"
+      << "effect = " << quoted(t.effect) << "\n"
+      << "theta = " << num(t.theta) << "\n"
+      << "coefficients_v = " << list(t.coefficients_v) << "    # volts per unit of each basis function\n";
+    if (!t.thresholds_deg.empty()) o << "thresholds_deg = " << list(t.thresholds_deg) << "\n";
+    if (!t.time_constants_s.empty()) o << "time_constants_s = " << list(t.time_constants_s) << "\n";
+    if (!t.parameters.empty()) {
+      o << "[gap.terms.parameters]    # for humans; not applied\n";
+      for (const auto& [name, value] : t.parameters) o << toml_key(name) << " = " << num(value) << "\n";
+    }
+  }
 }
 
 pof::core::PotentiometerCalibration read_potentiometer(TomlSection& s) {
@@ -245,6 +304,7 @@ std::string to_toml(const CalibrationFile& f) {
       o << (i ? ", " : "") << "[" << num(p.offsets[i].first) << ", " << num(p.offsets[i].second) << "]";
     o << "]\n";
   }
+  if (f.cal.gap) write_gap(o, *f.cal.gap);
   return o.str();
 }
 
@@ -334,9 +394,8 @@ CalibrationFile parse_calibration(const std::string& text, const std::string& na
     for (const char* key : {"active_model", "dynamic", "held_out"})
       if (root.has(key)) root.fail(key, "is a schema_version 2 key, but the file says schema_version = 1");
   }
-  // `pof gap` writes its accepted effect terms in [gap] of its model.toml (docs/gap.md); the
-  // compensator does not apply them (yet), so the section is skipped, on purpose and by name.
-  root.ignore("gap");
+  // The effect terms `pof gap` accepted (it writes this layout as its model.toml, docs/gap.md).
+  root.with_section("gap", [&](TomlSection& g) { f.cal.gap = read_gap(g); });
   root.finish();
   return f;
 }
@@ -352,9 +411,23 @@ void choose_model(CalibrationFile& f, const std::string& choice, const std::stri
     throw ConfigError(source + ": --model dynamic: the file has no [dynamic] section (recalibrate with pof calibrate)");
 }
 
-CalibrationFile load_calibration(const std::string& path, const std::string& model_choice) {
+void require_applicable_gap(const CalibrationFile& f, const std::string& source, double scan_rate_hz) {
+  if (!f.cal.gap) return;
+  const std::vector<pof::core::GapProblem> problems = pof::core::gap_problems(*f.cal.gap, scan_rate_hz);
+  if (problems.empty()) return;
+  // Every term that cannot be applied, one line each: never silently skipped.
+  std::string msg;
+  for (const pof::core::GapProblem& p : problems) {
+    if (!msg.empty()) msg += "\n";
+    msg += source + (p.line > 0 ? ":" + std::to_string(p.line) : std::string()) + ": " + p.describe();
+  }
+  throw ConfigError(msg);
+}
+
+CalibrationFile load_calibration(const std::string& path, const std::string& model_choice, double scan_rate_hz) {
   CalibrationFile f = load_calibration(path);
   choose_model(f, model_choice, path);
+  require_applicable_gap(f, path, scan_rate_hz);
   return f;
 }
 

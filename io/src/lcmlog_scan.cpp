@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "pof/base/errors.hpp"
+#include "pof/bus/auth_trailer.hpp"
 
 namespace pof::io {
 namespace {
@@ -239,6 +240,12 @@ void LcmLogReader::undecodable(const LcmEventRef& ev, const std::string& why) {
   if (undecodable_++ == 0) {
     first_undecodable_offset_ = ev.offset;
     first_undecodable_why_ = "event " + std::to_string(ev.event_number) + " on channel " + excerpt(ev.channel) + ": " + why;
+    // A log of the authenticated mode's signed messages as they were on the bus (lcm-logger's, or
+    // `pof record` without the key): say so, not only "bytes after the last field".
+    if (bus::auth::parse_trailer(ev.data, ev.data_size))
+      first_undecodable_why_ += " (the message ends in an authenticated-mode trailer: a log of signed messages as "
+                                "they were on the bus; `pof record --auth-key-file` records them verified and "
+                                "without trailers, docs/deployment.md)";
   }
 }
 

@@ -152,6 +152,10 @@ void Session::start() {
   bus::ReceiverOptions ro;
   ro.lcm_queue_capacity = opt_.lcm_queue_capacity;
   ro.udpm_via_liblcm = opt_.use_liblcm;
+  // Authenticated mode: the Receiver verifies every subscribed message before the raw handler sees
+  // it, drops and counts what fails, and hands over what passes without its trailer.
+  ro.auth_key = opt_.auth_key;
+  ro.auth = opt_.auth;
   rx_ = std::make_unique<bus::Receiver>(url_, ro);
   direct_ = rx_->direct();
   // The receive thread only copies each message into the hand-off queue (enqueue() does not throw:
@@ -225,6 +229,10 @@ void Session::lcm_loop() {
     const bus::ReceiverStats st = rx_->stats();
     malformed_.store(st.malformed_datagrams, std::memory_order_relaxed);
     incomplete_.store(st.incomplete_messages, std::memory_order_relaxed);
+    auth_unsigned_.store(st.auth_unsigned, std::memory_order_relaxed);
+    auth_bad_mac_.store(st.auth_bad_mac, std::memory_order_relaxed);
+    auth_stale_.store(st.auth_stale, std::memory_order_relaxed);
+    auth_replayed_.store(st.auth_replayed, std::memory_order_relaxed);
     lcm_beats_.fetch_add(1);
   }
 }
@@ -412,6 +420,11 @@ SessionStats Session::poll() {
   }
   s.malformed_datagrams = malformed_.load(std::memory_order_relaxed);
   s.incomplete_messages = incomplete_.load(std::memory_order_relaxed);
+  s.authenticated = opt_.auth_key != nullptr;
+  s.auth_unsigned = auth_unsigned_.load(std::memory_order_relaxed);
+  s.auth_bad_mac = auth_bad_mac_.load(std::memory_order_relaxed);
+  s.auth_stale = auth_stale_.load(std::memory_order_relaxed);
+  s.auth_replayed = auth_replayed_.load(std::memory_order_relaxed);
   s.manifest = manifest_path_;
   return s;
 }
@@ -529,6 +542,19 @@ std::string Session::manifest_text(const char* status) {
                    {"incomplete_messages", incomplete_.load(std::memory_order_relaxed)},
                    {"udp_rcvbuf_bytes", final_rcvbuf_},
                    {"handoff_peak_bytes", peak}};
+  // Authenticated mode: the log holds only messages that passed the Receiver's verification,
+  // without trailers; the drops are its counters (bus::ReceiverStats), per verdict.
+  if (opt_.auth_key)
+    m["authentication"] = {{"enabled", true},
+                           {"key_id", bus::auth::key_id_hex(opt_.auth_key->id())},
+                           {"window_s", static_cast<double>(opt_.auth.window_us) / 1e6},
+                           {"dropped",
+                            {{"unsigned", auth_unsigned_.load(std::memory_order_relaxed)},
+                             {"bad_mac", auth_bad_mac_.load(std::memory_order_relaxed)},
+                             {"stale", auth_stale_.load(std::memory_order_relaxed)},
+                             {"replayed", auth_replayed_.load(std::memory_order_relaxed)}}}};
+  else
+    m["authentication"] = {{"enabled", false}};
   return m.dump(2) + "\n";
 }
 

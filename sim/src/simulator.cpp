@@ -9,6 +9,7 @@
 #include <numbers>
 
 #include "pof/base/errors.hpp"
+#include "pof/core/dynamic_model.hpp"
 
 namespace pof::sim {
 
@@ -266,9 +267,7 @@ void Simulator::step(Scan& out, EffectTrace* tr) {
   double phi = theta;
   if (kn.backlash.enabled) {
     // Play operator: the pot shaft moves only once the belt's slack of width_deg is taken up.
-    const double half = 0.5 * kn.backlash.width_deg;
-    if (theta - backlash_pos_ > half) backlash_pos_ = theta - half;
-    else if (theta - backlash_pos_ < -half) backlash_pos_ = theta + half;
+    backlash_pos_ = pof::core::play_operator(backlash_pos_, theta, 0.5 * kn.backlash.width_deg);
     phi = backlash_pos_;
   }
   double pot_angle = phi;

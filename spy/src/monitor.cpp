@@ -97,6 +97,12 @@ void Monitor::on_message(std::string_view channel, const void* data, std::size_t
   c.bytes += size;
   c.last_size = size;
   c.last_recv_utime = recv_utime;
+  // A signed message that reached us unverified (no key given, so the receiver did not check and
+  // strip it): the LCM message is in front of its trailer (pof/bus/auth_trailer.hpp).
+  if (const auto t = bus::auth::parse_trailer(static_cast<const unsigned char*>(data), size)) {
+    ++c.unverified;
+    size = t->message_size;
+  }
   c.fingerprint = bus::fingerprint_of(data, size);
   c.type = bus::message_type_of(data, size);
   bool ok = true;
@@ -158,6 +164,11 @@ std::string render(const Monitor& m, const RenderOptions& o) {
                       static_cast<unsigned long long>(m.total_messages()),
                       static_cast<unsigned long long>(o.kernel_drops), bad.c_str())) +
        (o.ansi ? "   (q quits)\n" : "\n");
+  if (o.authenticated)  // what the verifier dropped before anything was decoded or shown
+    s += fmt("authenticated (key %s): dropped unsigned %llu  bad_mac %llu  stale %llu  replayed %llu\n",
+             o.key_id.c_str(), static_cast<unsigned long long>(o.auth_unsigned),
+             static_cast<unsigned long long>(o.auth_bad_mac), static_cast<unsigned long long>(o.auth_stale),
+             static_cast<unsigned long long>(o.auth_replayed));
   s += "\n";
   s += heading(o, fmt("%-26s %-19s %9s %10s %7s %8s %9s %7s", "CHANNEL", "TYPE", "RATE/s", "MSGS", "SIZE", "GAPS",
                       "MISSING", "AGE s")) +
@@ -172,6 +183,7 @@ std::string render(const Monitor& m, const RenderOptions& o) {
              static_cast<unsigned long long>(c.count), c.last_size, gaps.c_str(), missing.c_str(), age);
     if (c.seq.restarts > 0) s += fmt("  restarts %llu", static_cast<unsigned long long>(c.seq.restarts));
     if (c.decode_errors > 0) s += fmt("  DECODE ERRORS %llu", static_cast<unsigned long long>(c.decode_errors));
+    if (c.unverified > 0) s += fmt("  SIGNED, NOT VERIFIED %llu", static_cast<unsigned long long>(c.unverified));
     s += "\n";
   }
 
@@ -257,6 +269,10 @@ std::string render(const Monitor& m, const RenderOptions& o) {
       s += fmt("   decode_errors %lld  malformed_datagrams %lld  duplicate_blocks %lld  publish_failures %lld\n",
                static_cast<long long>(d.decode_errors), static_cast<long long>(d.malformed_datagrams),
                static_cast<long long>(d.duplicate_blocks), static_cast<long long>(d.publish_failures));
+      if (d.authenticated)
+        s += fmt("   authenticated: dropped auth_unsigned %lld  auth_bad_mac %lld  auth_stale %lld  auth_replayed %lld\n",
+                 static_cast<long long>(d.auth_unsigned), static_cast<long long>(d.auth_bad_mac),
+                 static_cast<long long>(d.auth_stale), static_cast<long long>(d.auth_replayed));
     }
   }
   if (m.channels().empty()) s += "(no messages yet)\n";

@@ -102,6 +102,39 @@ Hidden hide(sim::Scenario& s, const std::string& e, std::mt19937_64& rng) {
     p.sensor_exponent = 1.0 + sign() * in(0.1, 0.4);
     p.reference_offset_v = in(0.0, 0.05);
     h.truth = {{"sensor_exponent", p.sensor_exponent}, {"reference_offset_v", p.reference_offset_v}};
+  } else if (e == "viscoelastic_relaxation") {
+    // Two or three Prony terms a decade or more apart with comparable gains: a relaxation spectrum
+    // no single time constant follows (one term is `creep`).
+    auto& p = s.sensor.creep;
+    const int terms = u(rng) < 0.5 ? 2 : 3;
+    const std::array<std::pair<double, double>, 3> bands{{{1.0, 3.0}, {10.0, 30.0}, {60.0, 150.0}}};
+    p.terms.clear();
+    h.truth["tau_s"] = nlohmann::json::array();
+    h.truth["gain_v_per_deg"] = nlohmann::json::array();
+    for (int i = 0; i < terms; ++i) {
+      const auto& [lo, hi] = bands[static_cast<std::size_t>(i)];
+      p.terms.push_back(sim::CreepTerm{in(lo, hi), -in(0.0006, 0.0015)});
+      h.truth["tau_s"].push_back(p.terms.back().tau_s);
+      h.truth["gain_v_per_deg"].push_back(p.terms.back().gain_v_per_deg);
+    }
+  } else if (e == "memory_hysteresis") {
+    // Rate-independent hysteresis with memory, either family of the simulator (a smooth Bouc-Wen
+    // loop or Maxwell-slip elements), half-height 0.3-1.2 deg at the paper's sensitivity.
+    auto& p = s.sensor.memory_hysteresis;
+    p.amplitude_v = sign() * in(0.007, 0.026);
+    p.rate_sensitivity_s_per_rad = 0;
+    if (u(rng) < 0.5) {
+      p.family = sim::MemoryHysteresisFamily::kBoucWen;
+      p.width_deg = in(4.0, 20.0);
+      p.shape = in(1.0, 2.0);
+      p.beta_fraction = in(0.3, 0.7);
+      h.truth = {{"family", "bouc_wen"}, {"amplitude_v", p.amplitude_v}, {"width_deg", p.width_deg}};
+    } else {
+      p.family = sim::MemoryHysteresisFamily::kMaxwellSlip;
+      p.thresholds_deg = {in(0.5, 2.0), in(3.0, 6.0), in(8.0, 15.0)};
+      p.weights = {in(0.2, 1.0), in(0.2, 1.0), in(0.2, 1.0)};
+      h.truth = {{"family", "maxwell_slip"}, {"amplitude_v", p.amplitude_v}, {"thresholds_deg", p.thresholds_deg}};
+    }
   } else if (e == "periodic_interference") {
     auto& p = s.daq.periodic_interference;
     p.frequency_hz = u(rng) < 0.5 ? 50.0 : 60.0;
@@ -114,11 +147,51 @@ Hidden hide(sim::Scenario& s, const std::string& e, std::mt19937_64& rng) {
 }
 
 std::vector<Hidden> hide_random(sim::Scenario& s, int count, std::mt19937_64& rng) {
-  std::vector<std::string> ids(sim::kGapEffectIds.begin(), sim::kGapEffectIds.end());
+  std::vector<std::string> ids(core::kEffectIds.begin(), core::kEffectIds.end());
   std::shuffle(ids.begin(), ids.end(), rng);
   std::vector<Hidden> out;
-  for (int i = 0; i < count && i < static_cast<int>(ids.size()); ++i) out.push_back(hide(s, ids[static_cast<std::size_t>(i)], rng));
+  for (const std::string& id : ids) {
+    if (static_cast<int>(out.size()) >= count) break;
+    // creep and viscoelastic_relaxation are one switch of the simulator (sensor.creep): one of them.
+    const bool creep_like = id == "creep" || id == "viscoelastic_relaxation";
+    if (creep_like && std::any_of(out.begin(), out.end(), [](const Hidden& h) {
+          return h.effect == "creep" || h.effect == "viscoelastic_relaxation";
+        }))
+      continue;
+    out.push_back(hide(s, id, rng));
+  }
   return out;
+}
+
+core::ModelCoefficients draw_sensor(std::mt19937_64& rng, double spread) {
+  std::uniform_real_distribution<double> u(-spread, spread);
+  auto jitter = [&](double x) { return x * (1.0 + u(rng)); };
+  const core::ModelCoefficients p = core::paper_coefficients();
+  core::ModelCoefficients m = p;
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    m.c1 = jitter(p.c1);
+    m.c2 = jitter(p.c2);
+    m.c9 = jitter(p.c9);
+    m.c10 = jitter(p.c10);
+    for (auto [src, dst] : {std::pair{&p.flexion, &m.flexion}, std::pair{&p.extension, &m.extension}}) {
+      dst->c3 = jitter(src->c3);
+      dst->c4 = jitter(src->c4);
+      dst->c5 = jitter(src->c5);
+      dst->c6 = jitter(src->c6);
+      // c7 and c8 through the chain's departure from identity at zero hysteresis (c4 c7 - 1 and
+      // c8 / (c7 c6) - 1, 1 % and 3 % in table 2), each varied by the same +-spread: f3 and f4
+      // undo the hysteresis, so at h = 0 they nearly cancel. Drawn independently, a 30 % change of
+      // a gain near 1 would put the moving branches 20-40 deg off the quasi-static line.
+      dst->c7 = (1.0 + jitter(src->c4 * src->c7 - 1.0)) / dst->c4;
+      dst->c8 = dst->c7 * dst->c6 * (1.0 + jitter(src->c8 / (src->c7 * src->c6) - 1.0));
+    }
+    // The sensor's output must stay inside the DAQ's +-5 V range over 0-90 deg (a user picks the
+    // range for the sensor), and the f3 gain must stay positive at every speed.
+    const double v0 = core::quasi_static_voltage(m, -5.0), v90 = core::quasi_static_voltage(m, 95.0);
+    const bool gains = m.flexion.c3 * m.c1 + m.flexion.c4 > 0.2 && m.extension.c3 * m.c1 + m.extension.c4 > 0.2;
+    if (v0 < 4.8 && v90 > 0.2 && gains) return m;
+  }
+  return p;
 }
 
 io::Recording simulate(const sim::Scenario& s, std::uint64_t seed) {
@@ -160,11 +233,15 @@ int Trial::false_finds() const {
   return n;
 }
 
-Trial run_trial(std::uint64_t seed, int count, bool short_session, const std::filesystem::path& dir, const Options& opt) {
+Trial run_trial(std::uint64_t seed, int count, bool short_session, const std::filesystem::path& dir, const Options& opt,
+                double opt_sensor_spread) {
   Trial t;
   t.seed = seed;
   std::mt19937_64 rng(seed);
   sim::Scenario s = base_scenario(short_session);
+  // Every recording has a sensor of its own: the paper's structure with its own coefficients.
+  s.sensor.model = draw_sensor(rng, opt_sensor_spread);
+  t.sensor = s.sensor.model;
   t.hidden = hide_random(s, count, rng);
   t.csv = (dir / ("blind_" + std::to_string(seed) + ".csv")).string();
   io::write_csv(t.csv, simulate(s, seed));

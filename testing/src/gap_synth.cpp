@@ -5,10 +5,12 @@
 #include "pof/testing/gap_synth.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <vector>
 
+#include "pof/core/effects.hpp"
 #include "pof/core/model.hpp"
 #include "pof/core/paper_protocol.hpp"
 #include "pof/base/errors.hpp"
@@ -85,9 +87,7 @@ io::Recording synthesise(const SynthConfig& cfg, std::uint64_t seed) {
     return it == cfg.effects.end() ? 0.0 : it->second;
   };
   for (const auto& [name, mag] : cfg.effects) {
-    static const char* known[] = {"static_nonlinearity", "drift", "creep", "rate_dependent_hysteresis", "acceleration_dependence",
-                                  "time_delay", "backlash", "source_power_coupling", "periodic_interference"};
-    if (std::none_of(std::begin(known), std::end(known), [&](const char* s) { return name == s; }))
+    if (!core::effect_of(name))
       throw pof::ConfigError("synthesise: unknown effect '" + name + "'");
     (void)mag;
   }
@@ -110,15 +110,35 @@ io::Recording synthesise(const SynthConfig& cfg, std::uint64_t seed) {
   const double k2 = eff("static_nonlinearity");
   double x = ang(0);
   const double ca = 1.0 - std::exp(-dt / tau);
+  // Relaxation over two time constants a decade and more apart (1.5 s and 40 s, half the gain
+  // each), integrated with the trapezoidal rule (not the exact exponential step `pof gap` uses).
+  const double relax_g = eff("viscoelastic_relaxation");
+  const std::array<double, 2> relax_tau{1.5, 40.0};
+  std::array<double, 2> rx{ang(0), ang(0)};
+  // Rate-independent hysteresis with memory as an exponential-approach hysteron: every degree of
+  // movement pulls the state 1/(5 deg) of the way towards +-A in the direction of movement, so it
+  // keeps its value through holds and a short reversal only partly reverses it (minor loops).
+  const double mem_a = eff("memory_hysteresis");
+  double z = 0;
   Eigen::VectorXd v(n);
   for (Eigen::Index i = 0; i < n; ++i) {
     x += ca * (ang(i) - x);
+    double relax = 0;
+    for (std::size_t j = 0; j < rx.size(); ++j) {
+      const double prev = i > 0 ? ang(i - 1) : ang(0);
+      rx[j] += dt / (relax_tau[j] + dt / 2) * ((ang(i) + prev) / 2 - rx[j]);
+      relax += 0.5 * relax_g * (rx[j] - ang(i));
+    }
+    if (i > 0) {
+      const double d = ang(i) - ang(i - 1);
+      if (d != 0) z += (std::copysign(mem_a, d) - z) * (1.0 - std::exp(-std::abs(d) / 5.0));
+    }
     const double u = (ang(i) - 45.0) / 45.0;
     // The angle the fibre "sees": viscoelastic memory, static nonlinearity, acceleration term.
-    const double seen = ang(i) + creep_g * (x - ang(i)) + k2 * (u * u + 0.5 * u * u * u) + acc_g * acc(i);
+    const double seen = ang(i) + creep_g * (x - ang(i)) + relax + k2 * (u * u + 0.5 * u * u * u) + acc_g * acc(i);
     const double aw = std::abs(w(i));
     const core::Direction d = aw < 0.01 ? core::Direction::kHold : (w(i) > 0 ? core::Direction::kFlexion : core::Direction::kExtension);
-    v(i) = core::model_voltage(m, seen, aw, d);
+    v(i) = core::model_voltage(m, seen, aw, d) + z;
     // Hysteresis opening with velocity, largest mid-range (0.1 rad/s velocity scale).
     if (d != core::Direction::kHold)
       v(i) += (w(i) > 0 ? rdh : -rdh) * (1.0 - std::exp(-aw / 0.1)) * std::sin(std::numbers::pi * ang(i) / 90.0);
@@ -184,6 +204,8 @@ double draw_magnitude(const std::string& name, std::mt19937_64& rng) {
   if (name == "backlash") return in(0.5, 2.0);                          // deg
   if (name == "source_power_coupling") return sign * in(0.1, 0.4);      // uncancelled fraction
   if (name == "periodic_interference") return in(0.004, 0.012);         // V at 50 Hz
+  if (name == "memory_hysteresis") return sign * in(0.008, 0.025);      // V half-height
+  if (name == "viscoelastic_relaxation") return in(0.04, 0.10);         // total relaxation gain
   return 0.0;
 }
 

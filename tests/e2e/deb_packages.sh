@@ -32,7 +32,7 @@ if dpkg-deb -c "$runtime" | awk '$6 ~ /^\.\/usr\/include\// {f=1} END {exit !f}'
 
 # Control data: shared-library dependencies found, conffiles and the postinst.
 depends=$(dpkg-deb -f "$runtime" Depends)
-for lib in libc6 liblcm libusb-1.0 libhidapi; do
+for lib in libc6 liblcm libusb-1.0 libhidapi libsodium; do
   case "$depends" in *"$lib"*) ;; *) fail "pofkit Depends lacks $lib: $depends" ;; esac
 done
 [ "$(dpkg-deb -f "$dev" Package)" = pofkit-dev ] || fail "dev package name: $(dpkg-deb -f "$dev" Package)"

@@ -9,7 +9,7 @@ cmake --install "$BUILD_DIR" --prefix "$prefix" >install.log
 
 for f in bin/pof bin/pof-lcm-spy lib/sysusers.d/pof.conf lib/sysctl.d/60-pof-lcm.conf \
   share/pofkit/examples/pof.env share/pofkit/examples/record.env share/pofkit/examples/daqd-LEFT_KNEE.toml \
-  share/doc/pofkit/deployment.md lib/systemd/system/pof.target lib/systemd/system/pof-record.service \
+  share/pofkit/examples/lcm-auth.conf share/doc/pofkit/deployment.md lib/systemd/system/pof.target lib/systemd/system/pof-record.service \
   lib/systemd/system/pof-daqd.service lib/systemd/system/pof-daqd@.service \
   lib/systemd/system/pof-compensatord.service lib/systemd/system/pof-compensatord@.service; do
   [ -e "$prefix/$f" ] || fail "cmake --install did not install $f"
@@ -49,6 +49,16 @@ SYSTEMD_UNIT_PATH="$units:" systemd-analyze verify --man=no \
   pof-daqd@LEFT_KNEE.service pof-compensatord@LEFT_KNEE.service pof-daqd@RIGHT_KNEE.service \
   >"$WORK_DIR/verify.out" 2>&1 || fail "systemd-analyze verify failed: $(cat "$WORK_DIR/verify.out")"
 [ ! -s "$WORK_DIR/verify.out" ] || fail "systemd-analyze verify warned: $(cat "$WORK_DIR/verify.out")"
+# The same with the authenticated mode's drop-in where docs/deployment.md installs it: the prefix
+# drop-in directory pof-.service.d applies it to every pofkit service.
+grep -q "@POF_" "$prefix/share/pofkit/examples/lcm-auth.conf" && fail "unsubstituted @POF_...@ in lcm-auth.conf"
+mkdir -p pof-.service.d && cp "$prefix/share/pofkit/examples/lcm-auth.conf" pof-.service.d/
+SYSTEMD_UNIT_PATH="$units:" systemd-analyze verify --man=no \
+  pof-daqd.service pof-compensatord.service pof-record.service pof-daqd@LEFT_KNEE.service \
+  pof-compensatord@LEFT_KNEE.service >"$WORK_DIR/verify-auth.out" 2>&1 ||
+  fail "systemd-analyze verify with lcm-auth.conf failed: $(cat "$WORK_DIR/verify-auth.out")"
+[ ! -s "$WORK_DIR/verify-auth.out" ] || fail "systemd-analyze verify warned with lcm-auth.conf: $(cat "$WORK_DIR/verify-auth.out")"
+rm -r pof-.service.d
 cd "$WORK_DIR"
 grep -q '^DeviceAllow=char-usb_device rw' "$units/pof-daqd@.service" || fail "daqd lacks the USB device allowance"
 grep -q '^ExecStart=.*--sensor-id %i' "$units/pof-daqd@.service" || fail "daqd template does not pass the sensor id"

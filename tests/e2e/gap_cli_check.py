@@ -3,6 +3,7 @@
 the keys, creep found first with its time constant, and the gap at least halved by the model.
 
   gap_cli_check.py REPORT/gap.json
+  gap_cli_check.py --applied WITH.csv WITHOUT.csv   (pof compensate --csv with and without [gap])
 """
 import json
 import sys
@@ -25,7 +26,35 @@ def main():
     check(abs(s["parameters"]["tau_s"] - 4.0) < 1.5, f"creep parameters {s['parameters']}")
     check(j["final_gap_deg"] <= 0.5 * j["baseline_gap_deg"],
           f"gap {j['baseline_gap_deg']} -> {j['final_gap_deg']} deg, not halved")
+    c = j["compensated"]
+    check(c["rmse_after_deg"] < 0.8 * c["rmse_before_deg"],
+          f"compensated angle on held-out blocks {c['rmse_before_deg']} -> {c['rmse_after_deg']} deg: not 20 % lower")
+
+
+def rmse(path):
+    """RMS of angle_deg - angle_ref_deg over the rows where both are numbers."""
+    import csv
+    import math
+    ss, n = 0.0, 0
+    with open(path) as f:
+        for row in csv.DictReader(f):
+            try:
+                e = float(row["angle_deg"]) - float(row["angle_ref_deg"])
+            except ValueError:
+                continue
+            if math.isfinite(e):
+                ss, n = ss + e * e, n + 1
+    check(n > 0, f"{path}: no rows with an angle")
+    return math.sqrt(ss / n)
+
+
+def applied(with_gap, without):
+    a, b = rmse(with_gap), rmse(without)
+    check(a < 0.8 * b, f"pof compensate with [gap] RMSE {a:.3f} deg vs {b:.3f} without: not 20 % lower")
 
 
 if __name__ == "__main__":
-    main()
+    if len(sys.argv) == 4 and sys.argv[1] == "--applied":
+        applied(sys.argv[2], sys.argv[3])
+    else:
+        main()

@@ -9,11 +9,21 @@ sockets (what any process on the host, or any machine on the segment, can send).
   lcm_hostile.py hostile PORT   garbage, decode bombs, impossible fragments, a horde of senders,
                                 unicast to 127.0.0.1, then a first block and two forged far ahead.
   lcm_hostile.py tail PORT      two replays/duplicates, then five good blocks after pof-testpub's.
+  lcm_hostile.py forge PORT KEYFILE OUT.json
+      the authenticated mode (tests/e2e/lcm_auth.sh): captures 5 signed POF_RAW messages of the
+      live pof-daqd, then sends 3 unsigned blocks, 2 signed with another key, 2 captured ones
+      with a byte changed (4 bad MACs), 3 signed with the bus key but with counters 60 s off this
+      host's clock (an old session's capture; 2 behind, 1 ahead: stale) and 3 captured ones again
+      (replayed); writes what it sent per verdict to OUT.json. Every forged block claims scans
+      from 10^12 on, far from the real stream's.
 
 The message types come from lcm-gen's Python output in ./py (the script generates it).
-Wire format: lcm/lcm_udpm.c (see bus/include/pof/bus/udpm_receiver.hpp).
+Wire format: lcm/lcm_udpm.c (see bus/include/pof/bus/udpm_receiver.hpp). The authenticated mode's
+trailer: bus/include/pof/bus/auth_trailer.hpp (keyed BLAKE2b is hashlib.blake2b(key=...)).
 """
+import hashlib
 import json
+import os
 import random
 import socket
 import struct
@@ -72,6 +82,44 @@ def raw_bytes(sensor_len=3, n_channels=2, names=("sensor", "reference"), n_scans
         b += struct.pack(">i", 2) + b"V\0"
     b += struct.pack(">i", n_scans) + struct.pack(">%df" % volts, *([0.5] * volts))
     return b + struct.pack(">i", 0)
+
+
+# --- The authenticated mode's trailer (bus/include/pof/bus/auth_trailer.hpp) --------------------
+TRAILER_MAGIC, TRAILER_VERSION, TRAILER_BYTES = 0x504F4641, 1, 60
+
+
+def read_key(path):
+    """A bus key file: 64 hex digits (pof keygen) or 32 bytes."""
+    data = open(path, "rb").read()
+    return data if len(data) == 32 else bytes.fromhex(data.decode().strip())
+
+
+def key_id(key):
+    return hashlib.blake2b(b"pofkit-lcm-key-id", key=key, digest_size=16).digest()[:4]
+
+
+def mac(key, channel, message, header):
+    ch = channel.encode()
+    h = hashlib.blake2b(key=key, digest_size=32)
+    h.update(struct.pack(">I", len(ch)) + ch + struct.pack(">Q", len(message)) + message + header)
+    return h.digest()
+
+
+def sign(key, channel, message, counter, sender=0x0F0F0F0F0F0F0F0F):
+    header = struct.pack(">II", TRAILER_MAGIC, TRAILER_VERSION) + key_id(key) + struct.pack(">QQ", sender, counter)
+    return message + header + mac(key, channel, message, header)
+
+
+def verify(key, channel, data):
+    """(LCM message, sender, counter) of a message with a valid trailer (key and MAC: the caller
+    checks the counter), else None."""
+    if len(data) < TRAILER_BYTES:
+        return None
+    message, header, tag = data[:-TRAILER_BYTES], data[-TRAILER_BYTES:-32], data[-32:]
+    if struct.unpack(">II", header[:8]) != (TRAILER_MAGIC, TRAILER_VERSION) or header[8:12] != key_id(key):
+        return None
+    sender, counter = struct.unpack(">QQ", header[12:28])
+    return (message, sender, counter) if tag == mac(key, channel, message, header) else None
 
 
 def sender():
@@ -141,7 +189,7 @@ def tail(port):
     ] + [lc02("POF_RAW", block(100 + k, 1000 + SCANS_PER_BLOCK * k, t + k)) for k in range(5)])
 
 
-def listen(port, out, want_scans, want_dups, want_decode):
+def receiver(port):
     r = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     r.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     r.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)
@@ -149,6 +197,48 @@ def listen(port, out, want_scans, want_dups, want_decode):
     r.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP,
                  socket.inet_aton(GROUP) + socket.inet_aton("0.0.0.0"))
     r.settimeout(0.2)
+    return r
+
+
+def forge(port, key_file, out):
+    key = read_key(key_file)
+    r = receiver(port)
+    captured = []
+    deadline = time.monotonic() + 30
+    while len(captured) < 5 and time.monotonic() < deadline:
+        try:
+            d = r.recv(65536)
+        except socket.timeout:
+            continue
+        if len(d) < 9 or struct.unpack(">I", d[:4])[0] != LC02:
+            continue
+        ch, _, payload = d[8:].partition(b"\0")
+        if ch == b"POF_RAW" and verify(key, "POF_RAW", payload) is not None:
+            captured.append(payload)
+    if len(captured) < 5:
+        sys.exit(f"forge: only {len(captured)} signed POF_RAW messages seen in 30 s")
+    t = now_us()
+    other = os.urandom(32)
+    forged = [block(2**40 + k, 10**12 + SCANS_PER_BLOCK * k, t) for k in range(8)]
+    altered = []
+    for c in captured[:2]:
+        m = bytearray(c)
+        m[20] ^= 0x01  # inside the block (its utime), the trailer intact
+        altered.append(bytes(m))
+    sent = {
+        "unsigned": [forged[0], forged[1], forged[2]],
+        "bad_mac": [sign(other, "POF_RAW", forged[3], t), sign(other, "POF_RAW", forged[4], t + 1)] + altered,
+        "stale": [sign(key, "POF_RAW", forged[5], t - 60_000_000), sign(key, "POF_RAW", forged[6], t - 59_000_000),
+                  sign(key, "POF_RAW", forged[7], t + 60_000_000)],
+        "replayed": captured[2:5],
+    }
+    s = sender()
+    paced(s, port, [lc02("POF_RAW", m, seq=1000 + i) for i, m in enumerate(sum(sent.values(), []))])
+    json.dump({k: len(v) for k, v in sent.items()}, open(out, "w"))
+
+
+def listen(port, out, want_scans, want_dups, want_decode):
+    r = receiver(port)
     indices, status, statuses = [], None, 0
     deadline = time.monotonic() + 20
     while time.monotonic() < deadline:
@@ -182,5 +272,7 @@ if __name__ == "__main__":
         hostile(port)
     elif cmd == "tail":
         tail(port)
+    elif cmd == "forge":
+        forge(port, sys.argv[3], sys.argv[4])
     else:
-        sys.exit("usage: lcm_hostile.py listen|hostile|tail PORT ...")
+        sys.exit("usage: lcm_hostile.py listen|hostile|tail|forge PORT ...")

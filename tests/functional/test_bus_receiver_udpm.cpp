@@ -1,6 +1,7 @@
 // pof::bus::Receiver over udpm:// (our socket, real multicast on loopback; ctest label `network`):
 // malformed datagrams, impossible fragments and a horde of senders are counted and bounded;
-// unicast to the host's address is not received. The memq:// path is test_bus_receiver.cpp.
+// unicast to the host's address is not received; the authenticated mode over real multicast. The
+// memq:// path is test_bus_receiver.cpp (and test_bus_auth.cpp for the authenticated mode).
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
@@ -8,6 +9,7 @@
 
 #include <chrono>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -17,6 +19,8 @@
 #include "bus_receiver_test.hpp"
 #include "lcm_test.hpp"
 #include "pof/angle_t.hpp"
+#include "pof/bus/auth.hpp"
+#include "pof/bus/publisher.hpp"
 #include "pof/bus/receiver.hpp"
 #include "pof/base/errors.hpp"
 #include "pof/raw_block_t.hpp"
@@ -154,4 +158,41 @@ TEST(BusReceiver, UdpmHostileDatagramsAreCountedAndReassemblyIsBounded) {
   // 200 partial messages, at most 64 tracked and their declared sizes within 64 MiB.
   EXPECT_GE(st.incomplete_messages, 200u - 64u);
   EXPECT_LE(st.incomplete_messages, 200u);
+}
+
+TEST(BusReceiver, UdpmAuthenticatedVerifiesWhatIsSubscribedOnlyAlsoFragmented) {
+  const std::string url = random_url();
+  const auto u = pof::bus::parse_udpm_url(url);
+  lcm::LCM lc(url);
+  std::vector<unsigned char> kb(pof::bus::auth::Key::kBytes, 0x5a);
+  const auto key = std::make_shared<const pof::bus::auth::Key>(kb.data(), kb.size());
+  pof::bus::ReceiverOptions ro;
+  ro.auth_key = key;
+  Receiver rx(lc, url, ro);
+  ASSERT_TRUE(rx.direct());
+  std::vector<std::int64_t> angles;
+  std::vector<std::int32_t> blocks;
+  rx.subscribe<pof::angle_t>("POF_ANGLE", [&](const pof::angle_t& a, const Delivery&) { angles.push_back(a.seq); });
+  rx.subscribe<pof::raw_block_t>("POF_RAW", [&](const pof::raw_block_t& b, const Delivery&) { blocks.push_back(b.n_scans); });
+  RawSender s;
+  s.send(u.group, u.port, short_msg(1, "OTHER_APP", encode(angle(1))));   // nobody's: not verified
+  s.send(u.group, u.port, short_msg(2, "POF_ANGLE", encode(angle(666))));  // unsigned
+  pof::bus::Publisher pub(lc, key);
+  ASSERT_EQ(pub.publish("POF_ANGLE", angle(7)), 0);
+  pof::raw_block_t big{};  // ~120 KB: liblcm sends it in fragments, the trailer in the last one
+  big.n_channels = 3;
+  big.channel_names = {"sensor", "reference", "pot"};
+  big.channel_units = {"V", "V", "V"};
+  big.n_scans = 10000;
+  big.volts.assign(10000, std::vector<float>(3, 1.5f));
+  ASSERT_GT(big.getEncodedSize(), 65536);
+  ASSERT_EQ(pub.publish("POF_RAW", big), 0);
+  handle_until(rx, [&] { return !angles.empty() && !blocks.empty(); });
+  rx.handle(50);
+  EXPECT_EQ(angles, (std::vector<std::int64_t>{7}));
+  EXPECT_EQ(blocks, (std::vector<std::int32_t>{10000}));
+  const auto st = rx.stats();
+  EXPECT_EQ(st.auth_unsigned, 1u);
+  EXPECT_EQ(st.auth_bad_mac + st.auth_stale + st.auth_replayed, 0u);
+  EXPECT_EQ(st.decode_errors, 0u);
 }

@@ -5,6 +5,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -14,8 +15,10 @@
 
 #include "lcm_sink.hpp"
 #include "pipeline.hpp"
+#include "pof/base/errors.hpp"
 #include "pof/bus/channels.hpp"
 #include "pof/bus/error_log.hpp"
+#include "pof/bus/publisher.hpp"
 #include "pof/core/model.hpp"
 #include "pof/core/offline.hpp"
 #include "pof/bus/receiver.hpp"
@@ -291,6 +294,74 @@ TEST_F(PipelineTest, ReloadSwapsTheCalibrationAndCountsFailures) {
   EXPECT_NE(st.last_error.find("quasi_static.c9"), std::string::npos);
 }
 
+pof::io::CalibrationFile gap_calibration(double notch_hz) {
+  pof::io::CalibrationFile f = paper_calibration();
+  pof::core::GapModel g;
+  g.delay_s = 0.01;
+  g.backlash_deg = 0.5;
+  pof::core::GapTerm creep;
+  creep.effect = "creep";
+  creep.theta = 5.0;
+  creep.coefficients_v = {-0.001};
+  pof::core::GapTerm mains;
+  mains.effect = "periodic_interference";
+  mains.theta = notch_hz;
+  mains.coefficients_v = {0.001, 0.0, 0.0, 0.0};
+  g.terms = {creep, mains};
+  f.cal.gap = g;
+  return f;
+}
+
+// The daemon applies a calibration's [gap] terms exactly as `pof compensate` does; a reload with
+// a term it cannot apply at the running rate is refused, naming the file, and the old one stays;
+// blocks at a rate the terms cannot run at are dropped and counted.
+TEST_F(PipelineTest, GapTermsAreAppliedAsOfflineAndAReloadThatCannotApplyThemKeepsTheOld) {
+  Pipeline p(gap_calibration(50), "gap.toml", PipelineSettings{});
+  Collect out;
+  const std::size_t half = blocks_->size() / 2;
+  for (std::size_t i = 0; i < half; ++i) p.on_block((*blocks_)[i], 0, out);
+  try {
+    p.replace_calibration(gap_calibration(150), "bad.toml");
+    ADD_FAILURE() << "a notch above Nyquist was accepted";
+  } catch (const pof::ConfigError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "bad.toml: compensator: [gap] term 2 'periodic_interference': the frequency 150 Hz is at or above the Nyquist "
+              "frequency 100 Hz of 200 Hz scans: no notch can remove it");
+    p.note_reload_failure(e.what());
+  }
+  for (std::size_t i = half; i < blocks_->size(); ++i) p.on_block((*blocks_)[i], 0, out);
+  EXPECT_EQ(p.status(0).calibration_path, "gap.toml");
+  EXPECT_EQ(p.status(0).reload_failures, 1);
+
+  const auto n = Eigen::Index(blocks_->size() * kScansPerBlock);
+  Eigen::VectorXd t(n), s(n), r(n), a(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const auto& sc = (*scans_)[size_t(i)];
+    t[i] = double(i) / 200.0;
+    s[i] = double(float(sc.sensor_v));
+    r[i] = double(float(sc.reference_v));
+    a[i] = double(float(sc.angle_ref_deg));
+  }
+  const auto with = pof::core::compensate_recording(t, s, r, a, gap_calibration(50).cal);
+  const auto without = pof::core::compensate_recording(t, s, r, a, paper_calibration().cal);
+  ASSERT_EQ(Eigen::Index(out.angles.size()), n);
+  double moved = 0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    ASSERT_EQ(out.angles[size_t(i)].angle_deg, float(with.angle_deg[i])) << "scan " << i;
+    moved = std::max(moved, std::abs(with.angle_deg[i] - without.angle_deg[i]));
+  }
+  EXPECT_GT(moved, 0.1) << "the terms changed nothing";
+
+  // At 80 Hz the 50 Hz notch cannot run: those blocks are dropped and counted, never compensated.
+  Pipeline slow(gap_calibration(50), "gap.toml", PipelineSettings{});
+  Collect none;
+  auto b = (*blocks_)[0];
+  b.scan_rate_hz = 80;
+  slow.on_block(b, 0, none);
+  EXPECT_TRUE(none.angles.empty());
+  EXPECT_EQ(slow.status(0).rejected_blocks, 1);
+}
+
 // Duplicated and replayed blocks (the same or an older first_scan, seq not advancing) are dropped
 // and counted; the angles are exactly those of the clean stream, published once.
 TEST_F(PipelineTest, DuplicatesAndReplaysAreDroppedAndCounted) {
@@ -456,7 +527,8 @@ TEST_F(PipelineTest, MessagesLcmRefusesAreCountedInTheStatus) {
   pof::bus::ErrorLog errors([&](const std::string& line) { logged.push_back(line); });
   const std::string too_long = pof::bus::channel(pof::bus::Stream::kAngle, std::string(60, 'X'));
   ASSERT_GT(too_long.size(), std::size_t{LCM_MAX_CHANNEL_NAME_LENGTH});
-  pof::compensatord::LcmSink sink(lc, too_long, pof::bus::channel(pof::bus::Stream::kStats, "LEFT_KNEE"), errors);
+  pof::bus::Publisher pub(lc, nullptr);
+  pof::compensatord::LcmSink sink(pub, too_long, pof::bus::channel(pof::bus::Stream::kStats, "LEFT_KNEE"), errors);
   PipelineSettings ps;
   ps.output_rate_hz = 10;  // one angle per 20-scan block
   Pipeline p(paper_calibration(), "x", ps);
@@ -471,7 +543,7 @@ TEST_F(PipelineTest, MessagesLcmRefusesAreCountedInTheStatus) {
   EXPECT_EQ(p.status(0).publish_failures, 9);
   // A sink that publishes counts nothing.
   Pipeline q(paper_calibration(), "x", ps);
-  pof::compensatord::LcmSink fine(lc, pof::bus::channel(pof::bus::Stream::kAngle, "LEFT_KNEE"),
+  pof::compensatord::LcmSink fine(pub, pof::bus::channel(pof::bus::Stream::kAngle, "LEFT_KNEE"),
                                   pof::bus::channel(pof::bus::Stream::kStats, "LEFT_KNEE"), errors);
   for (size_t i = 0; i < 8; ++i) q.on_block((*blocks_)[i], 0, fine);
   EXPECT_EQ(q.status(0).angles, 8);

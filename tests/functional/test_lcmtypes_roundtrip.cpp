@@ -205,6 +205,11 @@ TEST(LcmTypesRoundTrip, CompensatorStatus) {
   m.malformed_datagrams = 1001;
   m.duplicate_blocks = 2;
   m.publish_failures = 4;
+  m.authenticated = true;
+  m.auth_unsigned = 6;
+  m.auth_bad_mac = 7;
+  m.auth_stale = 8;
+  m.auth_replayed = 9;
   const auto got = round_trip("POF_COMPENSATOR_STATUS", m);
   ASSERT_TRUE(got);
   EXPECT_EQ(got->calibration_path, m.calibration_path);
@@ -213,6 +218,11 @@ TEST(LcmTypesRoundTrip, CompensatorStatus) {
   EXPECT_EQ(got->malformed_datagrams, 1001);
   EXPECT_EQ(got->duplicate_blocks, 2);
   EXPECT_EQ(got->publish_failures, 4);
+  EXPECT_TRUE(got->authenticated);
+  EXPECT_EQ(got->auth_unsigned, 6);
+  EXPECT_EQ(got->auth_bad_mac, 7);
+  EXPECT_EQ(got->auth_stale, 8);
+  EXPECT_EQ(got->auth_replayed, 9);
 }
 
 // A message of one type sent on a channel subscribed with another type must not decode: the

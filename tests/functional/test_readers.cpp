@@ -612,18 +612,181 @@ TEST(CalibrationFile, UnknownKeysAreRefusedAtTheirLineWithASuggestion) {
   EXPECT_EQ(error_of([&] { pof::io::parse_calibration(neg, "cal.toml"); }).rfind("cal.toml:" + std::to_string(c1_line) + ": key 'model.c1': expected a number > 0, got -2", 0), 0u);
 }
 
-// What other programs write into a calibration-file layout: `pof gap`'s [gap] section is skipped
-// by name; schema_version 2 keys in a version 1 file are refused, not ignored.
-TEST(CalibrationFile, TheGapSectionIsSkippedAndVersion2KeysNeedVersion2) {
+// Schema_version 2 keys in a version 1 file are refused, not ignored.
+TEST(CalibrationFile, Version2KeysNeedVersion2) {
   const std::string v2 = pof::io::to_toml(pof::io::make_calibration_file(fitted(), "S", "cal.csv", "2026-11-21T00:00:00Z"));
   std::string v1 = replace_line(replace_line(v2, "schema_version", "schema_version = 1"), "active_model", "");
-  const std::string gap = "\n[gap]\nkappa = 1.02\n[[gap.terms]]\neffect = \"creep\"\ncoefficients_v = [0.1]\n[gap.terms.parameters]\ntau_s = 4.0\n";
-  const auto g = pof::io::parse_calibration(v1 + gap, "model.toml");
-  EXPECT_EQ(g.cal.model.c9, fitted().cal.model.c9);
-  EXPECT_EQ(pof::io::to_toml(pof::io::parse_calibration(pof::io::to_toml(g), "again")), pof::io::to_toml(g));
   EXPECT_NE(error_of([&] { pof::io::parse_calibration(replace_line(v1, "schema_version", "schema_version = 1\nactive_model = \"paper\""), "old.toml"); })
                 .find("key 'active_model': is a schema_version 2 key, but the file says schema_version = 1"),
             std::string::npos);
+}
+
+namespace {
+
+// A [gap] section as `pof gap` writes it (docs/calibration.md, "`[gap]`: effect terms and how the
+// compensator applies them"), written here by hand.
+const char* const kGapSection = R"([gap]
+schema_version = 1
+delay_s = 0.012
+backlash_deg = 0.6
+[[gap.terms]]
+effect = "creep"
+theta = 5.0
+coefficients_v = [ -0.0012 ]
+[gap.terms.parameters]
+tau_s = 5.0
+gain_deg_per_deg = 0.055
+[[gap.terms]]
+effect = "memory_hysteresis"
+coefficients_v = [ 0.0003, 0.0002 ]
+thresholds_deg = [ 1.0, 4.0 ]
+[[gap.terms]]
+effect = "viscoelastic_relaxation"
+theta = 0
+coefficients_v = [ -0.0005, -0.0002 ]
+time_constants_s = [ 1.5, 30 ]
+[[gap.terms]]
+effect = "periodic_interference"
+theta = 50.0
+coefficients_v = [ 0.001, 0.002, 0.0, 0.0005 ]
+)";
+
+std::string with_gap(const std::string& gap_section) {
+  return pof::io::to_toml(pof::io::make_calibration_file(fitted(), "S", "cal.csv", "2026-11-21T00:00:00Z")) + "\n" + gap_section;
+}
+
+// The line (1-based) of the first line of `text` that starts with `start` at or after line `from`.
+int line_of(const std::string& text, const std::string& start, int from = 1) {
+  std::istringstream in(text);
+  int n = 0;
+  for (std::string l; std::getline(in, l);)
+    if (++n >= from && l.rfind(start, 0) == 0) return n;
+  return 0;
+}
+
+}  // namespace
+
+TEST(CalibrationFile, GapTermsAreReadWrittenBackAndApplied) {
+  TempDir d;
+  const std::string text = with_gap(kGapSection);
+  const auto f = pof::io::parse_calibration(text, "model.toml");
+  ASSERT_TRUE(f.cal.gap);
+  const pof::core::GapModel& g = *f.cal.gap;
+  EXPECT_EQ(g.delay_s, 0.012);
+  EXPECT_EQ(g.backlash_deg, 0.6);
+  ASSERT_EQ(g.terms.size(), 4u);
+  EXPECT_EQ(g.terms[0].effect, "creep");
+  EXPECT_EQ(g.terms[0].theta, 5.0);
+  EXPECT_EQ(g.terms[0].coefficients_v, std::vector<double>{-0.0012});
+  EXPECT_EQ(g.terms[0].parameters, (std::vector<std::pair<std::string, double>>{{"tau_s", 5.0}, {"gain_deg_per_deg", 0.055}}));
+  EXPECT_EQ(g.terms[0].line, line_of(text, "[[gap.terms]]"));
+  EXPECT_EQ(g.terms[1].theta, 0.0);  // absent: 0
+  EXPECT_EQ(g.terms[1].thresholds_deg, (std::vector<double>{1.0, 4.0}));
+  EXPECT_EQ(g.terms[2].time_constants_s, (std::vector<double>{1.5, 30.0}));
+  EXPECT_EQ(g.terms[3].coefficients_v.size(), 4u);
+  // Written back by io's one writer and read again: the same model, the same text.
+  const std::string once = pof::io::to_toml(f);
+  const auto again = pof::io::parse_calibration(once, "again.toml");
+  ASSERT_TRUE(again.cal.gap);
+  for (std::size_t i = 0; i < g.terms.size(); ++i) {
+    const auto &a = g.terms[i], &b = again.cal.gap->terms[i];
+    EXPECT_EQ(a.effect, b.effect);
+    EXPECT_EQ(a.theta, b.theta);
+    EXPECT_EQ(a.coefficients_v, b.coefficients_v);
+    EXPECT_EQ(a.thresholds_deg, b.thresholds_deg);
+    EXPECT_EQ(a.time_constants_s, b.time_constants_s);
+    EXPECT_EQ(a.parameters, b.parameters);
+  }
+  EXPECT_EQ(again.cal.gap->delay_s, g.delay_s);
+  EXPECT_EQ(again.cal.gap->backlash_deg, g.backlash_deg);
+  EXPECT_EQ(pof::io::to_toml(again), once);
+  // A name that is no bare key is quoted.
+  auto odd = f;
+  odd.cal.gap->terms[0].parameters.emplace_back("tau (s)", 1.0);
+  EXPECT_EQ(pof::io::parse_calibration(pof::io::to_toml(odd), "odd.toml").cal.gap->terms[0].parameters.back().first, "tau (s)");
+  // What the compensator's programs load applies it: the angle moves.
+  const auto loaded = pof::io::load_calibration(d.file("model.toml", text), "file", 200.0);
+  const auto rec = pof::testing::paper_recording();
+  const auto plain = pof::core::compensate_recording(rec.t_s, rec.sensor_v, rec.reference_v, rec.angle_ref_deg, fitted().cal);
+  const auto gap = pof::core::compensate_recording(rec.t_s, rec.sensor_v, rec.reference_v, rec.angle_ref_deg, loaded.cal);
+  EXPECT_GT((plain.angle_deg - gap.angle_deg).cwiseAbs().maxCoeff(), 0.1);
+}
+
+// Every term the compensator cannot apply is refused by what pof compensate and pof-compensatord
+// load, each on its own line with the file, its line, number, effect and why; the parser alone
+// still reads such a file (`pof gap` writes what it found and checks it reads back).
+TEST(CalibrationFile, GapTermsTheCompensatorCannotApplyAreRefusedAtLoad) {
+  TempDir d;
+  auto refused = [&](const std::string& name, const std::string& gap_section, double rate = 0) {
+    const std::string text = with_gap(gap_section);
+    EXPECT_NO_THROW(pof::io::parse_calibration(text, name));
+    const std::string path = d.file(name, text);
+    std::string e;
+    try {
+      (void)pof::io::load_calibration(path, "file", rate);
+      e = "(no error)";
+    } catch (const pof::ConfigError& x) {
+      EXPECT_EQ(x.code(), 78);
+      e = x.what();
+    }
+    return std::make_pair(e, path);
+  };
+  const std::string head = "[gap]\nschema_version = 1\n";
+  const std::string creep = "[[gap.terms]]\neffect = \"creep\"\ntheta = 5.0\ncoefficients_v = [-0.001]\n";
+  auto [e, path] = refused("drift.toml", head + creep + "[[gap.terms]]\neffect = \"drift\"\ncoefficients_v = [0.002]\n");
+  const int drift_line = line_of(with_gap(head + creep), "[[gap.terms]]") + 4;
+  EXPECT_EQ(e, path + ":" + std::to_string(drift_line) +
+                   ": [gap] term 2 'drift': a trend over the calibration recording cannot be applied online; remove it or recalibrate");
+  std::tie(e, path) = refused("unknown.toml", head + "[[gap.terms]]\neffect = \"mains\"\ntheta = 50.0\ncoefficients_v = [1.0]\n");
+  EXPECT_NE(e.find("[gap] term 1 'mains': not an effect of the catalogue (docs/gap.md): expected one of 'static_nonlinearity', "), std::string::npos) << e;
+  std::tie(e, path) = refused("count.toml", head + "[[gap.terms]]\neffect = \"static_nonlinearity\"\ncoefficients_v = [1.0, 2.0]\n");
+  EXPECT_NE(e.find("[gap] term 1 'static_nonlinearity': expected 4 coefficients_v (one per basis function), got 2"), std::string::npos) << e;
+  std::tie(e, path) = refused("thresholds.toml", head + "[[gap.terms]]\neffect = \"memory_hysteresis\"\ncoefficients_v = [1.0]\nthresholds_deg = [0.0]\n");
+  EXPECT_NE(e.find("[gap] term 1 'memory_hysteresis': thresholds_deg must be finite and > 0, got 0"), std::string::npos) << e;
+  std::tie(e, path) = refused("tau.toml", head + "[[gap.terms]]\neffect = \"viscoelastic_relaxation\"\ncoefficients_v = [1.0]\ntime_constants_s = [-2.0]\n");
+  EXPECT_NE(e.find("[gap] term 1 'viscoelastic_relaxation': time_constants_s must be finite and > 0, got -2"), std::string::npos) << e;
+  std::tie(e, path) = refused("delay.toml", "[gap]\nschema_version = 1\ndelay_s = 3.0\n");
+  EXPECT_EQ(e, path + ": [gap] delay_s: expected a finite delay within +-1 s, got 3");
+  // Two at once: both named, one line each.
+  std::tie(e, path) = refused("two.toml", head + "[[gap.terms]]\neffect = \"drift\"\ncoefficients_v = [0.002]\n" + creep +
+                                              "[[gap.terms]]\neffect = \"backlash\"\ncoefficients_v = []\n");
+  EXPECT_NE(e.find("[gap] term 1 'drift'"), std::string::npos) << e;
+  EXPECT_NE(e.find("\n" + path + ":"), std::string::npos) << e;
+  EXPECT_NE(e.find("[gap] term 3 'backlash': a kinematic effect, given as [gap] backlash_deg, not as a term"), std::string::npos) << e;
+  // A notch at or above Nyquist: refused at the rate it would run at, not without one.
+  const std::string notch = head + "[[gap.terms]]\neffect = \"periodic_interference\"\ntheta = 120.0\ncoefficients_v = [1.0, 0.0, 0.0, 0.0]\n";
+  EXPECT_EQ(refused("notch.toml", notch).first, "(no error)");
+  std::tie(e, path) = refused("notch.toml", notch, 200.0);
+  EXPECT_NE(e.find("[gap] term 1 'periodic_interference': the frequency 120 Hz is at or above the Nyquist frequency 100 Hz of 200 Hz scans"), std::string::npos) << e;
+  EXPECT_EQ(refused("notch.toml", notch, 1000.0).first, "(no error)");
+}
+
+// [gap] is read as strictly as the rest: types, finite numbers, unknown keys, its own version.
+TEST(CalibrationFile, GapSectionErrorsNameTheFileLineAndKey) {
+  auto error = [](const std::string& gap_section) {
+    return error_of([&] { pof::io::parse_calibration(with_gap(gap_section), "model.toml"); });
+  };
+  auto at = [](const std::string& gap_section, const std::string& start) {
+    return "model.toml:" + std::to_string(line_of(with_gap(gap_section), start, line_of(with_gap(gap_section), "[gap]"))) + ": ";
+  };
+  std::string g = "[gap]\nschema_version = 1\n[[gap.terms]]\neffect = \"creep\"\ntheta = 5.0\ncoeficients_v = [-0.001]\n";
+  EXPECT_EQ(error(g), at(g, "[[gap.terms]]") + "key 'gap.terms[0].coefficients_v': missing");
+  g = "[gap]\nschema_version = 1\n[[gap.terms]]\neffect = \"creep\"\ntheta = 5.0\ncoefficients_v = [-0.001]\ncoeficients_v = [-0.001]\n";
+  EXPECT_EQ(error(g), at(g, "coeficients_v") + "unknown key 'coeficients_v' in gap.terms[0] (did you mean 'coefficients_v'?)");
+  g = "[gap]\nschema_version = 1\nkappa = 1.02\n";
+  EXPECT_EQ(error(g), at(g, "kappa") + "unknown key 'kappa' in [gap]");
+  g = "[gap]\ndelay_s = 0.01\n";
+  EXPECT_EQ(error(g), at(g, "[gap]") + "key 'gap.schema_version': missing (this program reads schema_version 1)");
+  g = "[gap]\nschema_version = 2\n";
+  EXPECT_EQ(error(g), at(g, "schema_version") + "key 'gap.schema_version': expected 1, got 2");
+  g = "[gap]\nschema_version = 1\n[[gap.terms]]\neffect = \"creep\"\ntheta = nan\ncoefficients_v = [-0.001]\n";
+  EXPECT_EQ(error(g), at(g, "theta") + "key 'gap.terms[0].theta': expected a finite number, got nan");
+  g = "[gap]\nschema_version = 1\n[[gap.terms]]\neffect = \"creep\"\ntheta = 5.0\ncoefficients_v = [-0.001, inf]\n";
+  EXPECT_EQ(error(g), at(g, "coefficients_v") + "key 'gap.terms[0].coefficients_v[1]': expected a finite number, got inf");
+  g = "[gap]\nschema_version = 1\n[[gap.terms]]\neffect = \"creep\"\ntheta = 5.0\ncoefficients_v = [-0.001]\n[gap.terms.parameters]\ntau_s = \"five\"\n";
+  EXPECT_EQ(error(g), at(g, "tau_s") + "key 'gap.terms[0].parameters.tau_s': expected a number, got a string 'five'");
+  g = "[gap]\nschema_version = 1\n[[gap.terms]]\ntheta = 5.0\ncoefficients_v = [-0.001]\n";
+  EXPECT_EQ(error(g), at(g, "[[gap.terms]]") + "key 'gap.terms[0].effect': missing");
 }
 
 TEST(PotentiometerFile, ReadsItsSectionStrictlyAlsoFromACalibrationFile) {

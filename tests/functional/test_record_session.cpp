@@ -1,9 +1,11 @@
 // The recording session in-process (both receive paths), over udpm on loopback: what liblcm
-// publishes ends up in the log, byte for byte and in order, with the manifest's counters agreeing.
+// publishes ends up in the log, byte for byte and in order, with the manifest's counters agreeing;
+// in the authenticated mode only what passes verification does.
 // Run under the tsan preset too: the session has a receive thread and a writer thread.
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
@@ -14,6 +16,8 @@
 #include <pof/angle_t.hpp>
 
 #include "pof/base/errors.hpp"
+#include "pof/bus/auth.hpp"
+#include "pof/bus/publisher.hpp"
 #include "pof/recorder/lcmlog_durable.hpp"
 #include "pof/recorder/session.hpp"
 #include "lcm_test.hpp"
@@ -117,3 +121,71 @@ TEST(RecordSession, SetupErrorsNameTheProblem) {
   Session bad(o);
   EXPECT_THROW(bad.start(), pof::ConfigError);
 }
+
+// The authenticated mode (both receive paths): only verified messages are recorded, without their
+// trailers; unsigned, forged and replayed ones are counted in the manifest and not recorded.
+void record_authenticated(bool liblcm) {
+  TempDir d;
+  std::vector<unsigned char> kb(pof::bus::auth::Key::kBytes, 0x33), other(pof::bus::auth::Key::kBytes, 0x44);
+  const auto key = std::make_shared<const pof::bus::auth::Key>(kb.data(), kb.size());
+  SessionOptions o;
+  o.lcm_url = random_udpm_url();
+  o.output = d.path() / "a.lcmlog";
+  o.channels = "POF_.*";  // not liblcm's LCM_SELF_TEST probe (unsigned), which its own receiver passes on
+  o.use_liblcm = liblcm;
+  o.auth_key = key;
+  Session s(o);
+  s.start();
+  lcm::LCM tx(o.lcm_url);
+  ASSERT_TRUE(tx.good());
+  // A tap that keeps the first signed message's bytes, to replay them.
+  std::vector<unsigned char> first;
+  lcm::Subscription* tap = tx.subscribeFunction(
+      "POF_ANGLE", +[](const lcm::ReceiveBuffer* rb, const std::string&, std::vector<unsigned char>* out) {
+        if (out->empty()) out->assign(static_cast<const unsigned char*>(rb->data),
+                                      static_cast<const unsigned char*>(rb->data) + rb->data_size);
+      }, &first);
+  pof::bus::Publisher pub(tx, key), forger(tx, std::make_shared<const pof::bus::auth::Key>(other.data(), other.size()));
+  pof::angle_t a{};
+  for (int i = 0; i < 3; ++i) {
+    a.seq = i;
+    ASSERT_EQ(pub.publish("POF_ANGLE", a), 0);
+  }
+  ASSERT_TRUE(wait_received(s, 3)) << s.poll().received;
+  ASSERT_TRUE(pof::test::poll_until([&] {
+    tx.handleTimeout(20);
+    return !first.empty();
+  }));
+  tx.unsubscribe(tap);
+  a.seq = 100;
+  tx.publish("POF_ANGLE", &a);                                                  // unsigned
+  ASSERT_EQ(forger.publish("POF_ANGLE", a), 0);                                 // another key
+  tx.publish("POF_ANGLE", first.data(), static_cast<unsigned>(first.size()));  // replayed
+  a.seq = 3;
+  ASSERT_EQ(pub.publish("POF_ANGLE", a), 0);
+  ASSERT_TRUE(wait_received(s, 4)) << s.poll().received;
+  ASSERT_TRUE(pof::test::poll_until([&] { return s.poll().auth_replayed >= 1; }));
+  const SessionStats st = s.stop();
+  EXPECT_TRUE(st.authenticated);
+  EXPECT_EQ(st.written, 4u);
+  EXPECT_EQ(st.auth_unsigned, 1u);
+  EXPECT_EQ(st.auth_bad_mac, 1u);
+  EXPECT_EQ(st.auth_replayed, 1u);
+  EXPECT_EQ(st.auth_stale, 0u);
+  const auto events = read_log(st.files.at(0));
+  ASSERT_EQ(events.size(), 4u);
+  for (std::size_t i = 0; i < events.size(); ++i) {
+    a.seq = static_cast<int64_t>(i);
+    EXPECT_EQ(events[i].data, pof::test::encode(a)) << i;  // the LCM message as published, no trailer
+  }
+  const auto m = nlohmann::json::parse(std::ifstream(st.manifest));
+  EXPECT_EQ(m["authentication"]["enabled"], true);
+  EXPECT_EQ(m["authentication"]["key_id"], pof::bus::auth::key_id_hex(key->id()));
+  EXPECT_EQ(m["authentication"]["dropped"]["unsigned"], 1);
+  EXPECT_EQ(m["authentication"]["dropped"]["bad_mac"], 1);
+  EXPECT_EQ(m["authentication"]["dropped"]["replayed"], 1);
+  EXPECT_EQ(m["channels"]["POF_ANGLE"]["seq"]["gaps"], 0);
+}
+
+TEST(RecordSession, AuthenticatedRecvmmsgPathRecordsOnlyVerifiedMessages) { record_authenticated(false); }
+TEST(RecordSession, AuthenticatedLiblcmPathRecordsOnlyVerifiedMessages) { record_authenticated(true); }

@@ -7,6 +7,7 @@
 #include <atomic>
 #include <cstdlib>
 #include <new>
+#include <vector>
 
 #include "pof/core/compensator.hpp"
 #include "pof/core/statistics.hpp"
@@ -79,4 +80,53 @@ TEST(CompensatorAlloc, DynamicModelStepNeverAllocates) {
   g_armed = false;
   EXPECT_EQ(g_allocs.load(), 0);
   EXPECT_TRUE(std::isfinite(sink));
+}
+
+// Every effect the compensator can apply from [gap] (gap_terms.hpp), on both models, through
+// unusable scans and a reset: the corrector's buffers are all sized at construction.
+TEST(CompensatorAlloc, GapTermsNeverAllocate) {
+  pof::core::GapModel g;
+  g.delay_s = 0.012;
+  g.backlash_deg = 0.8;
+  auto term = [](const char* effect, double theta, std::vector<double> c) {
+    pof::core::GapTerm t;
+    t.effect = effect;
+    t.theta = theta;
+    t.coefficients_v = std::move(c);
+    return t;
+  };
+  g.terms = {term("static_nonlinearity", 0, {0.01, -0.008, 0.005, 0.004}), term("creep", 5.0, {-0.001}),
+             term("viscoelastic_relaxation", 0, {-0.0005, -0.0002}), term("memory_hysteresis", 0, {0.0003, 0.0003}),
+             term("rate_dependent_hysteresis", 0.2, {0.005, 0.2}), term("acceleration_dependence", 0.05, {0.002}),
+             term("source_power_coupling", 0, {0.1, 0.02}), term("periodic_interference", 50, {0.003, 0.002, 0.001, 0.001})};
+  g.terms[2].time_constants_s = {1.5, 20};
+  g.terms[3].thresholds_deg = {1, 3};
+  for (const bool dynamic : {false, true}) {
+    for (const double delay : {0.012, -0.02}) {
+      g.delay_s = delay;
+      pof::core::Calibration cal;
+      cal.model = pof::core::paper_coefficients();
+      cal.reference_level_v = 4.0;
+      cal.gap = g;
+      if (dynamic) {
+        pof::core::DynamicModel m;
+        m.poly = {pof::core::quasi_static_voltage(cal.model, 45), -45 / cal.model.c9, 0, 0, 0, 0};
+        cal.dynamic = m;
+        cal.active = pof::core::ModelKind::kDynamic;
+      }
+      pof::core::OnlineCompensator comp(cal);
+      double sink = 0;
+      g_armed = true;
+      for (int i = 0; i < 20000; ++i) {
+        const double ang = 45 + 40 * std::sin(i / 400.0);
+        const bool bad = i % 5000 == 4999;  // an unusable scan now and then
+        const auto s = comp.step(bad ? std::nan("") : pof::core::quasi_static_voltage(cal.model, ang), 4.0);
+        if (i == 10000) comp.reset();
+        if (!bad) sink += s.angle_deg;
+      }
+      g_armed = false;
+      EXPECT_EQ(g_allocs.load(), 0) << (dynamic ? "dynamic" : "paper") << ", delay " << delay;
+      EXPECT_TRUE(std::isfinite(sink));
+    }
+  }
 }

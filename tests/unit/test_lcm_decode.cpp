@@ -218,6 +218,11 @@ pof::compensator_status_t sample_comp() {
   m.malformed_datagrams = 54;
   m.duplicate_blocks = 55;
   m.publish_failures = 56;
+  m.authenticated = true;
+  m.auth_unsigned = 57;
+  m.auth_bad_mac = 58;
+  m.auth_stale = 59;
+  m.auth_replayed = 60;
   return m;
 }
 
@@ -286,7 +291,10 @@ TEST(LcmDecode, EveryTypeRoundTrips) {
   EXPECT_EQ(round_trip(sample_daq()).protocol_variant, "reply header 00 01");
   const auto comp = round_trip(sample_comp());
   EXPECT_EQ(comp.duplicate_blocks, 55);
-  EXPECT_EQ(comp.publish_failures, 56);  // the last field, behind a string
+  EXPECT_EQ(comp.publish_failures, 56);
+  EXPECT_TRUE(comp.authenticated);
+  EXPECT_EQ(comp.auth_bad_mac, 58);
+  EXPECT_EQ(comp.auth_replayed, 60);  // the last field, behind a string and a boolean
   EXPECT_EQ(round_trip(sample_daq()).publish_failures, 40);
   EXPECT_EQ(comp.last_error, "");
   // The hand-made writer agrees with the generated encoder.

@@ -8,6 +8,7 @@
 #include <pof/raw_block_t.hpp>
 
 #include "pof/base/errors.hpp"
+#include "pof/bus/auth_trailer.hpp"
 #include "pof/io/lcmlog_scan.hpp"
 
 using pof::io::LcmEventRef;
@@ -232,6 +233,26 @@ TEST(LcmLogReader, DamageReportNamesFileOffsetAndCounts) {
   EXPECT_EQ(r.rfind("run.lcmlog: damaged LCM log: first damage at byte " + std::to_string(ends[0]) + ": event 1 on channel POF_RAW", 0), 0u) << r;
   EXPECT_NE(r.find("1 damaged region (" + std::to_string(ends[4] - ends[3]) + " bytes) skipped, at least 1 event lost"), std::string::npos) << r;
   EXPECT_NE(r.find("; 1 event not decodable; 9 complete events read"), std::string::npos) << r;
+}
+
+TEST(LcmLogReader, ASignedMessageIsNamedAsSuch) {
+  // An event whose data ends in an authenticated-mode trailer (pof/bus/auth_trailer.hpp): a log of
+  // signed messages as they were on the bus, which pofkit's readers refuse (trailing bytes).
+  Bytes data = payload(40, 3);
+  data.resize(40 + pof::bus::auth::kTrailerBytes);
+  pof::bus::auth::put_trailer_header(data.data() + 40, 1, 2, 3);
+  Bytes b;
+  append_event(b, 0, 1000, "POF_ANGLE", data);
+  append_event(b, 1, 1001, "POF_ANGLE", payload(40, 4));
+  for (const bool signed_first : {true, false}) {
+    pof::io::LcmLogReader log("signed.lcmlog", b);
+    int n = 0;
+    log.scan([&](const LcmEventRef& e) {
+      if (++n == (signed_first ? 1 : 2)) log.undecodable(e, "angle_t: 60 bytes after the last field");
+    });
+    const std::string r = log.damage_report();
+    EXPECT_EQ(r.find("ends in an authenticated-mode trailer") != std::string::npos, signed_first) << r;
+  }
 }
 
 TEST(DecodeLcmEvent, RawBlockCountsAreCheckedBeforeTheDecoderAllocates) {

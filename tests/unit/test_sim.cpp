@@ -172,7 +172,7 @@ TEST(SimScenario, ErrorsNameFileLineAndKey) {
 
 TEST(SimScenario, EffectSwitchesCoverTheGapVocabulary) {
   Scenario s = pof::sim::builtin_scenario("paper");
-  for (auto id : pof::sim::kGapEffectIds) {
+  for (auto id : pof::core::kEffectIds) {
     bool* sw = pof::sim::effect_switch(s, id);
     ASSERT_NE(sw, nullptr) << id;
     EXPECT_FALSE(*sw) << id << " is off in the paper scenario";
@@ -180,7 +180,7 @@ TEST(SimScenario, EffectSwitchesCoverTheGapVocabulary) {
   EXPECT_EQ(pof::sim::effect_switch(s, "gremlins"), nullptr);
   Scenario r = pof::sim::builtin_scenario("realistic");
   pof::sim::disable_all_effects(r);
-  for (auto id : pof::sim::kGapEffectIds) EXPECT_FALSE(*pof::sim::effect_switch(r, id)) << id;
+  for (auto id : pof::core::kEffectIds) EXPECT_FALSE(*pof::sim::effect_switch(r, id)) << id;
   EXPECT_TRUE(r.sensor.hysteresis.enabled);
 }
 

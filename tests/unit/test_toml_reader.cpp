@@ -4,6 +4,7 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "pof/base/errors.hpp"
 #include "pof/base/exit_codes.hpp"
@@ -161,6 +162,28 @@ TEST(TomlReader, UnknownKeysAreRefusedWithTheNearestKnownOne) {
   const std::string h = error_reading(huge, [](TomlSection&) {});
   EXPECT_LT(h.size(), 200u) << h.substr(0, 200);
   EXPECT_NE(h.find("unknown key 'kkkk"), std::string::npos) << h.substr(0, 200);
+}
+
+// A free-form table (its keys are data): keys in file order, not toml++'s sorted order, each read
+// like any key; the line a table of an array starts at.
+TEST(TomlReader, FreeFormTablesListTheirKeysInFileOrder) {
+  const toml::table t = pof::parse_toml("[[t]]\nx = 1\n[t.p]\nzeta = 1.5\nalpha = 2\n\n[[t]]\nx = 2\np = { b = 1, a = 'no' }\n", "f.toml");
+  TomlSection root(t, "f.toml");
+  const pof::TomlArray a = root.array("t");
+  TomlSection first = a.section(0), second = a.section(1);
+  EXPECT_EQ(root.line(), 0);
+  EXPECT_EQ(first.line(), 1);
+  EXPECT_EQ(second.line(), 7);
+  TomlSection p = first.section("p");
+  EXPECT_EQ(p.keys(), (std::vector<std::string>{"zeta", "alpha"}));
+  for (const std::string& k : p.keys()) (void)p.get<double>(k);
+  EXPECT_NO_THROW(p.finish());
+  TomlSection q = second.section("p");
+  EXPECT_EQ(q.keys(), (std::vector<std::string>{"b", "a"}));
+  EXPECT_EQ(error_of([&] {
+              for (const std::string& k : q.keys()) (void)q.get<double>(k);
+            }),
+            "f.toml:9: key 't[1].p.a': expected a number, got a string 'no'");
 }
 
 TEST(TomlReader, SchemaVersionIsCheckedOneWay) {

@@ -4,12 +4,16 @@
 usage: gap_report.py DIR
 
 Reads DIR/series.csv (t_s, angle_deg, w_rad_s, v, model_baseline_v, model_final_v,
-resid_baseline_deg, resid_final_deg: held-out residuals, block by block) and DIR/gap.json, writes:
+resid_baseline_deg, resid_final_deg: held-out residuals, block by block; angle_comp_before_deg,
+angle_comp_after_deg: the compensator's angle with the baseline and, block by block, with the model
+fitted on the other blocks) and DIR/gap.json, writes:
   residual_time.png      residual against time, before (baseline) and after (all accepted effects)
   residual_angle.png     residual against the reference angle, flexion/extension/hold coloured
   residual_velocity.png  residual against the signed angular velocity
   loops.png              measured voltage against angle with the baseline and the improved model
   gap_steps.png          held-out gap after each step
+  compensated.png        the compensator's angle error against the reference, before and after the
+                         found model is applied (held-out blocks), with the RMSE of each
 """
 import json
 import sys
@@ -124,6 +128,26 @@ def main() -> int:
     ax.set_title(f"pof gap {src}: the gap after each step" + (" (structure remains)" if g["unexplained"] else ""), fontsize=10)
     fig.tight_layout()
     fig.savefig(d / "gap_steps.png", dpi=90)
+    plt.close(fig)
+
+    # The loop closed: what the found model does to the angle the controller gets.
+    c = g.get("compensated", {})
+    ref = s["angle_deg"]
+    eb, ea = s["angle_comp_before_deg"] - ref, s["angle_comp_after_deg"] - ref
+    fig, ax = plt.subplots(figsize=(10, 4))
+    ax.plot(t, eb, lw=0.5, color="tab:gray", label=f"baseline: RMSE {c.get('rmse_before_deg', float('nan')):.3f} deg")
+    ax.plot(t, ea, lw=0.5, color="tab:green", alpha=0.8,
+            label=f"with the found model: RMSE {c.get('rmse_after_deg', float('nan')):.3f} deg")
+    ax.axhline(0, color="k", lw=0.5)
+    lim = np.nanpercentile(np.abs(np.concatenate([eb, ea])), 99.5)
+    ax.set_ylim(-1.2 * lim, 1.2 * lim)
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("compensated angle - reference [deg]")
+    skipped = ", not applied online: " + ", ".join(c["not_applied"]) if c.get("not_applied") else ""
+    ax.set_title(f"pof gap {src}: the compensator's angle on held-out blocks{skipped}", fontsize=10)
+    ax.legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(d / "compensated.png", dpi=90)
     plt.close(fig)
     return 0
 

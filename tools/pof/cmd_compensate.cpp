@@ -53,6 +53,8 @@ void run(const CompensateOptions& o) {
   if (!o.pot_cal.empty()) pot = pof::io::load_potentiometer(o.pot_cal);
   progress.stage("reading " + o.recording);
   const pof::io::Recording rec = pof::io::read_recording(o.recording, o.channel);
+  // The [gap] checks that need the scan rate (a notch below Nyquist), at the recording's.
+  pof::io::require_applicable_gap(cal, o.cal, pof::core::median_rate_hz(rec.t_s));
   Eigen::VectorXd ref;
   try {
     ref = pof::io::reference_angle(rec, pot ? &*pot : nullptr);

@@ -116,7 +116,8 @@ void run(const ExportOptions& o) {
         case bus::MessageType::kCompensatorStatus:
           out << "utime,seq,sensor_id,calibration_path,calibration_sensor_id,calibration_date,blocks,scans,"
                  "lost_blocks,lost_scans,rejected_blocks,fault_scans,angles,cycles,reloads,reload_failures,"
-                 "last_error,decode_errors,malformed_datagrams,duplicate_blocks,publish_failures\n";
+                 "last_error,decode_errors,malformed_datagrams,duplicate_blocks,publish_failures,authenticated,"
+                 "auth_unsigned,auth_bad_mac,auth_stale,auth_replayed\n";
           break;
         case bus::MessageType::kRawBlock:
         case bus::MessageType::kUnknown:
@@ -161,7 +162,8 @@ void run(const ExportOptions& o) {
           << ',' << m.lost_blocks << ',' << m.lost_scans << ',' << m.rejected_blocks << ',' << m.fault_scans << ','
           << m.angles << ',' << m.cycles << ',' << m.reloads << ',' << m.reload_failures << ','
           << text(m.last_error) << ',' << m.decode_errors << ',' << m.malformed_datagrams << ','
-          << m.duplicate_blocks << ',' << m.publish_failures << '\n';
+          << m.duplicate_blocks << ',' << m.publish_failures << ',' << (m.authenticated ? 1 : 0) << ','
+          << m.auth_unsigned << ',' << m.auth_bad_mac << ',' << m.auth_stale << ',' << m.auth_replayed << '\n';
       ++rows;
     } else {
       pof::raw_block_t m{};

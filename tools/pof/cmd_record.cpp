@@ -12,6 +12,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <spdlog/spdlog.h>
 
+#include "auth_options.hpp"
 #include "commands.hpp"
 #include "pof/bus/url.hpp"
 #include "pof/lcm/utime.hpp"
@@ -38,6 +39,7 @@ struct RecordArgs {
   double sync_interval_s = 0.5;
   int queue_capacity = 1 << 20;
   double handoff_mb = 256;
+  AuthArgs auth;
   std::vector<std::string> manifest_files;
   std::vector<std::string> check;
   std::string repair;
@@ -125,6 +127,9 @@ void run_record(const RecordArgs& a) {
   o.handoff_bytes = static_cast<std::size_t>(a.handoff_mb * 1024.0 * 1024.0);
   for (const auto& f : a.manifest_files) o.manifest_files.emplace_back(f);
   o.use_liblcm = a.liblcm;
+  const Auth auth = load_auth(a.auth);
+  o.auth_key = auth.key;
+  o.auth = auth.settings;
   o.manifest_extra["versions"] = {
       {"pofkit", POF_VERSION},
       {"git", POF_GIT_DESCRIBE},
@@ -143,6 +148,10 @@ void run_record(const RecordArgs& a) {
   if (!a.quiet)
     spdlog::info("recording '{}' from {} ({}) into {} (manifest {})", a.channels, session.url(), session.receiver_name(),
                  first.files.empty() ? std::string("?") : first.files.front().string(), first.manifest.string());
+  if (!a.quiet && auth.key)
+    spdlog::info("authenticated mode: bus key {} (key id {}), freshness window {} s: only verified messages are "
+                 "recorded, without their trailers",
+                 auth.key_file, bus::auth::key_id_hex(auth.key->id()), a.auth.window_s);
   notifier.ready("recording into " + (first.files.empty() ? std::string("?") : first.files.front().string()));
 
   const auto t0 = std::chrono::steady_clock::now();
@@ -172,7 +181,11 @@ void run_record(const RecordArgs& a) {
       last_status = now;
       notifier.status("recording: " + std::to_string(s.written) + " events written, " +
                       std::to_string(s.dropped_handoff) + " dropped, " + std::to_string(s.udp_drops) +
-                      " kernel UDP drops");
+                      " kernel UDP drops" +
+                      (s.authenticated ? ", " + std::to_string(s.auth_unsigned + s.auth_bad_mac + s.auth_stale +
+                                                               s.auth_replayed) +
+                                             " refused by authentication"
+                                       : std::string()));
     }
   }
   notifier.stopping("draining the hand-off queue");
@@ -183,6 +196,10 @@ void run_record(const RecordArgs& a) {
                  rec::outcome_name(s.outcome), s.received, s.written, s.files.size(), s.dropped_handoff, s.udp_drops,
                  s.udp_rcvbuf_bytes, s.manifest.string());
   }
+  const uint64_t refused = s.auth_unsigned + s.auth_bad_mac + s.auth_stale + s.auth_replayed;
+  if (s.authenticated && (!a.quiet || refused > 0))
+    spdlog::info("authentication refused {} messages (not recorded): {} unsigned, {} bad MAC, {} stale, {} replayed",
+                 refused, s.auth_unsigned, s.auth_bad_mac, s.auth_stale, s.auth_replayed);
   if (s.outcome == rec::Outcome::kDiskFull)
     throw pof::IoError("disk full: " + s.error);
   if (s.outcome == rec::Outcome::kIoError) throw pof::IoError("write failed: " + s.error);
@@ -220,6 +237,7 @@ void add_record(CLI::App& app) {
   cmd->add_option("--manifest-file", a->manifest_files,
                   "Calibration/configuration file to copy next to the log and list in the manifest (repeatable)");
   cmd->add_flag("-q,--quiet", a->quiet, "Only report problems");
+  add_auth_options(cmd, a->auth);
   cmd->add_flag("--liblcm", a->liblcm,
                 "Receive udpm:// through liblcm's subscription queue instead of batched recvmmsg "
                 "(slower: for comparison)");

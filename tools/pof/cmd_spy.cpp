@@ -15,6 +15,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "auth_options.hpp"
 #include "commands.hpp"
 #include "pof/bus/open.hpp"
 #include "pof/bus/receiver.hpp"
@@ -37,6 +38,7 @@ struct SpyArgs {
   double duration_s = 0;
   bool once = false;
   int queue_capacity = 100000;
+  AuthArgs auth;
 };
 
 // Raw keyboard input while the view runs; restored on every exit path (RAII).
@@ -74,12 +76,15 @@ int terminal_width() {
 
 void run_spy(const SpyArgs& a) {
   service::SignalWaiter signals;  // before liblcm may start a thread: every thread inherits the mask
+  const Auth auth = load_auth(a.auth);  // a bad key file: exit 78 before anything is shown
   const std::string url = bus::resolve_url(a.url);
   lcm::LCM lcm(url);
   bus::require_usable(lcm, url);
   spy::Monitor monitor;
   bus::ReceiverOptions ro;
   ro.lcm_queue_capacity = a.queue_capacity;
+  ro.auth_key = auth.key;
+  ro.auth = auth.settings;
   bus::Receiver rx(lcm, url, ro);
   rx.subscribe_raw(a.channels, [&monitor](const bus::Delivery& d, const unsigned char* data, std::size_t size) {
     monitor.on_message(d.channel, data, size, d.recv_utime);
@@ -113,6 +118,12 @@ void run_spy(const SpyArgs& a) {
     const bus::ReceiverStats rs = rx.stats();
     o.malformed_datagrams = rs.malformed_datagrams;
     o.incomplete_messages = rs.incomplete_messages;
+    o.authenticated = rs.authenticated;
+    if (auth.key) o.key_id = bus::auth::key_id_hex(auth.key->id());
+    o.auth_unsigned = rs.auth_unsigned;
+    o.auth_bad_mac = rs.auth_bad_mac;
+    o.auth_stale = rs.auth_stale;
+    o.auth_replayed = rs.auth_replayed;
     o.now_utime = now;
     const std::string text = spy::render(monitor, o);
     std::fwrite(text.data(), 1, text.size(), stdout);
@@ -163,6 +174,7 @@ void add_spy(CLI::App& app) {
   cmd->add_option("--queue-capacity", a->queue_capacity, "LCM subscription queue [messages] (transports other than udpm://)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  add_auth_options(cmd, a->auth);
   cmd->callback([a] { run_spy(*a); });
 }
 

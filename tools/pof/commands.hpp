@@ -14,5 +14,6 @@ void add_sim(CLI::App& app);
 void add_record(CLI::App& app);
 void add_spy(CLI::App& app);
 void add_export(CLI::App& app);
+void add_keygen(CLI::App& app);
 
 }  // namespace pof::cli

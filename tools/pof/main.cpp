@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
   pof::cli::add_record(app);
   pof::cli::add_spy(app);
   pof::cli::add_export(app);
+  pof::cli::add_keygen(app);
 
   // The subcommands run inside the parse (their callbacks), so their exceptions go through
   // run_main's table too.

@@ -89,6 +89,7 @@ DaqConfig config_from_table(const toml::table& root, const std::string& source) 
     c.lcm_url = l.get_or("url", c.lcm_url);
     c.sensor_id = l.get_or("sensor_id", c.sensor_id);
     c.queue_blocks = l.get_or("queue_blocks", c.queue_blocks, integer_in(2, 65536));
+    c.auth_key_file = l.get_or("auth_key_file", c.auth_key_file);
     for (char ch : c.sensor_id) {
       if (!((ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') || ch == '_')) {
         l.fail("sensor_id", "expected upper-case letters, digits and '_', got '" + pof::excerpt(c.sensor_id) + "'");
@@ -180,7 +181,10 @@ std::string to_toml(const DaqConfig& c) {
                    {"mcc_mode", c.mcc_single_reads ? "single" : "scan"},
                    {"command_timeout_ms", c.command_timeout_ms},
                    {"data_timeout_ms", c.data_timeout_ms}}},
-      {"lcm", toml::table{{"url", c.lcm_url}, {"sensor_id", c.sensor_id}, {"queue_blocks", c.queue_blocks}}},
+      {"lcm", toml::table{{"url", c.lcm_url},
+                          {"sensor_id", c.sensor_id},
+                          {"queue_blocks", c.queue_blocks},
+                          {"auth_key_file", c.auth_key_file}}},
       {"daemon", toml::table{{"retry_ms", c.retry_ms}, {"status_period_s", c.status_period_s}}},
   };
   std::ostringstream os;

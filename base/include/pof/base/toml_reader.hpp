@@ -104,6 +104,11 @@ class TomlSection {
   [[nodiscard]] std::string key_path(std::string_view key) const;
   /// Whether the table has `key`; does not count as reading it.
   [[nodiscard]] bool has(std::string_view key) const;
+  /// The table's keys in file order, for a free-form table whose keys are data (each is then read
+  /// with get/find like any other key, so finish() still checks them all).
+  [[nodiscard]] std::vector<std::string> keys() const;
+  /// The line the table starts at in its file; 0 when unknown (the root, a table made in memory).
+  [[nodiscard]] int line() const;
 
   /// Value types T: bool, int, std::int64_t, std::uint32_t, double, std::string. A double takes a
   /// TOML integer or float and must be finite; an integer type takes a TOML integer in its range.

@@ -17,6 +17,12 @@
 // arrived (no decoding), the kernel's receive timestamp on udpm:// (liblcm's on the other
 // transports), and the malformed-datagram and incomplete-message counters in stats().
 //
+// Authenticated mode (ReceiverOptions::auth_key, pof/bus/auth.hpp): every message some subscription
+// wants is verified before anything else looks at it; what fails (unsigned, bad MAC, stale,
+// replayed) is dropped, counted per verdict and reported, and the trailer is taken off what passes,
+// so subscribers see the LCM message as it was published. Messages nobody subscribed to are not
+// verified (nor counted): a bus shared with other applications costs no MACs.
+//
 // Both paths hand the raw bytes to one dispatcher: typed subscriptions decode them with the bounded
 // decoder (pof/lcm/decode.hpp) into a message object kept per subscription (so the vectors of a
 // raw block are reused, not reallocated per message), count what does not decode per channel, and
@@ -36,6 +42,7 @@
 #include <string_view>
 #include <vector>
 
+#include "pof/bus/auth.hpp"
 #include "pof/bus/channel_filter.hpp"
 #include "pof/bus/udpm_receiver.hpp"
 #include "pof/lcm/decode.hpp"
@@ -59,6 +66,7 @@ struct ChannelStats {
   uint64_t messages = 0;        // messages received on the channel, decodable or not
   uint64_t decode_errors = 0;   // ... that did not decode as the subscribed type
   uint64_t handler_errors = 0;  // handler calls that threw
+  uint64_t auth_dropped = 0;    // authenticated mode: messages dropped by the verifier (not in `messages`)
 };
 
 struct ReceiverStats {
@@ -70,15 +78,22 @@ struct ReceiverStats {
   // Summed over the typed channels.
   uint64_t decode_errors = 0;
   uint64_t handler_errors = 0;
+  // Authenticated mode: messages dropped per verdict (pof/bus/auth.hpp), over every subscription.
+  bool authenticated = false;
+  uint64_t auth_unsigned = 0;
+  uint64_t auth_bad_mac = 0;
+  uint64_t auth_stale = 0;
+  uint64_t auth_replayed = 0;
 };
 
 /// One message that could not be used, as reported to the error handler.
 struct ReceiveError {
-  enum class Kind : uint8_t { kDecode, kHandler };
+  enum class Kind : uint8_t { kDecode, kHandler, kAuth };
   Kind kind = Kind::kDecode;
   std::string_view channel;
   lcmutil::DecodeResult decode;  // kDecode
   std::string_view what;         // kHandler: the exception's what()
+  auth::Verification auth;       // kAuth: why the verifier dropped the message
   /// "POF_RAW: raw_block_t: array 'volts' at byte 90: ..." (bounded, no payload bytes).
   [[nodiscard]] std::string describe() const;
 };
@@ -90,8 +105,13 @@ struct ReceiverOptions {
   int lcm_queue_capacity = 10000;
   // Receive udpm:// through liblcm's subscription too (its receive thread, ring buffer and pipe)
   // instead of UdpmReceiver: slower and not total (see above); only `pof record --liblcm` sets it,
-  // to compare the two (BENCHMARKS.md). No malformed/incomplete counts on that path.
+  // to compare the two (BENCHMARKS.md). No malformed/incomplete counts on that path; the
+  // authenticated mode verifies there as on memq:// (one verdict per message, see lcm_verdict_).
   bool udpm_via_liblcm = false;
+  // Authenticated mode: the bus key (pof/bus/auth_key.hpp loads it) and the verifier's window.
+  // Null: unauthenticated, messages are taken as they are.
+  std::shared_ptr<const auth::Key> auth_key;
+  auth::VerifierSettings auth;
 };
 
 class Receiver {
@@ -173,6 +193,10 @@ class Receiver {
   void add_lcm_subscription(const std::string& regex, Raw* raw);
   static void on_lcm_message(const _lcm_recv_buf_t* rbuf, const char* channel, void* hook);
   void dispatch(std::string_view channel, const unsigned char* data, std::size_t size, int64_t utime) noexcept;
+  /// Authenticated mode: verifies a message, counts and reports a drop; on success `size` becomes
+  /// the size of the LCM message in front of the trailer.
+  bool authentic(std::string_view channel, const unsigned char* data, std::size_t& size, int64_t utime) noexcept;
+  bool raw_matches(Raw& r, std::string_view channel) noexcept;
   void deliver_typed(Channel& c, const Delivery& d, const unsigned char* data, std::size_t size) noexcept;
   void deliver_raw(Raw& r, const Delivery& d, const unsigned char* data, std::size_t size) noexcept;
   void report(const ReceiveError& e) noexcept;
@@ -190,6 +214,18 @@ class Receiver {
   std::vector<std::unique_ptr<Raw>> raw_;
   std::vector<std::unique_ptr<Hook>> hooks_;
   ErrorHandler on_error_;
+  std::unique_ptr<auth::Verifier> verifier_;
+  // liblcm path: handle() takes one message per lcm_handle() call and liblcm hands it to every
+  // matching subscription in turn (lcm/lcm_memq.c, lcm_memq_handle -> lcm_dispatch_handlers; on
+  // udpm:// with udpm_via_liblcm lcm/lcm_udpm.c, lcm_udpm_handle, the same per message), so a
+  // message is verified once per generation and its verdict reused by the other subscriptions (a
+  // second verify() would see its own counter again and call it a replay).
+  uint64_t lcm_generation_ = 0;
+  struct {
+    uint64_t generation = ~uint64_t{0};
+    bool ok = false;
+    std::size_t size = 0;
+  } lcm_verdict_;
 };
 
 }  // namespace pof::bus

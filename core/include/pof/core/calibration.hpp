@@ -20,6 +20,7 @@
 
 #include "pof/core/dynamic_model.hpp"
 #include "pof/core/fit.hpp"
+#include "pof/core/gap_terms.hpp"
 #include "pof/core/model.hpp"
 #include "pof/core/paper_protocol.hpp"
 #include "pof/core/segmentation.hpp"
@@ -38,6 +39,7 @@ struct Calibration {
   double reference_level_v = 1.0;      // reference voltage at calibration time [V]
   double angle_min_deg = 0, angle_max_deg = 90;
   double velocity_min_rad_s = kTable1Velocities.front(), velocity_max_rad_s = kTable1Velocities.back();
+  std::optional<GapModel> gap;         // effect terms `pof gap` accepted (gap_terms.hpp), applied on top of the active model
 };
 
 struct CalibrationSettings {

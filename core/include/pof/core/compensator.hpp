@@ -19,6 +19,14 @@
 // (dynamic_model.hpp): no direction is decided, so the estimator above only reports velocity and
 // phase (POF_ANGLE, the statistics) and sets the same quality flags.
 //
+// With effect terms in the calibration (Calibration::gap, gap_terms.hpp, docs/calibration.md
+// "`[gap]`: effect terms and how the compensator applies them"), each scan also: notches the
+// normalised voltage at every periodic_interference frequency, subtracts the sensor-side terms'
+// voltage predicted at the previous scan's angle before the inverse (either model), and undoes the
+// delay and the backlash on the angle the inverse gives. The sensor's velocity is then estimated
+// from f5 of the voltage without the terms (a creep relaxing in a hold must not look like a
+// movement); angle_uncomp_deg stays f5 of the voltage as measured.
+//
 // Threading: one instance per sensor stream, used from one thread. step() and reset() never
 // allocate, never throw and never block; the constructor allocates the window.
 #include <cstdint>
@@ -27,6 +35,7 @@
 
 #include "pof/core/calibration.hpp"
 #include "pof/core/dynamic_model.hpp"
+#include "pof/core/gap_terms.hpp"
 #include "pof/core/model.hpp"
 #include "pof/core/normalise.hpp"
 #include "pof/core/quality.hpp"
@@ -68,8 +77,9 @@ struct CompensatedScan {
 
 class OnlineCompensator {
  public:
-  /// Throws std::invalid_argument on settings that cannot work (rate or window <= 0, hold >= move)
-  /// or a dynamic model marked active that is absent or invalid.
+  /// Throws std::invalid_argument on settings that cannot work (rate or window <= 0, hold >= move),
+  /// a dynamic model marked active that is absent or invalid, or [gap] terms that cannot be
+  /// applied at s.scan_rate_hz (the first of gap_problems(), described).
   OnlineCompensator(const Calibration& cal, const CompensatorSettings& s = {});
 
   /// One scan. angle_ref_deg is only used with VelocitySource::kReference (pass NaN otherwise).
@@ -91,6 +101,12 @@ class OnlineCompensator {
   void clear_window() noexcept;
   double push(double y) noexcept;  // returns slope [deg/scan], NaN with < 2 samples
   double short_slope() const noexcept;  // the reversal window's slope [deg/scan], NaN until it is full
+  // The [gap] terms' voltage at this scan, predicted at the previous scan's angle (f5 of v for the
+  // first) with velocity w [rad/s] and direction d.
+  double terms_voltage(double v, double reference_v, double w, Direction d) const noexcept;
+  // The angle of normalised voltage v (the terms' voltage already subtracted) through the active
+  // model, the [gap] kinematics undone when there are terms; w and d the paper chain's.
+  double angle_of(double v, double reference_v, double w, Direction d, bool* clamped) noexcept;
 
   Calibration cal_;
   CompensatorSettings s_;
@@ -106,6 +122,10 @@ class OnlineCompensator {
   std::int64_t since_refresh_ = 0;
   Direction phase_ = Direction::kHold;
   bool gap_pending_ = false;
+  bool terms_ = false;            // a GapCorrector runs
+  GapCorrector terms_corrector_;
+  double terms_angle_ = std::numeric_limits<double>::quiet_NaN();  // the previous scan's fibre angle
+  double terms_w_ = std::numeric_limits<double>::quiet_NaN();      // the previous scan's velocity [rad/s]
 };
 
 }  // namespace pof::core

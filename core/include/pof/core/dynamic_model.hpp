@@ -40,10 +40,24 @@
 // The model is linear in (q, c, g) once the thresholds r, time constants tau and kappa are fixed:
 // that is how it is identified (dynamic_fit.hpp). Everything here is fixed-size: copying a model
 // or running it never allocates.
+#include <algorithm>
 #include <array>
 #include <cstdint>
 
 namespace pof::core {
+
+/// One step of a Prandtl-Ishlinskii stop operator of threshold r [deg] (the references above):
+/// S_k = clamp(S_k-1 + (theta_k - theta_k-1), -r, r). The dynamic model's hysteresis and the
+/// memory_hysteresis effect (gap_terms.hpp) both run it.
+inline double stop_operator(double s, double increment_deg, double r_deg) {
+  return std::clamp(s + increment_deg, -r_deg, r_deg);
+}
+
+/// One step of the play (backlash) operator of half-width r [deg], the stop operator's dual
+/// (play = input - stop): y_k = clamp(y_k-1, x_k - r, x_k + r). The output stands still until the
+/// input has crossed the play, then follows it r behind. The simulator's belt and the backlash
+/// effect's inverse (gap_terms.hpp) run it.
+inline double play_operator(double y, double x_deg, double r_deg) { return std::clamp(y, x_deg - r_deg, x_deg + r_deg); }
 
 inline constexpr int kMaxDegree = 5;
 inline constexpr int kMaxOperators = 16;

@@ -1,7 +1,7 @@
 #pragma once
-// `pof gap`: where do the baseline simulator (the paper's model, eqs. 11/12 inverted, f5
-// in holds) and a recording disagree, which physical effect is missing, and how much of the gap
-// does adding it close. See docs/gap.md for the method and the acceptance rule.
+// `pof gap`: where do the baseline (the paper's model structure, eqs. 11/12 inverted, f5 in
+// holds, with its coefficients fitted to the recording) and a recording disagree, which physical
+// effect is missing, and how much of the gap does adding it close. See docs/gap.md for the method and the acceptance rule.
 #include <functional>
 #include <string>
 #include <vector>
@@ -14,13 +14,8 @@
 
 namespace pof::gap {
 
-/// The candidate effects, with the identifiers docs/gap.md lists.
-inline const std::vector<std::string>& candidate_names() {
-  static const std::vector<std::string> names{
-      "static_nonlinearity", "drift", "creep", "rate_dependent_hysteresis", "acceleration_dependence",
-      "time_delay", "backlash", "source_power_coupling", "periodic_interference"};
-  return names;
-}
+/// The candidate effects, with the identifiers docs/gap.md lists (core/effects.hpp, in catalogue order).
+std::vector<std::string> candidate_names();
 
 struct Options {
   int folds = 5;                 // time-blocked folds (boundaries moved into holds: whole cycles)
@@ -43,6 +38,7 @@ struct Step {
 /// Time series for plots (one row per kept scan).
 struct Series {
   std::vector<double> t, angle, w, v, model_baseline, model_final, resid_baseline_deg, resid_final_deg;
+  std::vector<double> angle_comp_before, angle_comp_after;  // the compensator's angle, baseline / found model
 };
 
 struct Result {
@@ -54,6 +50,7 @@ struct Result {
   nlohmann::json whiteness;      // final residual: ACF, Ljung-Box, noise floor
   nlohmann::json model;          // improved model: coefficients + accepted terms (for model.toml)
   nlohmann::json recording;      // n, rate, duration, reference level
+  nlohmann::json compensated;    // the compensator's angle vs the reference on held-out blocks, before/after
   Series series;
 
   [[nodiscard]] nlohmann::json to_json() const;

@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 
 #include "pof/core/model.hpp"
+#include "pof/core/paper_refit.hpp"
 #include "pof/io/recording.hpp"
 
 namespace pof::gap {
@@ -23,7 +24,7 @@ struct Signals {
   double reference_level_v = 0;
   Eigen::VectorXd t;          // [s] from the first scan
   Eigen::VectorXd v;          // normalised sensor voltage [V]
-  Eigen::VectorXd angle;      // reference angle [deg]
+  Eigen::VectorXd angle;      // reference angle [deg], smoothed over +-25 ms (signals.cpp says why)
   Eigen::VectorXd ref_rel;    // reference_v / reference_level_v - 1, 1 s centred mean (source power)
 };
 
@@ -40,12 +41,11 @@ struct Kinematics {
   Eigen::VectorXd s_last;  // direction of the most recent movement, kept through holds (0 before any)
   std::vector<core::Direction> dir;
   std::vector<bool> quiet_hold;  // the +-125 ms velocity says "hold" (gates the short one)
-  // Baseline simulator, linear in p = 1/c9 and q = c10/c9 (the quasi-static line refitted):
-  //   v = offset + col_p * p + col_q * q        (inverse of eq. 11/12 moving, f5 holding)
-  Eigen::VectorXd col_p, col_q, offset;
-  // The paper's hysteresis offset while moving, model_voltage - f5^-1 (0 in holds): its coefficient
-  // in a fit is the hysteresis scale - 1.
-  Eigen::VectorXd hyst_v;
+  // The baseline simulator (the paper's structure, eqs. 11/12 inverted moving, f5 holding) at the
+  // model it was built for: its voltage and its gradient in the refitted coefficients
+  // (core/paper_refit.hpp), so a fit can move every coefficient to first order (docs/gap.md, section 1).
+  Eigen::VectorXd v0;
+  Eigen::MatrixXd gradient;  // n x core::kRefitParameters
 };
 
 /// Kinematics of `angle` (sampled every dt) delayed by delay_s: the angle seen at scan i is the

@@ -2,17 +2,23 @@
 // Write-then-rename: a new file is written under a temporary name in the destination directory and
 // renamed over the destination only by commit(), so an interrupted or failed run never leaves a
 // half-written recording where a good one was (brief: "never overwrite good data with bad").
+#include <sys/types.h>
+
 #include <filesystem>
 #include <string>
 #include <vector>
 
 namespace pof::io {
 
+/// Whether commit() may replace an existing destination.
+enum class Replace { kYes, kNo };
+
 class AtomicFile {
  public:
-  /// Reserves a unique temporary file next to `dest` (created empty, mode 0644 after umask).
-  /// Throws IoError naming the directory if it cannot.
-  explicit AtomicFile(std::filesystem::path dest);
+  /// Reserves a unique temporary file next to `dest`, created empty (mkstemp: 0600) and given
+  /// `permissions` after the umask before anything is written, so a 0600 secret is never readable
+  /// by others. Throws IoError naming the directory if it cannot.
+  explicit AtomicFile(std::filesystem::path dest, mode_t permissions = 0666, Replace replace = Replace::kYes);
   AtomicFile(const AtomicFile&) = delete;
   AtomicFile& operator=(const AtomicFile&) = delete;
   /// Removes the temporary file unless committed.
@@ -20,17 +26,21 @@ class AtomicFile {
 
   [[nodiscard]] const std::filesystem::path& temp_path() const { return tmp_; }
   [[nodiscard]] const std::filesystem::path& dest_path() const { return dest_; }
-  /// fsyncs the (closed) temporary file and renames it onto the destination. Throws IoError.
+  /// fsyncs the (closed) temporary file and renames it onto the destination (Replace::kNo: links
+  /// it there, which fails when the destination exists, even one created meanwhile). Throws IoError.
   void commit();
 
  private:
   std::filesystem::path dest_, tmp_;
+  Replace replace_;
   bool committed_ = false;
 };
 
 /// Writes `content` to `path` through an AtomicFile: the old file or the new one, never half.
-/// Throws IoError (74) naming the path on any failure; the temporary file is removed.
-void write_file_atomic(const std::filesystem::path& path, const std::string& content);
+/// Throws IoError (74) naming the path on any failure (Replace::kNo: also when it exists); the
+/// temporary file is removed.
+void write_file_atomic(const std::filesystem::path& path, const std::string& content, mode_t permissions = 0666,
+                       Replace replace = Replace::kYes);
 
 /// Where a command's output option points: "-" is standard output (an error writing it is an
 /// IoError naming "standard output"), anything else write_file_atomic().

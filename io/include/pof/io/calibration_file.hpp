@@ -21,11 +21,15 @@
 //                      f4_extension_r2, n_holds, n_velocity_tests
 //   [equations]        flexion, extension (eq. (11)/(12) as text; informational, not read back)
 //   [potentiometer]    deg_per_volt, zero_v, offsets = [[angle_deg, correction_deg], ...] (optional)
+//   [gap]              schema_version = 1, delay_s, backlash_deg, [[gap.terms]] (effect, theta,
+//                      coefficients_v, thresholds_deg, time_constants_s, [gap.terms.parameters]):
+//                      the effect terms `pof gap` accepted (optional; core/gap_terms.hpp)
 //
 // Loading validates every key (missing, wrong type, NaN/inf, impossible range) and names it with
 // the file and line in the ConfigError (exit 78); a key it does not read is refused with the
-// nearest known one (pof/base/toml_reader.hpp), except [gap] (`pof gap`'s model.toml, docs/gap.md),
-// skipped by name. Nothing is returned unless everything is valid.
+// nearest known one (pof/base/toml_reader.hpp). Nothing is returned unless everything is valid.
+// Whether the compensator can apply the [gap] terms is checked by load_calibration(path, model,
+// rate), what the compensator's programs call, not by the parser.
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -72,8 +76,17 @@ std::optional<pof::core::ModelKind> model_kind_of(const std::string& text);
 /// ConfigError naming `source` when "dynamic" is asked of a file without a [dynamic] section.
 void choose_model(CalibrationFile& f, const std::string& choice, const std::string& source);
 
-/// Loads a calibration and applies choose_model(): what pof compensate and pof-compensatord read.
-CalibrationFile load_calibration(const std::string& path, const std::string& model_choice);
+/// Throws ConfigError when the [gap] terms of `f` cannot be applied online (core::gap_problems at
+/// scan_rate_hz; 0 skips the checks that need a rate): one line per term, naming `source`, the
+/// term's line, number, effect and why, e.g.
+/// "model.toml:41: [gap] term 2 'drift': a trend over the calibration recording cannot be applied
+/// online; remove it or recalibrate".
+void require_applicable_gap(const CalibrationFile& f, const std::string& source, double scan_rate_hz);
+
+/// Loads a calibration, applies choose_model() and require_applicable_gap(): what pof compensate
+/// and pof-compensatord read. A file with a term the compensator cannot apply is refused, never
+/// applied in part.
+CalibrationFile load_calibration(const std::string& path, const std::string& model_choice, double scan_rate_hz = 0);
 
 /// Builds the file contents from a fit.
 CalibrationFile make_calibration_file(const pof::core::CalibrationResult& r, const std::string& sensor_id,

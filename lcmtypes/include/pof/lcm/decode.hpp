@@ -174,6 +174,11 @@ struct Layout<pof::compensator_status_t> {
       {"malformed_datagrams", FieldType::kInt64, {}},
       {"duplicate_blocks", FieldType::kInt64, {}},
       {"publish_failures", FieldType::kInt64, {}},
+      {"authenticated", FieldType::kBoolean, {}},
+      {"auth_unsigned", FieldType::kInt64, {}},
+      {"auth_bad_mac", FieldType::kInt64, {}},
+      {"auth_stale", FieldType::kInt64, {}},
+      {"auth_replayed", FieldType::kInt64, {}},
   };
 };
 

@@ -11,6 +11,13 @@
 //     a writer thread owns all disk I/O (DurableLogWriter: whole events, periodic fdatasync);
 //   - every loss is counted: hand-off overflow, kernel socket drops (/proc/net/udp), and sequence
 //     gaps of pofkit's own streams.
+// In the authenticated mode (SessionOptions::auth_key, pof/bus/auth.hpp) the session's
+// bus::Receiver verifies every message before it reaches the hand-off queue (ReceiverOptions::
+// auth_key, on every receive path, --liblcm included): what fails (unsigned, bad MAC, stale,
+// replayed) is not recorded and is counted per verdict in the manifest (the Receiver's counters,
+// ReceiverStats::auth_*); what passes is recorded without its trailer, as the LCM message that was
+// published, so every LCM log reader (lcm-logplayer, pofkit's own) takes the log as it takes any
+// other. The manifest says that the session was verified and with which key id.
 //
 // Threads: the constructor, start(), poll() and stop() are called from one controlling thread; the
 // session runs an LCM thread and a writer thread of its own. Setup errors throw pof::io errors
@@ -31,6 +38,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "pof/bus/auth.hpp"
 #include "pof/bus/fingerprint.hpp"
 #include "pof/recorder/lcmlog_durable.hpp"
 #include "pof/recorder/pof_messages.hpp"
@@ -61,6 +69,8 @@ struct SessionOptions {
   // providers (memq://, file://) always go through liblcm.
   bool use_liblcm = false;
   int receive_nice = -10;              // nice value of the receive thread (0: leave it)
+  std::shared_ptr<const bus::auth::Key> auth_key;  // authenticated mode; null: record what arrives
+  bus::auth::VerifierSettings auth;                // its freshness window
   nlohmann::json manifest_extra = nlohmann::json::object();  // versions, command line, config
 };
 
@@ -80,12 +90,14 @@ struct ChannelStats {
 struct SessionStats {
   Outcome outcome = Outcome::kRunning;
   std::string error;                // one line naming the file and the errno text, when failed
-  uint64_t received = 0;            // messages the LCM thread saw
+  uint64_t received = 0;            // messages the LCM thread saw (authenticated mode: that passed verification)
   uint64_t written = 0;             // events in the log files (written through write(2))
   uint64_t dropped_handoff = 0;     // hand-off queue full (writer too slow)
   uint64_t udp_drops = 0;           // kernel drops on our LCM socket since start
   uint64_t malformed_datagrams = 0; // datagrams that are not LCM packets or carry impossible fragment headers
   uint64_t incomplete_messages = 0; // fragmented messages abandoned before their last fragment
+  bool authenticated = false;       // authenticated mode: messages not recorded, per verdict
+  uint64_t auth_unsigned = 0, auth_bad_mac = 0, auth_stale = 0, auth_replayed = 0;
   int udp_rcvbuf_bytes = 0;         // receive buffer the kernel granted (0: not udpm)
   std::size_t handoff_peak_bytes = 0;
   std::vector<std::filesystem::path> files;
@@ -165,6 +177,8 @@ class Session {
   std::atomic<uint64_t> lcm_beats_{0};
   // The receiver's udpm counters, published by the receive thread after each handle().
   std::atomic<uint64_t> malformed_{0}, incomplete_{0};
+  // Authenticated mode: the receiver's drops per verdict, published with the counters above.
+  std::atomic<uint64_t> auth_unsigned_{0}, auth_bad_mac_{0}, auth_stale_{0}, auth_replayed_{0};
   std::thread lcm_thread_;
   std::thread writer_thread_;
   bool started_ = false;

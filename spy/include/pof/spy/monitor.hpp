@@ -2,7 +2,9 @@
 // The model behind `pof spy`: every channel seen, its rate, counts, sequence gaps and the latest
 // decoded value of pofkit's own types (lcmtypes/*.lcm); unknown channels are kept by fingerprint
 // and size. No LCM, no terminal: messages in (bytes + receive time), text out, so it is unit-tested
-// without a network.
+// without a network. A message that still carries an authenticated-mode trailer (the spy was given
+// no key, so nothing verified it) is shown from the LCM message in front of the trailer and counted
+// as SIGNED, NOT VERIFIED on its channel.
 //
 // Thread safety: none; one thread feeds and renders (cmd_spy.cpp runs a single poll() loop).
 #include <cstddef>
@@ -20,6 +22,7 @@
 #include <pof/daq_status_t.hpp>
 #include <pof/raw_block_t.hpp>
 
+#include "pof/bus/auth_trailer.hpp"
 #include "pof/bus/fingerprint.hpp"
 #include "pof/recorder/pof_messages.hpp"
 
@@ -30,6 +33,7 @@ struct ChannelView {
   uint64_t count = 0;
   uint64_t bytes = 0;
   uint64_t decode_errors = 0;     // fingerprint matched one of our types but it did not decode (bounded decoder)
+  uint64_t unverified = 0;        // messages with an authenticated-mode trailer shown without verification (no key)
   std::size_t last_size = 0;
   uint64_t fingerprint = 0;
   bus::MessageType type = bus::MessageType::kUnknown;
@@ -70,6 +74,10 @@ struct RenderOptions {
   uint64_t kernel_drops = 0; // UDP datagrams the kernel dropped on our socket
   uint64_t malformed_datagrams = 0;  // datagrams on the port that are not LCM (pof::bus::ReceiverStats)
   uint64_t incomplete_messages = 0;  // fragmented messages abandoned incomplete
+  // Authenticated mode (pof::bus::ReceiverStats): messages the verifier dropped, per verdict.
+  bool authenticated = false;
+  std::string key_id;
+  uint64_t auth_unsigned = 0, auth_bad_mac = 0, auth_stale = 0, auth_replayed = 0;
   int64_t now_utime = 0;
 };
 

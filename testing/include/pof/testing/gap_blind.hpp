@@ -36,11 +36,18 @@ Hidden hide(sim::Scenario& s, const std::string& effect, std::mt19937_64& rng);
 /// Draws `count` distinct effects at random and hides them.
 std::vector<Hidden> hide_random(sim::Scenario& s, int count, std::mt19937_64& rng);
 
+/// A sensor of the paper's structure with its own coefficients: c1, c2, c9, c10 and c3-c6 of each
+/// direction each within +-spread of table 2, c7 and c8 through the chain's departure from identity
+/// at zero hysteresis (also +-spread; see gap_blind.cpp), redrawn until the output fits the DAQ's
+/// +-5 V over 0-90 deg.
+core::ModelCoefficients draw_sensor(std::mt19937_64& rng, double spread);
+
 /// Runs the simulator to the end of the trajectory (or duration_s) into a Recording.
 io::Recording simulate(const sim::Scenario& s, std::uint64_t seed);
 
 struct Trial {
   std::uint64_t seed = 0;
+  core::ModelCoefficients sensor;   // the sensor's own coefficients (draw_sensor)
   std::vector<Hidden> hidden;
   std::vector<std::string> found;   // accepted effects, in order
   double baseline_gap_deg = 0, final_gap_deg = 0;
@@ -54,9 +61,10 @@ struct Trial {
   [[nodiscard]] double shrink() const { return baseline_gap_deg > 0 ? 1.0 - final_gap_deg / baseline_gap_deg : 0.0; }
 };
 
-/// One blind trial: `count` random effects (0, 1, 2, ...) drawn with `seed`, the recording written
-/// to dir/blind_<seed>.csv, read back and analysed with only the file.
+/// One blind trial: a sensor (draw_sensor with sensor_spread; 0 = the paper's table 2) and `count`
+/// random effects (0, 1, 2, ...) drawn with `seed`, the recording written to dir/blind_<seed>.csv,
+/// read back and analysed with only the file.
 Trial run_trial(std::uint64_t seed, int count, bool short_session, const std::filesystem::path& dir,
-                const Options& opt = {});
+                const Options& opt = {}, double sensor_spread = 0.3);
 
 }  // namespace pof::gap::blind

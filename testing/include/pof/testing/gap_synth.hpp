@@ -1,7 +1,8 @@
 #pragma once
 // Synthetic recordings with hidden effects, for the unit tests and the blind benchmark: the
 // calibration protocol (quasi-static steps, constant-velocity cycles at table-1 velocities) run
-// through the paper model (model_voltage), with each issue-7 effect injected in its physical form.
+// through the paper model (model_voltage), with each effect of core/effects.hpp injected in a
+// physical form written independently of `pof gap`'s columns.
 // This is the test generator for the unit tests that must not depend on the simulator.
 #include <cstdint>
 #include <map>
@@ -26,7 +27,9 @@ struct SynthConfig {
   ///  creep [gain, fraction of the angle step; tau fixed by creep_tau_s],
   ///  rate_dependent_hysteresis [V, +-A (1-exp(-w/0.1)) sin(pi angle/90)], acceleration_dependence [deg per rad/s^2],
   ///  time_delay [s], backlash [deg], source_power_coupling [fraction of power not cancelled],
-  ///  periodic_interference [V amplitude at interference_hz].
+  ///  periodic_interference [V amplitude at interference_hz], memory_hysteresis [V half-height of an
+  ///  exponential-approach hysteron, 5 deg], viscoelastic_relaxation [total gain of two Prony terms,
+  ///  1.5 s and 40 s].
   std::map<std::string, double> effects;
   double creep_tau_s = 4.0;
   double interference_hz = 50.0;

@@ -48,6 +48,8 @@ struct DaqConfig {
   std::string lcm_url;                  // "": $LCM_DEFAULT_URL, else udpm on this host (pof/bus/url.hpp)
   std::string sensor_id;                // suffix of the channels: POF_RAW_<SENSOR_ID>
   int queue_blocks = 256;               // publisher queue depth [blocks]
+  std::string auth_key_file;            // bus key: sign what is published (authenticated mode); "":
+                                        // $POF_LCM_AUTH_KEY_FILE, else unauthenticated (pof/bus/auth_key.hpp)
   // [daemon]
   int retry_ms = 500;                   // wait between attempts to open the device
   double status_period_s = 1.0;

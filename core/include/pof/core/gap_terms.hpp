@@ -1,0 +1,203 @@
+#pragma once
+// The effect terms `pof gap` finds (docs/gap.md) and the compensator applies (docs/calibration.md,
+// "`[gap]`: effect terms and how the compensator applies them"). The model voltage is
+//
+//   v_model(k) = baseline(A_k, w_k, dir_k) + sum over terms, sum over i of coefficients_v[i] basis_i(k)
+//
+// with A the angle the fibre sees [deg], w the signed angular velocity [rad/s], dir the direction,
+// and the baseline the calibration's active model (the paper's chain or the dynamic model). Two
+// effects act on the kinematics instead: time_delay (the fibre sees the angle late) and backlash
+// (play between the joint and the reference potentiometer); they are GapModel::delay_s and
+// GapModel::backlash_deg, never terms. The effect catalogue is core/effects.hpp.
+//
+// GapModel is what the calibration file holds ([gap]; io/calibration_file.hpp reads and writes
+// it); gap_problems() says which of its terms the compensator cannot apply and why; GapCorrector
+// is the online part OnlineCompensator runs per scan (compensator.hpp):
+//
+//   filter(v_norm)            notch at every periodic_interference frequency
+//   voltage_at(A, ...)        the terms' voltage if the fibre angle now is A (the compensator
+//                             passes the previous scan's estimate), subtracted before the inverse
+//   advance(A, reference_v, dA/dv)  commits the fibre angle A the inverse gave; returns the angle
+//                             of the reference the calibration was made against (delay and backlash
+//                             undone)
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "pof/core/dynamic_model.hpp"
+#include "pof/core/effects.hpp"
+#include "pof/core/model.hpp"
+
+namespace pof::core {
+
+struct Calibration;
+
+/// Version of the [gap] section's layout (its own schema_version key).
+inline constexpr int kGapSchemaVersion = 1;
+
+/// One accepted effect: coefficients_v[i] multiplies basis function i of the effect (units: volts
+/// per unit of the basis; the bases and theta's meaning per effect are in docs/calibration.md).
+struct GapTerm {
+  std::string effect;                    // an id of kEffectIds, as written (an unknown id is kept for gap_problems)
+  double theta = 0;                      // the effect's nonlinear parameter (0 where it has none)
+  std::vector<double> coefficients_v;    // one per basis function
+  std::vector<double> thresholds_deg;    // memory_hysteresis: the stop operators' thresholds r_i
+  std::vector<double> time_constants_s;  // viscoelastic_relaxation: the relaxation times tau_j
+  std::vector<std::pair<std::string, double>> parameters;  // physical parameters for humans, in file order
+  int line = 0;                          // where the term starts in its file (0: not read from a file)
+};
+
+struct GapModel {
+  double delay_s = 0;       // time_delay: the sensor sees A(t - delay_s); 0 = none
+  double backlash_deg = 0;  // backlash: belt play width b between the reference and the joint; 0 = none
+  std::vector<GapTerm> terms;
+
+  [[nodiscard]] bool empty() const { return delay_s == 0 && backlash_deg == 0 && terms.empty(); }
+};
+
+/// The number of basis functions (= coefficients) of a term of effect e, nullopt for an effect
+/// that is never a term (time_delay, backlash). memory_hysteresis has one per threshold and
+/// viscoelastic_relaxation one per time constant: pass their counts.
+std::optional<std::size_t> basis_size(Effect e, std::size_t n_thresholds = 0, std::size_t n_time_constants = 0);
+
+/// Why part of a GapModel cannot be applied online.
+struct GapProblem {
+  std::size_t term = 0;   // 1-based term number; 0: the section's own keys (delay_s, backlash_deg)
+  std::string effect;     // the term's effect id, or the key ("delay_s") when term == 0
+  std::string why;
+  int line = 0;           // GapTerm::line
+  /// "[gap] term 2 'drift': a trend over the calibration recording cannot be applied online; ..."
+  [[nodiscard]] std::string describe() const;
+};
+
+/// Every term (and section key) the compensator cannot apply, and why: drift (a trend over the
+/// calibration recording), an unknown effect, a kinematic effect given as a term, a coefficient
+/// count that does not match the basis, non-finite numbers, thresholds or time constants not
+/// positive, a nonlinear parameter out of range, and with scan_rate_hz > 0 a periodic_interference
+/// frequency at or above the Nyquist frequency scan_rate_hz / 2. Empty: everything applies.
+std::vector<GapProblem> gap_problems(const GapModel& g, double scan_rate_hz = 0);
+
+/// Limits that keep the corrector's state small and fixed (the per-scan work bounded).
+inline constexpr std::size_t kMaxGapTerms = 32;
+inline constexpr double kMaxGapDelayS = 1.0;          // |delay_s|: a DAQ or filter delay, not a second
+inline constexpr double kMaxGapBacklashDeg = 20.0;    // more play than this is a broken belt
+inline constexpr double kMaxAccelerationWindowS = 1.0;  // acceleration_dependence: h [s]
+/// The notch applied for periodic_interference (RBJ biquad, see GapCorrector): its quality factor.
+inline constexpr double kNotchQ = 5.0;
+/// The window of the quadratic fit that extrapolates a positive delay (GapCorrector) [s].
+inline constexpr double kDelayFitWindowS = 0.12;
+/// source_power_coupling: the reference level's averaging window [s].
+inline constexpr double kSourceMeanWindowS = 1.0;
+
+/// The online application of a GapModel at one scan rate. Construction allocates every buffer
+/// (and throws std::invalid_argument naming the first of gap_problems()); after that no method
+/// allocates or throws. Default-constructed it does nothing (no terms).
+class GapCorrector {
+ public:
+  GapCorrector() = default;
+  /// cal.gap (must be set), cal.model (the paper chain, for the bases that use it) and
+  /// cal.reference_level_v at scan_rate_hz.
+  GapCorrector(const Calibration& cal, double scan_rate_hz);
+
+  /// The normalised sensor voltage with every periodic_interference frequency notched out.
+  double filter(double v_norm) noexcept;
+
+  /// The sum of the sensor-side terms [V] at this scan if the fibre angle now is angle_deg, given
+  /// the angles committed by advance(). reference_v is this scan's reference voltage [V] (finite),
+  /// velocity_rad_s and direction the compensator's estimate (velocity NaN counts as 0).
+  [[nodiscard]] double voltage_at(double angle_deg, double reference_v, double velocity_rad_s,
+                                  Direction direction) const noexcept;
+
+  /// Commits this scan's fibre angle (and reference voltage) and returns the reference-equivalent
+  /// angle: the delay inverse (velocity extrapolation by delay_s > 0, or the angle |delay_s| ago
+  /// for delay_s < 0) followed by the play operator of half-width backlash_deg / 2.
+  ///
+  /// angle_per_volt [deg/V] is dA/dv of the model that gave angle_deg. The acceleration term's
+  /// estimate must not feed on its own correction: an angle from which eps A'' was subtracted,
+  /// differentiated twice and subtracted again is a causal inverse of (1 + eps d^2/dt^2), whose
+  /// poles are undamped, and it diverges. So the angles that estimate it are open-loop ones,
+  /// angle_deg + angle_per_volt x (this scan's acceleration voltage), the angle the voltage gives
+  /// without that one term. 0: angle_deg already is such an angle (no acceleration term applied).
+  double advance(double angle_deg, double reference_v, double angle_per_volt) noexcept;
+
+  /// The acceleration terms' voltage at this scan [V]: it depends on the committed angles only
+  /// (included in voltage_at()).
+  [[nodiscard]] double acceleration_voltage() const noexcept;
+  [[nodiscard]] bool has_acceleration() const noexcept { return !accel_.empty(); }
+  /// Whether voltage_at() depends on the velocity and direction (rate_dependent_hysteresis).
+  [[nodiscard]] bool uses_velocity() const noexcept { return !rate_.empty(); }
+
+  /// A scan without a usable input: the windows that would straddle it (acceleration, delay,
+  /// notch) restart; the memories (creep, stop operators, play, reference mean) are kept, as the
+  /// dynamic inverter keeps its own.
+  void interrupt() noexcept;
+  /// Lost scans: everything restarts from the next angle (relaxed creep, unloaded stop
+  /// operators, play centred), as OnlineCompensator::reset() restarts its dynamic inverter.
+  void reset() noexcept;
+
+  [[nodiscard]] bool active() const noexcept { return active_; }
+  /// The acceleration estimate's lag [s] (its window centre; 0 without acceleration_dependence).
+  [[nodiscard]] double acceleration_lag_s() const noexcept;
+
+ private:
+  struct Creep {  // one relaxation: x_k = x_k-1 + alpha (A_k - x_k-1), basis x_k - A_k
+    double alpha = 0, coefficient = 0, x = 0;
+  };
+  struct Stop {  // one Prandtl-Ishlinskii stop operator of threshold r
+    double r = 0, coefficient = 0, s = 0;
+  };
+  struct RateHysteresis {
+    double w0 = 1, c_shape = 0, c_paper = 0;
+  };
+  struct Acceleration {  // a = 2 c / dt^2 of a quadratic least-squares fit over the last n angles
+    int n = 0;
+    double coefficient = 0, norm = 0;  // norm = 1 / sum (j^2 - m2)^2
+  };
+  struct Notch {  // RBJ biquad notch, direct form I
+    double b0 = 1, b1 = 0, b2 = 1, a1 = 0, a2 = 0;
+    double x1 = 0, x2 = 0, y1 = 0, y2 = 0;
+    bool primed = false;
+  };
+
+  [[nodiscard]] double estimate_acceleration_voltage() const noexcept;  // from the committed angles
+
+  bool active_ = false;
+  ModelCoefficients paper_;
+  double dt_ = 0.005, reference_level_v_ = 1;
+  std::array<double, 4> static_{};  // coefficients of u^2 .. u^5
+  std::vector<Creep> creep_;
+  std::vector<Stop> stops_;
+  std::vector<RateHysteresis> rate_;
+  std::vector<Acceleration> accel_;
+  double accel_v_ = 0;  // the acceleration terms' voltage for the next scan (committed angles only)
+  double c_source_vq_ = 0, c_source_r_ = 0;
+  bool source_ = false;
+  std::vector<Notch> notches_;
+
+  // Committed fibre angles (newest at head_), as long as the longest acceleration window.
+  std::vector<double> hist_;
+  int hist_head_ = 0, hist_count_ = 0;
+  // The reference voltage's causal mean over kSourceMeanWindowS.
+  std::vector<double> ref_;
+  int ref_head_ = 0, ref_count_ = 0;
+  double ref_sum_ = 0;
+  std::int64_t ref_since_refresh_ = 0;
+
+  bool started_ = false;
+  double last_angle_ = 0;
+
+  // Kinematics.
+  LagInverse lead_;           // delay_s > 0: A + d A'
+  std::vector<double> late_;  // delay_s < 0: the fibre angles of the last |d| fs + 2 scans
+  int late_head_ = 0, late_count_ = 0;
+  double late_scans_ = 0;     // |d| fs
+  double half_play_ = 0;
+  double play_ = 0;
+  bool play_started_ = false;
+};
+
+}  // namespace pof::core

@@ -1,0 +1,367 @@
+#include "pof/core/gap_terms.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <stdexcept>
+
+#include "pof/core/calibration.hpp"
+
+namespace pof::core {
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kRadPerDeg = kPi / 180.0;
+// The reference mean's running sum is rebuilt this often against rounding drift (as the
+// compensator's velocity sums are).
+constexpr std::int64_t kRefreshScans = 4096;
+
+std::string num(double x) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.6g", x);
+  return b;
+}
+
+bool all_finite(const std::vector<double>& v) {
+  return std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
+}
+
+std::string effect_list() {
+  std::string s;
+  for (const std::string_view id : kEffectIds) s += (s.empty() ? "'" : ", '") + std::string(id) + "'";
+  return s;
+}
+
+// The first reason the compensator cannot apply term t, or "" (the rate-independent checks, then
+// the Nyquist check when scan_rate_hz > 0).
+std::string term_problem(const GapTerm& t, double scan_rate_hz) {
+  const std::optional<Effect> e = effect_of(t.effect);
+  if (!e) return "not an effect of the catalogue (docs/gap.md): expected one of " + effect_list();
+  switch (*e) {
+    case Effect::kDrift:
+      return "a trend over the calibration recording cannot be applied online; remove it or recalibrate";
+    case Effect::kTimeDelay:
+      return "a kinematic effect, given as [gap] delay_s, not as a term";
+    case Effect::kBacklash:
+      return "a kinematic effect, given as [gap] backlash_deg, not as a term";
+    default:
+      break;
+  }
+  if (!std::isfinite(t.theta)) return "theta must be a finite number";
+  if (!all_finite(t.coefficients_v)) return "coefficients_v must be finite numbers";
+  for (const auto& [name, value] : t.parameters)
+    if (!std::isfinite(value)) return "parameters." + name + " must be a finite number";
+  if (!t.thresholds_deg.empty() && *e != Effect::kMemoryHysteresis)
+    return "thresholds_deg belongs to memory_hysteresis only";
+  if (!t.time_constants_s.empty() && *e != Effect::kViscoelasticRelaxation)
+    return "time_constants_s belongs to viscoelastic_relaxation only";
+  if (*e == Effect::kMemoryHysteresis) {
+    if (t.thresholds_deg.empty()) return "needs its stop operators' thresholds_deg (at least one)";
+    if (t.thresholds_deg.size() > static_cast<std::size_t>(kMaxOperators))
+      return "at most " + std::to_string(kMaxOperators) + " thresholds_deg, got " + std::to_string(t.thresholds_deg.size());
+    for (const double r : t.thresholds_deg)
+      if (!(r > 0) || !std::isfinite(r)) return "thresholds_deg must be finite and > 0, got " + num(r);
+  }
+  if (*e == Effect::kViscoelasticRelaxation) {
+    if (t.time_constants_s.empty()) return "needs its time_constants_s (at least one)";
+    if (t.time_constants_s.size() > static_cast<std::size_t>(kMaxPronyTerms))
+      return "at most " + std::to_string(kMaxPronyTerms) + " time_constants_s, got " + std::to_string(t.time_constants_s.size());
+    for (const double tau : t.time_constants_s)
+      if (!(tau > 0) || !std::isfinite(tau)) return "time_constants_s must be finite and > 0, got " + num(tau);
+  }
+  const std::size_t want = *basis_size(*e, t.thresholds_deg.size(), t.time_constants_s.size());
+  if (t.coefficients_v.size() != want)
+    return "expected " + std::to_string(want) + " coefficients_v (one per basis function), got " +
+           std::to_string(t.coefficients_v.size());
+  switch (*e) {
+    case Effect::kCreep:
+      if (!(t.theta > 0)) return "theta (the creep time constant tau [s]) must be > 0, got " + num(t.theta);
+      break;
+    case Effect::kRateDependentHysteresis:
+      if (!(t.theta > 0)) return "theta (the velocity scale w0 [rad/s]) must be > 0, got " + num(t.theta);
+      break;
+    case Effect::kAccelerationDependence:
+      if (!(t.theta > 0) || t.theta > kMaxAccelerationWindowS)
+        return "theta (the acceleration window h [s]) must be in (0, " + num(kMaxAccelerationWindowS) + "], got " + num(t.theta);
+      break;
+    case Effect::kPeriodicInterference:
+      if (!(t.theta > 0)) return "theta (the frequency f [Hz]) must be > 0, got " + num(t.theta);
+      if (scan_rate_hz > 0 && !(t.theta < 0.5 * scan_rate_hz))
+        return "the frequency " + num(t.theta) + " Hz is at or above the Nyquist frequency " + num(0.5 * scan_rate_hz) +
+               " Hz of " + num(scan_rate_hz) + " Hz scans: no notch can remove it";
+      break;
+    default:
+      break;
+  }
+  return "";
+}
+
+}  // namespace
+
+std::optional<std::size_t> basis_size(Effect e, std::size_t n_thresholds, std::size_t n_time_constants) {
+  switch (e) {
+    case Effect::kStaticNonlinearity: return 4;
+    case Effect::kDrift: return 1;
+    case Effect::kCreep: return 1;
+    case Effect::kRateDependentHysteresis: return 2;
+    case Effect::kAccelerationDependence: return 1;
+    case Effect::kSourcePowerCoupling: return 2;
+    case Effect::kPeriodicInterference: return 4;
+    case Effect::kMemoryHysteresis: return n_thresholds;
+    case Effect::kViscoelasticRelaxation: return n_time_constants;
+    case Effect::kTimeDelay:
+    case Effect::kBacklash: return std::nullopt;
+  }
+  return std::nullopt;
+}
+
+std::string GapProblem::describe() const {
+  if (term == 0) return "[gap] " + effect + ": " + why;
+  return "[gap] term " + std::to_string(term) + " '" + effect + "': " + why;
+}
+
+std::vector<GapProblem> gap_problems(const GapModel& g, double scan_rate_hz) {
+  std::vector<GapProblem> out;
+  if (!std::isfinite(g.delay_s) || std::abs(g.delay_s) > kMaxGapDelayS)
+    out.push_back({0, "delay_s", "expected a finite delay within +-" + num(kMaxGapDelayS) + " s, got " + num(g.delay_s), 0});
+  if (!std::isfinite(g.backlash_deg) || g.backlash_deg < 0 || g.backlash_deg > kMaxGapBacklashDeg)
+    out.push_back({0, "backlash_deg", "expected a play width in [0, " + num(kMaxGapBacklashDeg) + "] deg, got " + num(g.backlash_deg), 0});
+  if (g.terms.size() > kMaxGapTerms)
+    out.push_back({0, "terms", "at most " + std::to_string(kMaxGapTerms) + " terms, got " + std::to_string(g.terms.size()), 0});
+  for (std::size_t i = 0; i < g.terms.size(); ++i)
+    if (std::string why = term_problem(g.terms[i], scan_rate_hz); !why.empty())
+      out.push_back({i + 1, g.terms[i].effect, std::move(why), g.terms[i].line});
+  return out;
+}
+
+// --- GapCorrector ---------------------------------------------------------------------------------
+
+GapCorrector::GapCorrector(const Calibration& cal, double scan_rate_hz) {
+  if (!cal.gap) throw std::invalid_argument("gap corrector: the calibration has no [gap] section");
+  if (!(scan_rate_hz > 0) || !std::isfinite(scan_rate_hz)) throw std::invalid_argument("gap corrector: scan rate must be > 0");
+  const GapModel& g = *cal.gap;
+  if (const auto problems = gap_problems(g, scan_rate_hz); !problems.empty())
+    throw std::invalid_argument(problems.front().describe());
+  active_ = true;
+  paper_ = cal.model;
+  reference_level_v_ = cal.reference_level_v;
+  dt_ = 1.0 / scan_rate_hz;
+  int longest = 0;
+  auto add_creep = [&](double tau, double c) { creep_.push_back({1.0 - std::exp(-dt_ / tau), c, 0.0}); };
+  for (const GapTerm& t : g.terms) {
+    const std::vector<double>& c = t.coefficients_v;
+    switch (*effect_of(t.effect)) {
+      case Effect::kStaticNonlinearity:
+        for (std::size_t i = 0; i < 4; ++i) static_[i] += c[i];
+        break;
+      case Effect::kCreep:
+        add_creep(t.theta, c[0]);
+        break;
+      case Effect::kViscoelasticRelaxation:
+        for (std::size_t j = 0; j < t.time_constants_s.size(); ++j) add_creep(t.time_constants_s[j], c[j]);
+        break;
+      case Effect::kMemoryHysteresis:
+        for (std::size_t i = 0; i < t.thresholds_deg.size(); ++i) stops_.push_back({t.thresholds_deg[i], c[i], 0.0});
+        break;
+      case Effect::kRateDependentHysteresis:
+        rate_.push_back({t.theta, c[0], c[1]});
+        break;
+      case Effect::kAccelerationDependence: {
+        // The causal quadratic least-squares fit over the last 2h: n = 2h fs + 1 scans (at least 3).
+        Acceleration a;
+        a.n = std::max(3, static_cast<int>(std::lround(2 * t.theta * scan_rate_hz)) + 1);
+        a.coefficient = c[0];
+        const double m2 = (static_cast<double>(a.n) * a.n - 1) / 12.0;  // mean of j^2 over centred j
+        double s = 0;
+        for (int i = 0; i < a.n; ++i) {
+          const double j = i - (a.n - 1) / 2.0;
+          s += (j * j - m2) * (j * j - m2);
+        }
+        a.norm = 1.0 / s;
+        longest = std::max(longest, a.n);
+        accel_.push_back(a);
+        break;
+      }
+      case Effect::kSourcePowerCoupling:
+        source_ = true;
+        c_source_vq_ += c[0];
+        c_source_r_ += c[1];
+        break;
+      case Effect::kPeriodicInterference: {
+        // Robert Bristow-Johnson, "Cookbook formulae for audio EQ biquad filter coefficients"
+        // (the W3C Audio EQ Cookbook), notch: H(z) = (1 - 2 cos w0 z^-1 + z^-2) / (a0 + a1 z^-1 + a2 z^-2).
+        const double w0 = 2 * kPi * t.theta / scan_rate_hz;
+        const double alpha = std::sin(w0) / (2 * kNotchQ);
+        const double a0 = 1 + alpha;
+        Notch n;
+        n.b0 = 1 / a0;
+        n.b1 = -2 * std::cos(w0) / a0;
+        n.b2 = 1 / a0;
+        n.a1 = -2 * std::cos(w0) / a0;
+        n.a2 = (1 - alpha) / a0;
+        notches_.push_back(n);
+        break;
+      }
+      case Effect::kDrift:
+      case Effect::kTimeDelay:
+      case Effect::kBacklash:
+        break;  // refused by gap_problems() above
+    }
+  }
+  hist_.assign(static_cast<std::size_t>(std::max(longest, 1)), 0.0);
+  if (source_) ref_.assign(static_cast<std::size_t>(std::max(1L, std::lround(kSourceMeanWindowS * scan_rate_hz))), 0.0);
+  if (g.delay_s > 0) lead_ = LagInverse(g.delay_s, kDelayFitWindowS, scan_rate_hz);
+  if (g.delay_s < 0) {
+    late_scans_ = -g.delay_s * scan_rate_hz;
+    late_.assign(static_cast<std::size_t>(std::floor(late_scans_)) + 2, 0.0);
+  }
+  half_play_ = 0.5 * g.backlash_deg;
+}
+
+double GapCorrector::acceleration_lag_s() const noexcept {
+  int n = 0;
+  for (const Acceleration& a : accel_) n = std::max(n, a.n);
+  return n == 0 ? 0.0 : ((n - 1) / 2.0 + 1.0) * dt_;
+}
+
+double GapCorrector::filter(double v) noexcept {
+  for (Notch& n : notches_) {
+    if (!n.primed) {  // start in the steady state of a constant input: no start-up transient
+      n.x1 = n.x2 = n.y1 = n.y2 = v;
+      n.primed = true;
+    }
+    const double y = n.b0 * v + n.b1 * n.x1 + n.b2 * n.x2 - n.a1 * n.y1 - n.a2 * n.y2;
+    n.x2 = n.x1;
+    n.x1 = v;
+    n.y2 = n.y1;
+    n.y1 = y;
+    v = y;
+  }
+  return v;
+}
+
+double GapCorrector::voltage_at(double angle, double reference_v, double velocity_rad_s, Direction d) const noexcept {
+  if (!active_) return 0.0;
+  double v = 0;
+  const double u = (angle - 45.0) / 45.0;
+  const double u2 = u * u;
+  v += u2 * (static_[0] + u * (static_[1] + u * (static_[2] + u * static_[3])));
+  if (started_) {
+    for (const Creep& c : creep_) v += c.coefficient * (c.x + c.alpha * (angle - c.x) - angle);
+    const double step = angle - last_angle_;
+    for (const Stop& s : stops_) v += s.coefficient * stop_operator(s.s, step, s.r);
+  }  // before the first angle: creep relaxed (x_0 = A_0) and stop operators at 0: no voltage
+  if (!rate_.empty()) {
+    const double w = std::isfinite(velocity_rad_s) ? std::abs(velocity_rad_s) : 0.0;
+    const double sign = d == Direction::kFlexion ? 1.0 : d == Direction::kExtension ? -1.0 : 0.0;
+    const double paper = model_voltage(paper_, angle, w, d) - quasi_static_voltage(paper_, angle);
+    const double shape = sign * std::sin(kPi * angle / 90.0);
+    for (const RateHysteresis& r : rate_) v += r.c_shape * shape * (1.0 - std::exp(-w / r.w0)) + r.c_paper * paper;
+  }
+  v += acceleration_voltage();
+  if (source_) {
+    const int size = static_cast<int>(ref_.size());
+    // The last size - 1 committed reference voltages and this scan's: the causal 1 s mean.
+    const int back = std::min(ref_count_, size - 1);
+    double sum = ref_sum_;
+    if (ref_count_ == size) sum -= ref_[static_cast<std::size_t>((ref_head_ + 1) % size)];  // the oldest drops out
+    const double mean = (sum + reference_v) / (back + 1);
+    const double r = mean / reference_level_v_ - 1.0;
+    v += c_source_vq_ * quasi_static_voltage(paper_, angle) * r + c_source_r_ * r;
+  }
+  return v;
+}
+
+double GapCorrector::acceleration_voltage() const noexcept { return accel_v_; }
+
+double GapCorrector::estimate_acceleration_voltage() const noexcept {
+  double v = 0;
+  const int size = static_cast<int>(hist_.size());
+  for (const Acceleration& a : accel_) {
+    if (hist_count_ < a.n) continue;  // no estimate until the window has filled
+    // sum (j^2 - m2) A_j over the newest n committed angles, j centred; a = 2 c / dt^2 [deg/s^2].
+    const double m2 = (static_cast<double>(a.n) * a.n - 1) / 12.0;
+    double s = 0;
+    int at = hist_head_;
+    for (int i = 0; i < a.n; ++i) {
+      const double j = (a.n - 1) / 2.0 - i;  // i scans back from the newest
+      s += (j * j - m2) * hist_[static_cast<std::size_t>(at)];
+      at = at == 0 ? size - 1 : at - 1;
+    }
+    v += a.coefficient * 2.0 * s * a.norm / (dt_ * dt_) * kRadPerDeg;
+  }
+  return v;
+}
+
+double GapCorrector::advance(double angle, double reference_v, double angle_per_volt) noexcept {
+  if (!active_) return angle;
+  const double open = accel_.empty() || angle_per_volt == 0 ? angle : angle + angle_per_volt * accel_v_;
+  for (Creep& c : creep_) c.x = started_ ? c.x + c.alpha * (angle - c.x) : angle;
+  const double step = started_ ? angle - last_angle_ : 0.0;
+  for (Stop& s : stops_) s.s = stop_operator(s.s, step, s.r);
+  last_angle_ = angle;
+  started_ = true;
+  const int hsize = static_cast<int>(hist_.size());
+  hist_head_ = (hist_head_ + 1) % hsize;
+  hist_[static_cast<std::size_t>(hist_head_)] = open;
+  hist_count_ = std::min(hist_count_ + 1, hsize);
+  if (!accel_.empty()) accel_v_ = estimate_acceleration_voltage();  // for the next scan
+  if (source_ && std::isfinite(reference_v)) {
+    const int size = static_cast<int>(ref_.size());
+    ref_head_ = (ref_head_ + 1) % size;
+    double& slot = ref_[static_cast<std::size_t>(ref_head_)];
+    ref_sum_ += reference_v - (ref_count_ == size ? slot : 0.0);
+    slot = reference_v;
+    ref_count_ = std::min(ref_count_ + 1, size);
+    if (++ref_since_refresh_ >= kRefreshScans) {
+      ref_since_refresh_ = 0;
+      ref_sum_ = 0;
+      for (int i = 0; i < ref_count_; ++i) ref_sum_ += ref_[static_cast<std::size_t>((ref_head_ - i + size) % size)];
+    }
+  }
+  // Kinematics: the delay first (the fibre sees the joint late), then the belt's play between the
+  // joint and the reference.
+  double joint = angle;
+  if (late_scans_ > 0) {
+    const int size = static_cast<int>(late_.size());
+    late_head_ = (late_head_ + 1) % size;
+    late_[static_cast<std::size_t>(late_head_)] = angle;
+    late_count_ = std::min(late_count_ + 1, size);
+    // The angle late_scans_ scans ago, interpolated linearly; the oldest one until that far back exists.
+    const double back = std::min(late_scans_, static_cast<double>(late_count_ - 1));
+    const int i0 = static_cast<int>(std::floor(back));
+    const double f = back - i0;
+    const double a0 = late_[static_cast<std::size_t>((late_head_ - i0 + size) % size)];
+    const double a1 = f > 0 ? late_[static_cast<std::size_t>((late_head_ - i0 - 1 + size) % size)] : a0;
+    joint = (1 - f) * a0 + f * a1;
+  } else {
+    joint = lead_.step(angle);
+  }
+  if (half_play_ > 0) {
+    play_ = play_started_ ? play_operator(play_, joint, half_play_) : joint;
+    play_started_ = true;
+    return play_;
+  }
+  return joint;
+}
+
+void GapCorrector::interrupt() noexcept {
+  hist_count_ = 0;
+  accel_v_ = 0;
+  late_count_ = 0;
+  lead_.reset();
+  for (Notch& n : notches_) n.primed = false;
+}
+
+void GapCorrector::reset() noexcept {
+  interrupt();
+  started_ = false;
+  ref_count_ = 0;
+  ref_sum_ = 0;
+  ref_since_refresh_ = 0;
+  play_started_ = false;
+}
+
+}  // namespace pof::core

@@ -1,0 +1,88 @@
+// viscoelastic_relaxation: relaxation over two time constants (docs/gap.md, section 3).
+#include <cmath>
+#include <string>
+#include <utility>
+
+#include "effect.hpp"
+
+namespace pof::gap {
+namespace {
+
+// Two Prony terms (a generalised Maxwell model) at time constants at least ~4x apart: a polymer
+// fibre relaxes over decades of time, which one time constant (creep) cannot follow. theta indexes
+// the pair in a fixed list: both from creep's range, 1..200 s in 17 log steps (x1.39), the slow one
+// at least four steps (x3.7) above the fast one; the gains are the linear coefficients. 1 s is the
+// shortest for the reason creep's grid starts there (shorter memories are a delay plus acceleration).
+const std::vector<std::pair<double, double>>& pairs() {
+  static const std::vector<std::pair<double, double>> p = [] {
+    const std::vector<double> taus = basis::log_grid(1.0, 200.0, 17);
+    std::vector<std::pair<double, double>> out;
+    for (std::size_t i = 0; i < taus.size(); ++i)
+      for (std::size_t j = i + 4; j < taus.size(); ++j) out.emplace_back(taus[i], taus[j]);
+    return out;
+  }();
+  return p;
+}
+
+std::pair<double, double> pair_of(double theta) {
+  const auto i = static_cast<std::size_t>(std::lround(theta));
+  return pairs().at(std::min(i, pairs().size() - 1));
+}
+
+std::vector<double> grid(const Context&, const Eigen::VectorXd&) {
+  std::vector<double> g;
+  for (std::size_t i = 0; i < pairs().size(); ++i) g.push_back(static_cast<double>(i));
+  return g;
+}
+
+Eigen::MatrixXd columns(double theta, const Context& cx, const Kinematics& k) {
+  const auto [fast, slow] = pair_of(theta);
+  Eigen::MatrixXd C(cx.s->n, 2);
+  C.col(0) = basis::relaxation(k.angle, cx.s->dt, fast);
+  C.col(1) = basis::relaxation(k.angle, cx.s->dt, slow);
+  return C;
+}
+
+nlohmann::json physical(double theta, const Eigen::VectorXd& b, const Context& cx) {
+  const auto [fast, slow] = pair_of(theta);
+  const double gf = basis::as_angle_error(b(0), cx), gs = basis::as_angle_error(b(1), cx);
+  // Gains as creep's: the fraction of a sudden bend that relaxes with that time constant.
+  return {{"tau_fast_s", fast}, {"tau_slow_s", slow}, {"gain_fast", gf}, {"gain_slow", gs}, {"total_gain", gf + gs}};
+}
+
+// A relaxation modulus is a sum of decaying exponentials with positive weights (springs and
+// dashpots): both gains have one sign. Gains of both signs that the jackknife tells apart from zero
+// make a band-pass memory, not a fibre's relaxation; such a fit is taking up something else (a
+// delay, an acceleration term).
+std::string inadmissible(const nlohmann::json& p) {
+  auto sig = [&](const char* k) {
+    const double g = p.value(k, 0.0), se = p.value(std::string(k) + "_se", 0.0);
+    return std::abs(g) > 2 * se ? (g > 0 ? 1 : -1) : 0;
+  };
+  return sig("gain_fast") * sig("gain_slow") < 0 ? "gains of both signs beyond 2 SE: not a relaxation spectrum" : "";
+}
+
+std::vector<double> basis_values(double theta) {
+  const auto [fast, slow] = pair_of(theta);
+  return {fast, slow};
+}
+
+}  // namespace
+
+extern const EffectDef kViscoelasticRelaxation{
+    .id = core::Effect::kViscoelasticRelaxation,
+    .meaning = "relaxation over two time constants (Prony series, 1-200 s): the fibre's viscoelastic spectrum",
+    .linear = 2,
+    .theta_key = "pair_index",
+    .magnitude_key = "total_gain",
+    .grid = grid,
+    .columns = columns,
+    .physical = physical,
+    .inadmissible = inadmissible,
+    .generalises = core::Effect::kCreep,
+    .theta_in_file = false,
+    .basis_key = "time_constants_s",
+    .basis_values = basis_values,
+};
+
+}  // namespace pof::gap

@@ -1,0 +1,26 @@
+#pragma once
+// The baseline of `pof gap`: the model structure fitted to this recording (docs/gap.md, section 1).
+#include <nlohmann/json.hpp>
+
+#include "pof/core/model.hpp"
+#include "pof/gap/signals.hpp"
+#include "pof/io/recording.hpp"
+
+namespace pof::gap {
+
+struct Baseline {
+  core::ModelCoefficients model;  // the paper's structure with every coefficient fitted here
+  nlohmann::json detail;          // how it was fitted, and the dynamic model as a second baseline
+};
+
+/// 1. The calibration procedure of `pof calibrate` (core::calibrate: f5 from the holds, f1-f4
+///    from the constant-velocity tests), or the paper's table 2 when the recording has no
+///    velocity tests (said in detail["start"]).
+/// 2. From there, every identifiable coefficient refitted on the voltage of all scans
+///    (core::refit_paper_model), so the baseline is the structure at its best on this recording.
+/// 3. The dynamic model (core::fit_dynamic) identified on the same recording, its held-out error
+///    reported beside the paper structure's.
+/// k0: the kinematics of the reference angle without delay (direction, speed).
+Baseline fit_baseline(const io::Recording& rec, const Signals& s, const Kinematics& k0);
+
+}  // namespace pof::gap

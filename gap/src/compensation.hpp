@@ -1,0 +1,24 @@
+#pragma once
+// Closing the loop in the report: the angle the compensator would output with the baseline alone
+// and with the found model, against the reference, on held-out blocks (docs/gap.md, section 5).
+#include <nlohmann/json.hpp>
+
+#include "pof/core/gap_terms.hpp"
+#include "pof/io/recording.hpp"
+#include "search.hpp"
+
+namespace pof::gap {
+
+/// The state's effect terms as the compensator's GapModel (docs/calibration.md, "[gap]"), with the
+/// coefficients of beta (after the kBaseCols baseline columns, in term order).
+core::GapModel gap_model_of(const State& st, const Eigen::VectorXd& beta, const Context& cx);
+
+/// Runs core::OnlineCompensator over the recording with the baseline (`before`: its all-data fit)
+/// and, fold by fold, with the model fitted on the other folds (`after`, the fit of state `st` at
+/// sx's baseline: baseline moved and terms with the fold's coefficients), and scores each fold's held-out block against the reference
+/// angle: RMSE before and after, per fold and overall. Terms the compensator cannot apply online
+/// (drift) are left out of `after` and named in "not_applied".
+nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, const core::ModelCoefficients& before, const State& st,
+                                const CurrentFit& after, Eigen::VectorXd* angle_before, Eigen::VectorXd* angle_after);
+
+}  // namespace pof::gap

@@ -1,0 +1,170 @@
+// Time-blocked cross-validation (see cv.hpp).
+#include "cv.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Dense>
+
+namespace pof::gap::cv {
+
+using Eigen::Index;
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+namespace {
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+double rss_of(double yy, const VectorXd& g, const MatrixXd& G, const VectorXd& beta) {
+  return std::max(0.0, yy - 2.0 * beta.dot(g) + beta.dot(G * beta));
+}
+
+double lag1(const VectorXd& r) {
+  const double m = r.mean();
+  const VectorXd c = r.array() - m;
+  const double den = c.squaredNorm();
+  if (den <= 0) return 0;
+  return c.head(c.size() - 1).dot(c.tail(c.size() - 1)) / den;
+}
+}  // namespace
+
+// K contiguous blocks. Each boundary is moved to the nearest hold scan so no movement (and so no
+// cycle) is cut in two: the folds are time blocks of whole cycles, never random samples (docs/gap.md).
+Blocks make_blocks(const Kinematics& k, int folds) {
+  const Index n = k.w.size();
+  const auto nf = static_cast<Index>(folds);
+  std::vector<Index> cut{0};
+  for (Index f = 1; f < nf; ++f) {
+    const Index target = f * n / nf;
+    const Index reach = n / (2 * nf);
+    Index best = target;
+    for (Index d = 0; d <= reach; ++d) {
+      if (target + d < n && k.s_move(target + d) == 0) { best = target + d; break; }
+      if (target - d >= 0 && k.s_move(target - d) == 0) { best = target - d; break; }
+    }
+    if (best > cut.back() + 10) cut.push_back(best);
+  }
+  cut.push_back(n);
+  Blocks b;
+  for (std::size_t i = 0; i + 1 < cut.size(); ++i) {
+    b.start.push_back(cut[i]);
+    b.len.push_back(cut[i + 1] - cut[i]);
+  }
+  return b;
+}
+
+// ---- least squares on per-block normal equations -------------------------------------------------
+Grams make_grams(const MatrixXd& X, const VectorXd& y, const Blocks& b) {
+  Grams gr;
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    const auto Xb = X.middleRows(b.start[i], b.len[i]);
+    const auto yb = y.segment(b.start[i], b.len[i]);
+    MatrixXd G = MatrixXd::Zero(X.cols(), X.cols());
+    G.selfadjointView<Eigen::Lower>().rankUpdate(Xb.transpose());
+    gr.G.push_back(G.selfadjointView<Eigen::Lower>());
+    gr.g.push_back(Xb.transpose() * yb);
+    gr.yy.push_back(yb.squaredNorm());
+  }
+  return gr;
+}
+
+// Base grams extended by new columns C (only the new cross products are computed).
+Grams extend_grams(const Grams& base, const MatrixXd& X0, const MatrixXd& C, const VectorXd& y, const Blocks& b) {
+  Grams gr;
+  const Index k0 = X0.cols(), c = C.cols();
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    const auto X0b = X0.middleRows(b.start[i], b.len[i]);
+    const auto Cb = C.middleRows(b.start[i], b.len[i]);
+    const auto yb = y.segment(b.start[i], b.len[i]);
+    MatrixXd G(k0 + c, k0 + c);
+    G.topLeftCorner(k0, k0) = base.G[i];
+    G.topRightCorner(k0, c) = X0b.transpose() * Cb;
+    G.bottomLeftCorner(c, k0) = G.topRightCorner(k0, c).transpose();
+    G.bottomRightCorner(c, c) = Cb.transpose() * Cb;
+    VectorXd g(k0 + c);
+    g.head(k0) = base.g[i];
+    g.tail(c) = Cb.transpose() * yb;
+    gr.G.push_back(std::move(G));
+    gr.g.push_back(std::move(g));
+    gr.yy.push_back(base.yy[i]);
+  }
+  return gr;
+}
+
+// Jacobi-scaled LDLT with a tiny ridge: a column that is all zeros (an input that never varies)
+// gets a zero coefficient instead of a NaN.
+VectorXd solve(const MatrixXd& G, const VectorXd& g) {
+  const Index k = G.rows();
+  VectorXd d(k);
+  for (Index i = 0; i < k; ++i) d(i) = G(i, i) > 1e-300 ? 1.0 / std::sqrt(G(i, i)) : 0.0;
+  MatrixXd Gs = d.asDiagonal() * G * d.asDiagonal();
+  Gs.diagonal().array() += 1e-10;
+  const VectorXd bs = Gs.ldlt().solve(d.asDiagonal() * g);
+  return d.asDiagonal() * bs;
+}
+
+
+namespace {
+// Least squares with the first `shared` coefficients fixed at b_shared: G_uu u = g_u - G_us b_s.
+VectorXd solve_with_shared(const MatrixXd& G, const VectorXd& g, const VectorXd& full, Index shared) {
+  if (shared == 0) return solve(G, g);
+  const Index k = G.rows(), u = k - shared;
+  VectorXd beta(k);
+  beta.head(shared) = full.head(shared);
+  if (u > 0)
+    beta.tail(u) = solve(G.bottomRightCorner(u, u), g.tail(u) - G.bottomLeftCorner(u, shared) * full.head(shared));
+  return beta;
+}
+}  // namespace
+
+FoldFit cross_validate(const std::vector<Grams>& per_theta, Index shared) {
+  FoldFit ff;
+  const std::size_t nb = per_theta.front().G.size();
+  std::vector<MatrixXd> Gt(per_theta.size());
+  std::vector<VectorXd> gt(per_theta.size());
+  std::vector<double> yt(per_theta.size());
+  for (std::size_t t = 0; t < per_theta.size(); ++t) {
+    Gt[t] = per_theta[t].G[0];
+    gt[t] = per_theta[t].g[0];
+    yt[t] = per_theta[t].yy[0];
+    for (std::size_t b = 1; b < nb; ++b) {
+      Gt[t] += per_theta[t].G[b];
+      gt[t] += per_theta[t].g[b];
+      yt[t] += per_theta[t].yy[b];
+    }
+  }
+  ff.full_rss = kInf;
+  std::vector<VectorXd> full(per_theta.size());
+  for (std::size_t t = 0; t < per_theta.size(); ++t) {
+    full[t] = solve(Gt[t], gt[t]);
+    const double r = rss_of(yt[t], gt[t], Gt[t], full[t]);
+    if (r < ff.full_rss) { ff.full_rss = r; ff.full_idx = t; ff.beta_full = full[t]; }
+  }
+  for (std::size_t f = 0; f < nb; ++f) {
+    double best = kInf;
+    std::size_t bi = 0;
+    VectorXd bb;
+    for (std::size_t t = 0; t < per_theta.size(); ++t) {
+      const MatrixXd G = Gt[t] - per_theta[t].G[f];
+      const VectorXd g = gt[t] - per_theta[t].g[f];
+      const double yy = yt[t] - per_theta[t].yy[f];
+      const VectorXd beta = solve_with_shared(G, g, full[t], shared);
+      const double r = rss_of(yy, g, G, beta);
+      if (r < best) { best = r; bi = t; bb = beta; }
+    }
+    const double h = rss_of(per_theta[bi].yy[f], per_theta[bi].g[f], per_theta[bi].G[f], bb);
+    ff.theta_idx.push_back(bi);
+    ff.beta.push_back(bb);
+    ff.heldout_rss.push_back(h);
+    ff.cv_rss += h;
+  }
+  return ff;
+}
+
+double effective_n(const VectorXd& r) {
+  const double rho = std::clamp(lag1(r), 0.0, 0.999);
+  return std::max(50.0, static_cast<double>(r.size()) * (1 - rho) / (1 + rho));
+}
+
+}  // namespace pof::gap::cv

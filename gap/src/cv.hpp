@@ -1,0 +1,59 @@
+#pragma once
+// Time-blocked cross-validation on per-block normal equations (docs/gap.md, section 4): the folds,
+// the least-squares pieces and the effective sample size of an autocorrelated residual. Internal to
+// pof_gap.
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "pof/gap/signals.hpp"
+
+namespace pof::gap::cv {
+
+struct Blocks {
+  std::vector<Eigen::Index> start, len;
+  [[nodiscard]] std::size_t size() const { return start.size(); }
+};
+
+/// K contiguous blocks whose boundaries are moved to the nearest hold scan, so no movement (and so
+/// no cycle) is cut in two: the folds are time blocks of whole cycles, never random samples.
+Blocks make_blocks(const Kinematics& k, int folds);
+
+/// Per-block normal equations X'X, X'y and y'y.
+struct Grams {
+  std::vector<Eigen::MatrixXd> G;
+  std::vector<Eigen::VectorXd> g;
+  std::vector<double> yy;
+};
+
+Grams make_grams(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, const Blocks& b);
+/// Base grams extended by new columns C (only the new cross products are computed).
+Grams extend_grams(const Grams& base, const Eigen::MatrixXd& X0, const Eigen::MatrixXd& C, const Eigen::VectorXd& y,
+                   const Blocks& b);
+
+/// Jacobi-scaled LDLT with a tiny ridge: a column that is all zeros gets a zero coefficient.
+Eigen::VectorXd solve(const Eigen::MatrixXd& G, const Eigen::VectorXd& g);
+
+struct FoldFit {
+  std::vector<std::size_t> theta_idx;  // per fold: grid index chosen on the training blocks
+  std::vector<Eigen::VectorXd> beta;   // per fold
+  std::vector<double> heldout_rss;     // per fold
+  double cv_rss = 0;                   // sum of held-out RSS
+  std::size_t full_idx = 0;            // grid index minimising the all-data RSS
+  Eigen::VectorXd beta_full;
+  double full_rss = 0;
+};
+
+/// Blocked CV over a grid of nonlinear parameters (one Grams per grid value): for each fold the grid
+/// value and the linear coefficients are chosen on the training blocks only; the held-out block
+/// only scores. The first `shared` coefficients (the baseline structure's) are the exception: they
+/// are fitted on all data (jointly with the others, per grid value) and held fixed in the folds. A
+/// structure of 11 coefficients fitted on >10^4 scans leaks little, whereas refitting it per fold
+/// would extrapolate it into whatever the held-out block alone contains (the fastest movements, the
+/// gait) and report that as a gap.
+FoldFit cross_validate(const std::vector<Grams>& per_theta, Eigen::Index shared = 0);
+
+/// Effective number of independent residuals (AR(1) approximation) for the BIC.
+double effective_n(const Eigen::VectorXd& r);
+
+}  // namespace pof::gap::cv

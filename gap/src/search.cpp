@@ -1,0 +1,225 @@
+// The model `pof gap` grows and the evaluation of candidates against it (see search.hpp).
+#include "search.hpp"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <future>
+
+namespace pof::gap {
+
+using Eigen::Index;
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+bool State::has(core::Effect e) const {
+  const Acts a = effect_def(e).acts;
+  if (a == Acts::kDelay) return delay_s != 0;
+  if (a == Acts::kBacklash) return backlash_deg > 0;
+  return std::any_of(terms.begin(), terms.end(), [e](const Term& t) { return t.effect == e; });
+}
+
+State State::with(core::Effect e, double theta) const {
+  State s = *this;
+  switch (effect_def(e).acts) {
+    case Acts::kDelay: s.delay_s = theta; break;
+    case Acts::kBacklash: s.backlash_deg = theta; break;
+    case Acts::kSensor: s.terms.push_back({e, theta}); break;
+  }
+  return s;
+}
+
+Design build_design(const Search& sx, const State& st) {
+  const Context& cx = sx.cx;
+  Design d;
+  d.k = make_kinematics(cx.s->angle, cx.s->dt, st.delay_s, cx.m);
+  if (st.backlash_deg > 0) apply_backlash(d.k, st.backlash_deg, cx.s->dt, cx.m);
+  std::vector<MatrixXd> cols;
+  Index total = kBaseCols;
+  for (const Term& t : st.terms) {
+    cols.push_back(effect_def(t.effect).columns(t.theta, cx, d.k));
+    total += cols.back().cols();
+  }
+  d.X.resize(cx.s->n, total);
+  d.X.leftCols(kBaseCols) = d.k.gradient;
+  Index c = kBaseCols;
+  for (const MatrixXd& C : cols) {
+    d.X.middleCols(c, C.cols()) = C;
+    c += C.cols();
+  }
+  d.y = cx.s->v - d.k.v0;
+  return d;
+}
+
+VectorXd heldout_residual(const Design& d, const cv::Blocks& b, const std::vector<VectorXd>& beta) {
+  VectorXd r(d.y.size());
+  for (std::size_t i = 0; i < b.size(); ++i)
+    r.segment(b.start[i], b.len[i]) = d.y.segment(b.start[i], b.len[i]) - d.X.middleRows(b.start[i], b.len[i]) * beta[i];
+  return r;
+}
+
+CurrentFit fit_state(const Search& sx, const State& st) {
+  CurrentFit c;
+  c.d = build_design(sx, st);
+  c.grams = cv::make_grams(c.d.X, c.d.y, sx.blocks);
+  c.fit = cv::cross_validate({c.grams}, kBaseCols);
+  c.cv_resid = heldout_residual(c.d, sx.blocks, c.fit.beta);
+  return c;
+}
+
+core::ModelCoefficients moved_model(const core::ModelCoefficients& m, const VectorXd& beta) {
+  std::array<double, core::kRefitParameters> p = core::refit_parameters(m);
+  for (int i = 0; i < core::kRefitParameters; ++i) p[static_cast<std::size_t>(i)] += beta(i);
+  return core::with_refit_parameters(m, p);
+}
+
+Search moved(const Search& sx, const VectorXd& beta) {
+  Search out = sx;
+  out.cx.m = moved_model(sx.cx.m, beta);
+  return out;
+}
+
+namespace {
+
+double full_rss(const Search& sx, const State& st) {
+  const Design d = build_design(sx, st);
+  return cv::cross_validate({cv::make_grams(d.X, d.y, sx.blocks)}, kBaseCols).full_rss;
+}
+
+// Coordinate search of one scalar of the state over candidate values, on all data.
+template <class Set>
+void coordinate(const Search& sx, State& st, const std::vector<double>& values, double current, Set set) {
+  double best = full_rss(sx, st), bv = current;
+  for (double x : values) {
+    if (x == current) continue;
+    State s2 = st;
+    set(s2, x);
+    const double r = full_rss(sx, s2);
+    if (r < best) { best = r; bv = x; }
+  }
+  set(st, bv);
+}
+
+}  // namespace
+
+void refit_thetas(const Search& sx, State& st) {
+  // A creep time constant fitted while a delay was still missing would otherwise stay biased.
+  if (st.delay_s != 0) {
+    std::vector<double> v;
+    for (int j = -20; j <= 20; ++j) v.push_back(st.delay_s + j * 0.001);
+    coordinate(sx, st, v, st.delay_s, [](State& s, double x) { s.delay_s = x; });
+  }
+  if (st.backlash_deg > 0) {
+    std::vector<double> v;
+    for (int j = -10; j <= 10; ++j)
+      if (st.backlash_deg + j * 0.02 > 0) v.push_back(st.backlash_deg + j * 0.02);
+    coordinate(sx, st, v, st.backlash_deg, [](State& s, double x) { s.backlash_deg = x; });
+  }
+  for (std::size_t i = 0; i < st.terms.size(); ++i) {
+    const EffectDef& def = effect_def(st.terms[i].effect);
+    if (!def.refit_theta) continue;
+    std::vector<double> values = def.grid(sx.cx, VectorXd());
+    if (def.refine != nullptr)
+      for (double x : def.refine(st.terms[i].theta)) values.push_back(x);
+    coordinate(sx, st, values, st.terms[i].theta, [i](State& s, double x) { s.terms[i].theta = x; });
+  }
+}
+
+namespace {
+
+CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, const CurrentFit& cur) {
+  const EffectDef& def = effect_def(e);
+  CandidateResult cr;
+  cr.effect = e;
+  const bool has_theta = !def.theta_key.empty();
+  cr.n_params = def.linear + (has_theta ? 1 : 0);
+  // Interference may be found again at another frequency; every other effect enters once.
+  if (st.has(e) && e != core::Effect::kPeriodicInterference) {
+    cr.applicable = false;
+    cr.note = "already in the model";
+    return cr;
+  }
+  if (def.not_identifiable != nullptr) {
+    const std::string_view why = def.not_identifiable(sx.cx);
+    if (!why.empty()) {
+      cr.applicable = false;
+      cr.note = std::string(why);
+      return cr;
+    }
+  }
+  cr.grid = def.grid(sx.cx, cur.cv_resid);
+  // Sensor candidates extend the current grams by their columns; kinematic ones rebuild the whole
+  // design for each grid value.
+  auto grams_at = [&](const Search& at, const CurrentFit& c, double th) {
+    if (def.acts == Acts::kSensor)
+      return cv::extend_grams(c.grams, c.d.X, def.columns(th, at.cx, c.d.k), c.d.y, at.blocks);
+    if (def.acts == Acts::kDelay && th == 0.0) return c.grams;
+    const Design dd = build_design(at, st.with(e, th));
+    return cv::make_grams(dd.X, dd.y, at.blocks);
+  };
+  std::vector<cv::Grams> per;
+  for (double th : cr.grid) per.push_back(grams_at(sx, cur, th));
+  if (def.refine != nullptr) {
+    // Refine around the coarse optimum chosen on all data; per fold the grid value is still chosen
+    // on the training blocks only, over the coarse and the fine values.
+    const double c0 = cr.grid[cv::cross_validate(per, kBaseCols).full_idx];
+    for (double th : def.refine(c0)) {
+      cr.grid.push_back(th);
+      per.push_back(grams_at(sx, cur, th));
+    }
+  }
+  cr.fit = cv::cross_validate(per, kBaseCols);
+  cr.base = sx.cx.m;
+  // Gauss-Newton on the structure: with the effect in the model the baseline's coefficients move
+  // (a delay had been partly absorbed by the hysteresis coefficients), further than the
+  // first-order columns reach. Rebuilt at the moved coefficients, the candidate is scored again,
+  // up to three times while that lowers its score by > 1 %; only for candidates that already
+  // explain something, over the best value and its refinement.
+  if (cr.fit.cv_rss < 0.98 * cur.fit.cv_rss) {
+    const double best = cr.grid[cr.fit.full_idx];
+    std::vector<double> grid{best};
+    if (def.refine != nullptr)
+      for (double th : def.refine(best)) grid.push_back(th);
+    else
+      grid = cr.grid;
+    Search at = sx;
+    cv::FoldFit f = cr.fit;
+    for (int it = 0; it < 3; ++it) {
+      const Search next = moved(at, f.beta_full);
+      const CurrentFit c2 = fit_state(next, st);
+      std::vector<cv::Grams> per2;
+      for (double th : grid) per2.push_back(grams_at(next, c2, th));
+      cv::FoldFit f2 = cv::cross_validate(per2, kBaseCols);
+      if (!(f2.cv_rss < 0.99 * f.cv_rss)) {
+        if (f2.cv_rss < f.cv_rss) { f = std::move(f2); at = next; }
+        break;
+      }
+      f = std::move(f2);
+      at = next;
+    }
+    if (f.cv_rss < cr.fit.cv_rss) {
+      cr.fit = std::move(f);
+      cr.grid = grid;
+      cr.base = at.cx.m;
+    }
+  }
+  return cr;
+}
+
+}  // namespace
+
+std::vector<CandidateResult> evaluate_all(const Search& sx, const State& st, const CurrentFit& cur, int threads) {
+  std::vector<CandidateResult> out(core::kEffectCount);
+  // Workers pull candidates off a shared index (the candidates are independent).
+  std::atomic<std::size_t> next{0};
+  auto worker = [&] {
+    for (std::size_t i = next++; i < out.size(); i = next++) out[i] = evaluate(core::kAllEffects[i], sx, st, cur);
+  };
+  std::vector<std::future<void>> pool;
+  for (int t = 1; t < std::max(1, threads); ++t) pool.push_back(std::async(std::launch::async, worker));
+  worker();
+  for (auto& f : pool) f.get();
+  return out;
+}
+
+}  // namespace pof::gap

@@ -1,0 +1,84 @@
+#pragma once
+// The model `pof gap` grows (baseline + accepted effects), its design matrix, and the evaluation of
+// candidate effects against it (docs/gap.md, sections 3-4). Internal to pof_gap.
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "../effects/effect.hpp"
+#include "cv.hpp"
+
+namespace pof::gap {
+
+struct Term {
+  core::Effect effect;
+  double theta = 0;  // the nonlinear parameter (tau, frequency); 0 for effects without one
+};
+
+/// The model so far: kinematic parameters and the accepted voltage terms, in acceptance order.
+struct State {
+  double delay_s = 0;
+  double backlash_deg = 0;
+  std::vector<Term> terms;
+  [[nodiscard]] bool has(core::Effect e) const;
+  /// State with effect e at theta added.
+  [[nodiscard]] State with(core::Effect e, double theta) const;
+  [[nodiscard]] std::size_t size() const { return terms.size() + (delay_s != 0 ? 1 : 0) + (backlash_deg > 0 ? 1 : 0); }
+};
+
+/// Everything the search shares: the recording, the baseline, the folds.
+struct Search {
+  Context cx;
+  cv::Blocks blocks;
+};
+
+/// y = v - v0 (the baseline voltage) regressed on X = [baseline gradient | term columns]: the
+/// baseline's coefficients move to first order around the refitted model (core/paper_refit.hpp),
+/// the terms enter linearly.
+struct Design {
+  Kinematics k;
+  Eigen::MatrixXd X;
+  Eigen::VectorXd y;
+};
+
+inline constexpr Eigen::Index kBaseCols = core::kRefitParameters;
+
+Design build_design(const Search& sx, const State& st);
+
+/// The baseline's coefficients m moved by the first kBaseCols values of a solution beta.
+core::ModelCoefficients moved_model(const core::ModelCoefficients& m, const Eigen::VectorXd& beta);
+
+/// sx with the baseline's coefficients moved by the first kBaseCols values of a solution beta.
+Search moved(const Search& sx, const Eigen::VectorXd& beta);
+
+struct CurrentFit {
+  Design d;
+  cv::Grams grams;
+  cv::FoldFit fit;          // a grid of size 1 (the state is fixed)
+  Eigen::VectorXd cv_resid; // held-out residual [V], block by block
+};
+
+CurrentFit fit_state(const Search& sx, const State& st);
+
+/// Held-out residual of design d with one coefficient vector per block.
+Eigen::VectorXd heldout_residual(const Design& d, const cv::Blocks& b, const std::vector<Eigen::VectorXd>& beta);
+
+/// "Add and refit" (docs/gap.md, section 4): re-chooses the nonlinear parameters of the accepted
+/// terms on all data with the others fixed (one coordinate pass).
+void refit_thetas(const Search& sx, State& st);
+
+struct CandidateResult {
+  core::Effect effect;
+  bool applicable = true;
+  std::string note;
+  std::vector<double> grid;
+  cv::FoldFit fit;
+  int n_params = 0;
+  core::ModelCoefficients base;  // the baseline the fit's columns were built at (see evaluate)
+};
+
+/// Every candidate of the catalogue against the current fit, on `threads` workers.
+std::vector<CandidateResult> evaluate_all(const Search& sx, const State& st, const CurrentFit& cur, int threads);
+
+}  // namespace pof::gap

@@ -37,28 +37,39 @@ std::string ReceiveError::describe() const {
   return s + ": handler failed: " + std::string(what.substr(0, kMaxWhat));
 }
 
-Receiver::Receiver(lcm::LCM& lc, const std::string& url, ReceiverOptions options) : lc_(lc), opt_(options) {
+bool Receiver::open_direct(const std::string& url) {
+  if (url.rfind("udpm://", 0) != 0 || opt_.udpm_via_liblcm) return false;
+  udpm_ = std::make_unique<UdpmReceiver>(url, opt_.udpm);
+  sink_ = [this](int64_t utime, std::string_view channel, const unsigned char* data, uint32_t size) {
+    dispatch(channel, data, size, utime);
+  };
+  return true;
+}
+
+Receiver::Receiver(lcm::LCM& lc, const std::string& url, ReceiverOptions options) : lc_(&lc), opt_(options) {
   if (opt_.auth_key) verifier_ = std::make_unique<auth::Verifier>(opt_.auth_key, opt_.auth);
-  if (url.rfind("udpm://", 0) == 0) {
-    udpm_ = std::make_unique<UdpmReceiver>(url, opt_.udpm);
-    sink_ = [this](int64_t utime, std::string_view channel, const unsigned char* data, uint32_t size) {
-      dispatch(channel, data, size, utime);
-    };
-  } else {
-    require_usable(lc_, url);
-  }
+  if (!open_direct(url)) require_usable(*lc_, url);
+}
+
+Receiver::Receiver(const std::string& url, ReceiverOptions options) : opt_(options) {
+  if (opt_.auth_key) verifier_ = std::make_unique<auth::Verifier>(opt_.auth_key, opt_.auth);
+  if (open_direct(url)) return;
+  own_lc_ = std::make_unique<lcm::LCM>(url);
+  lc_ = own_lc_.get();
+  require_usable(*lc_, url);
 }
 
 Receiver::~Receiver() {
+  // Before own_lc_ (declared first, destroyed last) goes.
   for (const auto& h : hooks_)
-    if (h->sub != nullptr) lcm_unsubscribe(lc_.getUnderlyingLCM(), h->sub);
+    if (h->sub != nullptr) lcm_unsubscribe(lc_->getUnderlyingLCM(), h->sub);
 }
 
 void Receiver::add_lcm_subscription(const std::string& regex, Raw* raw) {
   auto hook = std::make_unique<Hook>();
   hook->rx = this;
   hook->raw = raw;
-  hook->sub = lcm_subscribe(lc_.getUnderlyingLCM(), regex.c_str(), &Receiver::on_lcm_message, hook.get());
+  hook->sub = lcm_subscribe(lc_->getUnderlyingLCM(), regex.c_str(), &Receiver::on_lcm_message, hook.get());
   if (hook->sub == nullptr) throw pof::ConfigError("channel '" + regex + "': LCM refused the subscription");
   lcm_subscription_set_queue_capacity(hook->sub, opt_.lcm_queue_capacity);
   hooks_.push_back(std::move(hook));
@@ -197,11 +208,11 @@ int Receiver::handle(int timeout_ms) noexcept {
   if (udpm_) return udpm_->receive(timeout_ms, sink_);
   try {
     ++lcm_generation_;  // one message per call (see lcm_verdict_)
-    int n = lc_.handleTimeout(timeout_ms);
+    int n = lc_->handleTimeout(timeout_ms);
     if (n <= 0) return n < 0 ? -1 : 0;
     while (n < kMaxLcmMessagesPerHandle) {
       ++lcm_generation_;
-      if (lc_.handleTimeout(0) <= 0) break;
+      if (lc_->handleTimeout(0) <= 0) break;
       ++n;
     }
     return n;
@@ -210,7 +221,7 @@ int Receiver::handle(int timeout_ms) noexcept {
   }
 }
 
-int Receiver::fd() const { return udpm_ ? udpm_->fd() : lc_.getFileno(); }
+int Receiver::fd() const { return udpm_ ? udpm_->fd() : lc_->getFileno(); }
 
 ReceiverStats Receiver::stats() const {
   ReceiverStats s;

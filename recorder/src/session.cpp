@@ -3,6 +3,7 @@
 
 #include <fcntl.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -12,14 +13,12 @@
 #include <ctime>
 #include <fstream>
 
-#include <lcm/lcm-cpp.hpp>
 #include <spdlog/spdlog.h>
 
 #include "pof/base/errors.hpp"
-#include "pof/bus/open.hpp"
 #include "pof/bus/channel_filter.hpp"
+#include "pof/bus/receiver.hpp"
 #include "pof/bus/udp_socket.hpp"
-#include "pof/bus/udpm_receiver.hpp"
 #include "pof/bus/url.hpp"
 #include "pof/io/atomic_file.hpp"
 #include "pof/lcm/utime.hpp"
@@ -31,6 +30,41 @@ namespace {
 using pof::lcmutil::iso_utc;
 using pof::lcmutil::now_utime;
 
+// Overwrites `path` with `text` in the blocks it already has. The manifest is normally replaced by
+// write-then-rename (io::write_file_atomic), which needs room for a second copy: on a file system
+// that filled up during the session there is none, and the manifest would go on saying
+// "recording" for a session that failed. The old manifest's own blocks need no allocation, so the
+// text is written there, but only when it fits in them (st_blocks) and under RLIMIT_FSIZE: the
+// write then cannot stop half-way for lack of space. Not atomic against a crash in the middle,
+// hence the fallback only. Returns "" or why it did not.
+std::string overwrite_in_place(const fs::path& path, const std::string& text) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+  if (fd < 0) return std::string("cannot open: ") + std::strerror(errno);
+  std::string why;
+  struct stat st {};
+  rlimit fsize{};
+  if (::fstat(fd, &st) != 0) {
+    why = std::string("cannot stat: ") + std::strerror(errno);
+  } else if (static_cast<uint64_t>(st.st_blocks) * 512u < text.size()) {
+    why = "the new text (" + std::to_string(text.size()) + " bytes) does not fit in the " +
+          std::to_string(st.st_blocks * 512) + " bytes the file has";
+  } else if (::getrlimit(RLIMIT_FSIZE, &fsize) == 0 && fsize.rlim_cur != RLIM_INFINITY && fsize.rlim_cur < text.size()) {
+    why = "the new text (" + std::to_string(text.size()) + " bytes) exceeds the file size limit";
+  } else {
+    std::size_t done = 0;
+    while (done < text.size() && why.empty()) {
+      const ssize_t w = ::pwrite(fd, text.data() + done, text.size() - done, static_cast<off_t>(done));
+      if (w < 0 && errno == EINTR) continue;
+      if (w <= 0) why = std::string("write failed: ") + std::strerror(w < 0 ? errno : ENOSPC);
+      else done += static_cast<std::size_t>(w);
+    }
+    if (why.empty() && (::ftruncate(fd, static_cast<off_t>(text.size())) != 0 || ::fdatasync(fd) != 0))
+      why = std::string("cannot truncate or sync: ") + std::strerror(errno);
+  }
+  ::close(fd);
+  return why;
+}
+
 }  // namespace
 
 const char* outcome_name(Outcome o) {
@@ -39,6 +73,7 @@ const char* outcome_name(Outcome o) {
     case Outcome::kStopped: return "stopped";
     case Outcome::kDiskFull: return "disk_full";
     case Outcome::kIoError: return "io_error";
+    case Outcome::kFailed: return "failed";
   }
   return "?";
 }
@@ -78,7 +113,6 @@ Session::Session(SessionOptions options) : opt_(std::move(options)) {
   }
 
   url_ = bus::resolve_url(opt_.lcm_url, opt_.recv_buf_bytes);
-  if (opt_.auth_key) verifier_ = std::make_unique<bus::auth::Verifier>(opt_.auth_key, opt_.auth);
   const bus::UdpmUrl udpm = bus::parse_udpm_url(url_);
   port_ = udpm.ok() ? udpm.port : 0;  // 0: not udpm (no kernel socket statistics)
 }
@@ -115,16 +149,20 @@ void Session::start() {
     }
   }
 
-  if (url_.rfind("udpm://", 0) == 0 && !opt_.use_liblcm) {
-    channel_filter_ = std::make_unique<bus::ChannelFilter>(opt_.channels);
-    direct_ = std::make_unique<bus::UdpmReceiver>(url_);
-  } else {
-    lcm_ = std::make_unique<lcm::LCM>(url_);
-    bus::require_usable(*lcm_, url_);
-    lcm_subscription_t* sub = lcm_subscribe(lcm_->getUnderlyingLCM(), opt_.channels.c_str(), &Session::on_lcm_message, this);
-    if (sub == nullptr) throw pof::ConfigError("--channels '" + opt_.channels + "': LCM refused the subscription");
-    lcm_subscription_set_queue_capacity(sub, opt_.lcm_queue_capacity);
-  }
+  bus::ReceiverOptions ro;
+  ro.lcm_queue_capacity = opt_.lcm_queue_capacity;
+  ro.udpm_via_liblcm = opt_.use_liblcm;
+  // Authenticated mode: the Receiver verifies every subscribed message before the raw handler sees
+  // it, drops and counts what fails, and hands over what passes without its trailer.
+  ro.auth_key = opt_.auth_key;
+  ro.auth = opt_.auth;
+  rx_ = std::make_unique<bus::Receiver>(url_, ro);
+  direct_ = rx_->direct();
+  // The receive thread only copies each message into the hand-off queue (enqueue() does not throw:
+  // the arena is reserved below and never grows).
+  rx_->subscribe_raw(opt_.channels, [this](const bus::Delivery& d, const unsigned char* data, std::size_t size) {
+    enqueue(d.recv_utime, d.channel, data, static_cast<uint32_t>(size));  // <= 16 MiB (UdpmLimits), u32 in liblcm
+  });
 
   if (port_ != 0) {
     const auto socks = bus::udp_sockets(port_);
@@ -142,32 +180,23 @@ void Session::start() {
   // receive thread's critical section while datagrams pile up in the kernel). Reserving is virtual
   // memory only: pages are touched as the queue first fills.
   pending_.reserve(opt_.handoff_bytes);
-  write_manifest("recording");
+  try {
+    write_manifest("recording");
+  } catch (...) {
+    // No room even for the manifest: nothing is recorded, so the log just created goes too.
+    const fs::path p = writer_->path();
+    writer_.reset();
+    files_.clear();
+    std::error_code ec;
+    fs::remove(p, ec);
+    throw;
+  }
   started_ = true;
   writer_thread_ = std::thread([this] { writer_loop(); });
   lcm_thread_ = std::thread([this] { lcm_loop(); });
 }
 
-// LCM thread: copy and hand off, nothing else (no disk, no logging).
-void Session::on_lcm_message(const lcm_recv_buf_t* rbuf, const char* channel, void* self) {
-  static_cast<Session*>(self)->take(rbuf->recv_utime, channel, static_cast<const unsigned char*>(rbuf->data),
-                                    rbuf->data_size);
-}
-
-void Session::take(int64_t utime, std::string_view channel, const unsigned char* data, uint32_t size) {
-  if (verifier_) {
-    const bus::auth::Verification v = verifier_->verify(channel, data, size, bus::auth::counter_time(utime));
-    switch (v.verdict) {
-      case bus::auth::Verdict::kOk: size = static_cast<uint32_t>(v.message_size); break;
-      case bus::auth::Verdict::kUnsigned: auth_unsigned_.fetch_add(1, std::memory_order_relaxed); return;
-      case bus::auth::Verdict::kBadMac: auth_bad_mac_.fetch_add(1, std::memory_order_relaxed); return;
-      case bus::auth::Verdict::kStale: auth_stale_.fetch_add(1, std::memory_order_relaxed); return;
-      case bus::auth::Verdict::kReplayed: auth_replayed_.fetch_add(1, std::memory_order_relaxed); return;
-    }
-  }
-  enqueue(utime, channel, data, size);
-}
-
+// Receive thread: copy and hand off, nothing else (no disk, no logging).
 void Session::enqueue(int64_t utime, std::string_view channel, const void* data, uint32_t data_size) {
   const std::size_t size = kRecordHeader + channel.size() + data_size;
   std::lock_guard lk(mu_);
@@ -195,21 +224,15 @@ void Session::lcm_loop() {
   // 100k msg/s); the writer can lag by the whole hand-off queue. Raise its priority when allowed
   // (root or CAP_SYS_NICE; the unit can grant Nice= instead); failure is harmless.
   if (opt_.receive_nice != 0) ::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), opt_.receive_nice);
-  if (direct_) {
-    const bus::UdpmReceiver::Sink sink = [this](int64_t utime, std::string_view channel, const unsigned char* data,
-                                           uint32_t size) {
-      if (channel_filter_->matches(channel)) take(utime, channel, data, size);
-    };
-    while (!stop_lcm_.load()) {
-      direct_->receive(50, sink);
-      malformed_.store(direct_->malformed(), std::memory_order_relaxed);
-      incomplete_.store(direct_->incomplete_messages(), std::memory_order_relaxed);
-      lcm_beats_.fetch_add(1);
-    }
-    return;
-  }
   while (!stop_lcm_.load()) {
-    lcm_->handleTimeout(50);
+    rx_->handle(50);
+    const bus::ReceiverStats st = rx_->stats();
+    malformed_.store(st.malformed_datagrams, std::memory_order_relaxed);
+    incomplete_.store(st.incomplete_messages, std::memory_order_relaxed);
+    auth_unsigned_.store(st.auth_unsigned, std::memory_order_relaxed);
+    auth_bad_mac_.store(st.auth_bad_mac, std::memory_order_relaxed);
+    auth_stale_.store(st.auth_stale, std::memory_order_relaxed);
+    auth_replayed_.store(st.auth_replayed, std::memory_order_relaxed);
     lcm_beats_.fetch_add(1);
   }
 }
@@ -244,6 +267,35 @@ bool Session::rotate() {
   if (!open_next_file()) return false;
   write_manifest_noexcept("recording");
   return true;
+}
+
+void Session::note_write_failure() {
+  const fs::path p = writer_->path();
+  const std::string why = std::strerror(writer_->error_errno());
+  const Outcome stopped = writer_->status() == WriteStatus::kNoSpace ? Outcome::kDiskFull : Outcome::kIoError;
+  if (writer_->bytes_written() > 0) {
+    outcome_ = stopped;
+    error_ = p.string() + ": " + why + " after " + std::to_string(writer_->events_written()) + " events (" +
+             std::to_string(writer_->bytes_written()) + " bytes) in this file; the log is complete up to there";
+    return;
+  }
+  // Not one complete event in the file (the writer cut the failed batch back to 0 bytes): remove it,
+  // never leave a 0-byte log behind.
+  writer_->close();
+  writer_.reset();
+  files_.pop_back();
+  std::error_code ec;
+  fs::remove(p, ec);
+  const std::string removed =
+      ec ? "; the empty log file could not be removed: " + ec.message() : "; the empty log file was removed";
+  if (files_.empty()) {
+    outcome_ = Outcome::kFailed;
+    error_ = p.string() + ": cannot write the first event: " + why + "; nothing was recorded" + removed;
+  } else {
+    outcome_ = stopped;
+    error_ = p.string() + ": cannot write its first event: " + why + removed + "; the log is complete up to " +
+             files_.back().path.string();
+  }
 }
 
 void Session::write_manifest_noexcept(const char* status) noexcept {
@@ -327,12 +379,7 @@ void Session::writer_loop() {
         }
         written_ = 0;
         for (const auto& f : files_) written_ += f.events;
-        if (writer_ && writer_->status() != WriteStatus::kOk && outcome_ == Outcome::kRunning) {
-          outcome_ = writer_->status() == WriteStatus::kNoSpace ? Outcome::kDiskFull : Outcome::kIoError;
-          error_ = writer_->path().string() + ": " + std::strerror(writer_->error_errno()) + " after " +
-                   std::to_string(writer_->events_written()) + " events (" + std::to_string(writer_->bytes_written()) +
-                   " bytes) in this file; the log is complete up to there";
-        }
+        if (writer_ && writer_->status() != WriteStatus::kOk && outcome_ == Outcome::kRunning) note_write_failure();
         failed = outcome_ != Outcome::kRunning;
       }
       if (failed) {
@@ -373,7 +420,7 @@ SessionStats Session::poll() {
   }
   s.malformed_datagrams = malformed_.load(std::memory_order_relaxed);
   s.incomplete_messages = incomplete_.load(std::memory_order_relaxed);
-  s.authenticated = verifier_ != nullptr;
+  s.authenticated = opt_.auth_key != nullptr;
   s.auth_unsigned = auth_unsigned_.load(std::memory_order_relaxed);
   s.auth_bad_mac = auth_bad_mac_.load(std::memory_order_relaxed);
   s.auth_stale = auth_stale_.load(std::memory_order_relaxed);
@@ -403,13 +450,34 @@ SessionStats Session::stop() {
   }
   final_udp_drops_ = s.udp_drops;
   final_rcvbuf_ = s.udp_rcvbuf_bytes;
-  write_manifest_noexcept(outcome_name(s.outcome));
-  lcm_.reset();
-  direct_.reset();
+  write_final_manifest(outcome_name(s.outcome));
+  rx_.reset();
   return s;
 }
 
-void Session::write_manifest(const char* status) {
+void Session::write_manifest(const char* status) { io::write_file_atomic(manifest_path_, manifest_text(status)); }
+
+void Session::write_final_manifest(const char* status) noexcept {
+  std::string text;
+  try {
+    text = manifest_text(status);
+    io::write_file_atomic(manifest_path_, text);
+    return;
+  } catch (const std::exception& e) {
+    if (text.empty()) {
+      spdlog::warn("manifest not updated: {}", e.what());
+      return;
+    }
+    const std::string why = overwrite_in_place(manifest_path_, text);
+    if (why.empty()) {
+      spdlog::warn("{}; the manifest was rewritten in place instead", e.what());
+    } else {
+      spdlog::warn("manifest not updated: {}; nor in place: {}", e.what(), why);
+    }
+  }
+}
+
+std::string Session::manifest_text(const char* status) {
   nlohmann::json m;
   m["schema_version"] = 1;
   m["kind"] = "pof record session";
@@ -474,8 +542,9 @@ void Session::write_manifest(const char* status) {
                    {"incomplete_messages", incomplete_.load(std::memory_order_relaxed)},
                    {"udp_rcvbuf_bytes", final_rcvbuf_},
                    {"handoff_peak_bytes", peak}};
-  // Authenticated mode: the log holds only messages that passed verification, without trailers.
-  if (verifier_)
+  // Authenticated mode: the log holds only messages that passed the Receiver's verification,
+  // without trailers; the drops are its counters (bus::ReceiverStats), per verdict.
+  if (opt_.auth_key)
     m["authentication"] = {{"enabled", true},
                            {"key_id", bus::auth::key_id_hex(opt_.auth_key->id())},
                            {"window_s", static_cast<double>(opt_.auth.window_us) / 1e6},
@@ -486,7 +555,7 @@ void Session::write_manifest(const char* status) {
                              {"replayed", auth_replayed_.load(std::memory_order_relaxed)}}}};
   else
     m["authentication"] = {{"enabled", false}};
-  io::write_file_atomic(manifest_path_, m.dump(2) + "\n");
+  return m.dump(2) + "\n";
 }
 
 }  // namespace pof::recorder

@@ -6,10 +6,24 @@ source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"
 command -v umockdev-wrapper >/dev/null 2>&1 || { echo "SKIP: umockdev-wrapper not installed"; exit 77; }
 [ -x "$BIN_DIR/pof-vdaq" ] || { echo "SKIP: pof-vdaq not built (libumockdev-dev absent)"; exit 77; }
 
+# umockdev_wrapper <command...>: umockdev-wrapper, which preloads libumockdev-preload. Against the
+# sanitizer build (sanitized.sh sets POF_ASAN_RUNTIME) ASan refuses to start unless its runtime is
+# first in the initial library list, so both are preloaded here, ASan first; reports go to stderr
+# (an ASan log_path file cannot be opened under libumockdev-preload: SIGSEGV at start), where
+# sanitized.sh looks for them in WORK_DIR.
+umockdev_wrapper() {
+  if [ -n "${POF_ASAN_RUNTIME:-}" ]; then
+    ASAN_OPTIONS="$ASAN_OPTIONS:log_path=stderr" UBSAN_OPTIONS="$UBSAN_OPTIONS:log_path=stderr" \
+      LD_PRELOAD="$POF_ASAN_RUNTIME:libumockdev-preload.so.0${LD_PRELOAD:+:$LD_PRELOAD}" "$@"
+  else
+    umockdev-wrapper "$@"
+  fi
+}
+
 # vdaq <pof-vdaq args...>: runs pof-daqd against the virtual device; fails the test when the
 # checker fails. The JSON report is in $WORK_DIR/report.json.
 vdaq() {
-  if ! umockdev-wrapper "$BIN_DIR/pof-vdaq" --daemon "$BIN_DIR/pof-daqd" \
+  if ! umockdev_wrapper "$BIN_DIR/pof-vdaq" --daemon "$BIN_DIR/pof-daqd" \
       --report "$WORK_DIR/report.json" "$@" >"$WORK_DIR/vdaq.out" 2>"$WORK_DIR/vdaq.err"; then
     cat "$WORK_DIR/vdaq.out" >&2
     tail -n 40 "$WORK_DIR/vdaq.err" >&2

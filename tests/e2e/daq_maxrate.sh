@@ -8,7 +8,7 @@
 source "$(dirname "$0")/daq_lib.sh"
 run() {  # run <name> <pof-vdaq args...>
   local name=$1; shift
-  umockdev-wrapper "$BIN_DIR/pof-vdaq" --daemon "$BIN_DIR/pof-daqd" --report "$WORK_DIR/$name.json" \
+  umockdev_wrapper "$BIN_DIR/pof-vdaq" --daemon "$BIN_DIR/pof-daqd" --report "$WORK_DIR/$name.json" \
     --duration 62 --warmup 2 --decimate 1 --max-ts-error-us 5000 "$@" >"$WORK_DIR/$name.out" 2>"$WORK_DIR/$name.err"
 }
 run usb6008 --model 6008 --rate 3333.333 --block-scans 10 & p8=$!

@@ -18,7 +18,7 @@ for dir in "$SOURCE_DIR"/tests/data/usb_captures/*/; do
   model=$(cat "$dir/model")
   # Real data: the values are unknown, so only the stream's integrity is checked (a capture of
   # hardware does not follow the model's waveform: the value check is off via a huge LSB bound).
-  umockdev-wrapper "$BIN_DIR/pof-vdaq" --daemon "$BIN_DIR/pof-daqd" --report "$WORK_DIR/real.json" \
+  umockdev_wrapper "$BIN_DIR/pof-vdaq" --daemon "$BIN_DIR/pof-daqd" --report "$WORK_DIR/real.json" \
     --model "$model" --duration 3 --min-rate-ratio 0 --replay-pcap "$dir/capture.pcap" \
     -- -s acquisition.data_timeout_ms=5000 >"$WORK_DIR/real.out" 2>&1 || true
   "$PY" "$SOURCE_DIR/tests/e2e/daq_report.py" stream-intact "$WORK_DIR/real.json" ||

@@ -32,6 +32,12 @@ kill -KILL $rec
 wait $pub
 wait $rec 2>/dev/null || true
 ls run.*.lcmlog >files.txt
+# The kill may come between a rotation's creating the next file and its first write: that file is
+# empty, which is all a SIGKILL can leave there.
+if [ ! -s "$(tail -n 1 files.txt)" ]; then
+  echo "note: $(tail -n 1 files.txt) is empty (killed just after the rotation created it)"
+  sed -i '$d' files.txt
+fi
 nfiles=$(wc -l <files.txt)
 [ "$nfiles" -ge 3 ] || fail "expected size rotation into >= 3 files, got $nfiles"
 cmp -s cal.toml run.files/cal.toml || fail "the calibration was not copied next to the log"
@@ -102,10 +108,44 @@ if grep -qE "POF_RAW|POF_DAQ_STATUS|FOREIGN" timed.check; then fail "--channels 
 "$PY" "$SOURCE_DIR/tests/e2e/record_manifest_check.py" rotated timed.manifest.json ||
   fail "manifest of the time-rotated session is wrong"
 
+# --- the first event cannot be written ------------------------------------------------------------
+# expect_first_event_failure <log> <its stderr> <recorder pid>: one 12 kB block (1000 scans) is
+# published; the recorder must stop by itself with 74 naming the log, leave no empty log behind and
+# mark the manifest `failed` with the reason.
+expect_first_event_failure() {
+  local log=$1 errf=$2 pid=$3 rc
+  "$PUB" --lcm-url "$URL" burst --channel POF_RAW --count 1 --scans 1000 --rate 100 >/dev/null
+  wait_until --timeout 10 --exited "$pid" || kill -INT "$pid" 2>/dev/null || true
+  set +e
+  wait "$pid"
+  rc=$?
+  set -e
+  [ $rc -eq 74 ] || fail "$log: first event unwritable: pof record exited $rc, expected 74; $(cat "$errf")"
+  grep -q "$log" "$errf" || fail "$log: the failure does not name the log: $(cat "$errf")"
+  [ ! -e "$log" ] || fail "$log: an empty log ($(stat -c %s "$log") bytes) was left behind"
+  "$PY" "$SOURCE_DIR/tests/e2e/record_manifest_check.py" failed "${log%.lcmlog}.manifest.json" "$log" ||
+    fail "$log: the manifest does not say the recording failed"
+}
+# A file size limit, which any user may set (RLIMIT_FSIZE: write(2) fails with EFBIG as a full disk
+# fails with ENOSPC): 8 KiB holds the manifest but not the first block.
+start_ready notify fsize.err prlimit --fsize=8192 -- "$POF" record -o fsize.lcmlog --lcm-url "$URL"
+expect_first_event_failure fsize.lcmlog fsize.err $!
+echo "first event over RLIMIT_FSIZE: exit 74, no empty log, manifest 'failed'"
+
 # --- disk full ----------------------------------------------------------------------------------
-mkdir -p full
+mkdir -p full first
 if mount -t tmpfs -o size=2m tmpfs full 2>/dev/null; then
-  trap 'umount "$WORK_DIR/full" 2>/dev/null || true' EXIT
+  trap 'umount "$WORK_DIR/full" "$WORK_DIR/first" 2>/dev/null || true' EXIT
+  # A file system full from the start but for one page, which the manifest takes: the first event
+  # gets ENOSPC, and the final manifest cannot be written beside the old one (write-then-rename).
+  mount -t tmpfs -o size=1m tmpfs first
+  cat /dev/zero >first/filler 2>/dev/null || true
+  truncate -s -4096 first/filler
+  start_ready notify first.err "$POF" record -o first/x.lcmlog --lcm-url "$URL"
+  expect_first_event_failure first/x.lcmlog first.err $!
+  echo "first event on a full file system: exit 74, no empty log, manifest 'failed'"
+  umount first
+
   start_ready notify full.err "$POF" record -o full/x.lcmlog --lcm-url "$URL" --sync-interval 0.05 >full.out
   rec=$!
   "$PUB" --lcm-url "$URL" burst --channel POF_RAW --count 20000 --rate 20000 >/dev/null

@@ -12,6 +12,9 @@ tests/e2e/record_lossless.sh and record_crash.sh.
   record_manifest_check.py hostile MANIFEST M    after compensatord_hostile.sh's traffic: stopped
                                                  cleanly, at least M malformed datagrams and one
                                                  abandoned fragmented message counted
+  record_manifest_check.py failed MANIFEST LOG   the first event could not be written: `failed`,
+                                                 the reason naming LOG, no file listed, nothing
+                                                 written
 """
 import json
 import sys
@@ -55,8 +58,16 @@ def hostile(m, min_malformed):
     check(c["written"] == c["received"] > 0, f"counters {c}")
 
 
+def failed(m, log):
+    print("manifest status:", m["status"], "error:", m.get("error"))
+    check(m["status"] == "failed", f"status {m['status']} (the first event was never written)")
+    check(log in m.get("error", ""), f"error {m.get('error')!r} does not name {log}")
+    check(m["files"] == [], f"files {m['files']}: the empty log is listed")
+    check(m["counters"]["written"] == 0, f"counters {m['counters']}")
+
+
 def main():
-    if len(sys.argv) < 3 or sys.argv[1] not in ("lossless", "killed", "rotated", "hostile"):
+    if len(sys.argv) < 3 or sys.argv[1] not in ("lossless", "killed", "rotated", "hostile", "failed"):
         sys.exit(__doc__)
     m = json.load(open(sys.argv[2]))
     if sys.argv[1] == "lossless":
@@ -65,6 +76,8 @@ def main():
         killed(m)
     elif sys.argv[1] == "hostile":
         hostile(m, int(sys.argv[3]))
+    elif sys.argv[1] == "failed":
+        failed(m, sys.argv[3])
     else:
         rotated(m)
 

@@ -203,6 +203,7 @@ void run_record(const RecordArgs& a) {
   if (s.outcome == rec::Outcome::kDiskFull)
     throw pof::IoError("disk full: " + s.error);
   if (s.outcome == rec::Outcome::kIoError) throw pof::IoError("write failed: " + s.error);
+  if (s.outcome == rec::Outcome::kFailed) throw pof::IoError(s.error);  // names the file and why
 }
 
 }  // namespace

@@ -1,13 +1,21 @@
 #pragma once
 // pof::bus::Receiver: the one way pofkit's processes take messages off the LCM bus
-// (pof-compensatord, `pof spy`). Total: no datagram, message or handler makes it throw, crash or
-// grow without bound; what it cannot use it counts.
+// (pof-compensatord, `pof spy`, `pof record`). Total: no datagram, message or handler makes it
+// throw, crash or grow without bound; what it cannot use it counts.
 //
 //   udpm:// (every deployment)  UdpmReceiver: our own socket, bounded reassembly, bound to the
 //                               group address (udpm_receiver.hpp), never liblcm's receive thread
-//                               (a fragment with offset 0xFFFFFFFF crashes liblcm 1.3.1).
+//                               (a fragment with offset 0xFFFFFFFF crashes liblcm 1.3.1) unless
+//                               ReceiverOptions::udpm_via_liblcm asks for it (`pof record --liblcm`,
+//                               kept to measure the difference: BENCHMARKS.md).
 //   anything else (memq:// in   subscriptions on the caller's lcm::LCM (memq delivers only within
-//   tests)                      one LCM instance, so it must be the one the process publishes on).
+//   tests)                      one LCM instance, so it must be the one the process publishes on),
+//                               or on an lcm::LCM of the receiver's own for a process that only
+//                               receives (the second constructor).
+//
+// A recorder gets what it needs from raw subscriptions: the bytes of every message exactly as they
+// arrived (no decoding), the kernel's receive timestamp on udpm:// (liblcm's on the other
+// transports), and the malformed-datagram and incomplete-message counters in stats().
 //
 // Authenticated mode (ReceiverOptions::auth_key, pof/bus/auth.hpp): every message some subscription
 // wants is verified before anything else looks at it; what fails (unsigned, bad MAC, stale,
@@ -95,6 +103,11 @@ struct ReceiverOptions {
   // Other transports: liblcm's queue per subscription [messages]. Its default, 30, drops the
   // excess silently when the handler thread falls behind.
   int lcm_queue_capacity = 10000;
+  // Receive udpm:// through liblcm's subscription too (its receive thread, ring buffer and pipe)
+  // instead of UdpmReceiver: slower and not total (see above); only `pof record --liblcm` sets it,
+  // to compare the two (BENCHMARKS.md). No malformed/incomplete counts on that path; the
+  // authenticated mode verifies there as on memq:// (one verdict per message, see lcm_verdict_).
+  bool udpm_via_liblcm = false;
   // Authenticated mode: the bus key (pof/bus/auth_key.hpp loads it) and the verifier's window.
   // Null: unauthenticated, messages are taken as they are.
   std::shared_ptr<const auth::Key> auth_key;
@@ -106,9 +119,12 @@ class Receiver {
   using RawHandler = std::function<void(const Delivery&, const unsigned char* data, std::size_t size)>;
   using ErrorHandler = std::function<void(const ReceiveError&)>;
 
-  /// `url` as resolved by pof::bus::resolve_url(). Throws pof::ConfigError naming the URL
-  /// when the socket cannot be set up or `lc` is not good() on a non-udpm URL.
+  /// `url` as resolved by pof::bus::resolve_url(). Throws pof::ConfigError naming the URL when the
+  /// udpm socket cannot be set up, pof::IoError when `lc` is not good() and is to be used.
   Receiver(lcm::LCM& lc, const std::string& url, ReceiverOptions options = {});
+  /// For a process that only receives: an lcm::LCM on `url` is opened (and owned) only when the
+  /// transport goes through liblcm; on udpm:// none is (no liblcm socket at all). Throws as above.
+  explicit Receiver(const std::string& url, ReceiverOptions options = {});
   ~Receiver();
   Receiver(const Receiver&) = delete;
   Receiver& operator=(const Receiver&) = delete;
@@ -136,7 +152,7 @@ class Receiver {
 
   /// The descriptor to poll() for readability.
   [[nodiscard]] int fd() const;
-  /// True when udpm:// is received on our own socket.
+  /// True when udpm:// is received on our own socket (UdpmReceiver), false through liblcm.
   [[nodiscard]] bool direct() const { return udpm_ != nullptr; }
   [[nodiscard]] ReceiverStats stats() const;
   /// Zeros for a channel nobody subscribed to with a type.
@@ -186,8 +202,11 @@ class Receiver {
   void report(const ReceiveError& e) noexcept;
   /// A subscriber's handler threw `error` on `channel`: reported as Kind::kHandler.
   void report_handler_error(std::string_view channel, std::exception_ptr error) noexcept;
+  /// Sets up UdpmReceiver for a udpm:// URL (unless udpm_via_liblcm); true when it did.
+  bool open_direct(const std::string& url);
 
-  lcm::LCM& lc_;
+  std::unique_ptr<lcm::LCM> own_lc_;  // the second constructor's, when liblcm is used
+  lcm::LCM* lc_ = nullptr;            // null only when direct()
   ReceiverOptions opt_;
   std::unique_ptr<UdpmReceiver> udpm_;
   UdpmReceiver::Sink sink_;
@@ -197,7 +216,8 @@ class Receiver {
   ErrorHandler on_error_;
   std::unique_ptr<auth::Verifier> verifier_;
   // liblcm path: handle() takes one message per lcm_handle() call and liblcm hands it to every
-  // matching subscription in turn (lcm/lcm_memq.c, lcm_memq_handle -> lcm_dispatch_handlers), so a
+  // matching subscription in turn (lcm/lcm_memq.c, lcm_memq_handle -> lcm_dispatch_handlers; on
+  // udpm:// with udpm_via_liblcm lcm/lcm_udpm.c, lcm_udpm_handle, the same per message), so a
   // message is verified once per generation and its verdict reused by the other subscriptions (a
   // second verify() would see its own counter again and call it a replay).
   uint64_t lcm_generation_ = 0;

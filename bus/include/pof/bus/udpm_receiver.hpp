@@ -1,6 +1,7 @@
 #pragma once
-// A receive-only implementation of LCM's udpm:// transport: the one receive path of pofkit's
-// processes (pof::bus::Receiver decodes on top of it; `pof record` stores its raw messages).
+// A receive-only implementation of LCM's udpm:// transport, under pof::bus::Receiver (the one
+// receive path of pofkit's processes: it decodes for typed subscribers, and hands the raw messages
+// to raw ones such as `pof record`).
 //
 // Why not liblcm's receiver: liblcm 1.3.1 moves every datagram through its own receive thread, a
 // ring buffer and a pipe write/read to the thread calling handle(): two context switches and ~6

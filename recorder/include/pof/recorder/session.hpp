@@ -11,12 +11,13 @@
 //     a writer thread owns all disk I/O (DurableLogWriter: whole events, periodic fdatasync);
 //   - every loss is counted: hand-off overflow, kernel socket drops (/proc/net/udp), and sequence
 //     gaps of pofkit's own streams.
-// In the authenticated mode (SessionOptions::auth_key, pof/bus/auth.hpp) the receive thread verifies
-// every message before it is queued: what fails (unsigned, bad MAC, stale, replayed) is not
-// recorded and is counted per verdict in the manifest; what passes is recorded without its
-// trailer, as the LCM message that was published, so every LCM log reader (lcm-logplayer, pofkit's
-// own) takes the log as it takes any other. The manifest says that the session was verified and
-// with which key id.
+// In the authenticated mode (SessionOptions::auth_key, pof/bus/auth.hpp) the session's
+// bus::Receiver verifies every message before it reaches the hand-off queue (ReceiverOptions::
+// auth_key, on every receive path, --liblcm included): what fails (unsigned, bad MAC, stale,
+// replayed) is not recorded and is counted per verdict in the manifest (the Receiver's counters,
+// ReceiverStats::auth_*); what passes is recorded without its trailer, as the LCM message that was
+// published, so every LCM log reader (lcm-logplayer, pofkit's own) takes the log as it takes any
+// other. The manifest says that the session was verified and with which key id.
 //
 // Threads: the constructor, start(), poll() and stop() are called from one controlling thread; the
 // session runs an LCM thread and a writer thread of its own. Setup errors throw pof::io errors
@@ -42,13 +43,8 @@
 #include "pof/recorder/lcmlog_durable.hpp"
 #include "pof/recorder/pof_messages.hpp"
 
-namespace lcm {
-class LCM;
-}  // namespace lcm
-struct _lcm_recv_buf_t;
 namespace pof::bus {
-class UdpmReceiver;
-class ChannelFilter;
+class Receiver;
 }  // namespace pof::bus
 
 namespace pof::recorder {
@@ -67,8 +63,10 @@ struct SessionOptions {
   int lcm_queue_capacity = 1 << 20;    // per-subscription queue [messages] (LCM default: 30)
   std::size_t handoff_bytes = 256u << 20;  // bound of the LCM->writer queue [bytes]
   std::vector<std::filesystem::path> manifest_files;  // copied next to the log and listed
-  // udpm:// is received by UdpmReceiver (recvmmsg batches; udpm_receiver.hpp says why) unless
-  // use_liblcm is set; other providers (memq://, file://) always go through liblcm.
+  // Messages come off the bus through pof::bus::Receiver, pofkit's one receive path (a raw
+  // subscription: bytes and receive time of every message, nothing decoded). On udpm:// that is
+  // UdpmReceiver (recvmmsg batches; udpm_receiver.hpp says why) unless use_liblcm is set; other
+  // providers (memq://, file://) always go through liblcm.
   bool use_liblcm = false;
   int receive_nice = -10;              // nice value of the receive thread (0: leave it)
   std::shared_ptr<const bus::auth::Key> auth_key;  // authenticated mode; null: record what arrives
@@ -76,7 +74,10 @@ struct SessionOptions {
   nlohmann::json manifest_extra = nlohmann::json::object();  // versions, command line, config
 };
 
-enum class Outcome { kRunning, kStopped, kDiskFull, kIoError };
+// kDiskFull / kIoError: writing stopped, the log is complete up to the failure. kFailed: not even
+// the first event could be written (a full disk at start, a file size limit): nothing recorded, and
+// the empty log file removed (a 0-byte log would pass for a recording of a silent bus).
+enum class Outcome { kRunning, kStopped, kDiskFull, kIoError, kFailed };
 
 struct ChannelStats {
   uint64_t events = 0;
@@ -131,16 +132,18 @@ class Session {
   // i64 utime, u32 channel length, u32 data length (host order), channel bytes, data bytes.
   static constexpr std::size_t kRecordHeader = 16;
 
-  // liblcm's C callback (the C++ template wrappers of lcm-cpp-impl.hpp trip UBSan's vptr check).
-  static void on_lcm_message(const struct _lcm_recv_buf_t* rbuf, const char* channel, void* self);
-  /// Receive thread: verifies (authenticated mode), then enqueue()s.
-  void take(int64_t utime, std::string_view channel, const unsigned char* data, uint32_t size);
   void enqueue(int64_t utime, std::string_view channel, const void* data, uint32_t size);
   void lcm_loop();
   void writer_loop();
   bool open_next_file();
+  std::string manifest_text(const char* status);
   void write_manifest(const char* status);
   void write_manifest_noexcept(const char* status) noexcept;
+  /// The manifest at stop, rewritten in place when write-then-rename fails (see session.cpp).
+  void write_final_manifest(const char* status) noexcept;
+  /// A writer failure, under stats_mu_: sets outcome_ and error_; a file with no complete event is
+  /// closed and removed.
+  void note_write_failure();
   bool rotate();
   std::filesystem::path file_path(unsigned index) const;
 
@@ -150,9 +153,8 @@ class Session {
   std::filesystem::path manifest_path_;
   std::filesystem::path attach_dir_;
   nlohmann::json attachments_ = nlohmann::json::array();
-  std::unique_ptr<lcm::LCM> lcm_;
-  std::unique_ptr<bus::UdpmReceiver> direct_;
-  std::unique_ptr<bus::ChannelFilter> channel_filter_;  // receive thread only
+  std::unique_ptr<bus::Receiver> rx_;  // receive thread only, once started
+  bool direct_ = false;                // rx_->direct(), kept for the manifest after rx_ is gone
   uint16_t port_ = 0;
   uint64_t udp_drops_at_start_ = 0;
   int64_t start_utime_ = 0;
@@ -173,10 +175,9 @@ class Session {
   std::atomic<bool> stop_writer_{false};
   std::atomic<uint64_t> writer_beats_{0};
   std::atomic<uint64_t> lcm_beats_{0};
-  // The direct receiver's counters, published by the receive thread after each receive().
+  // The receiver's udpm counters, published by the receive thread after each handle().
   std::atomic<uint64_t> malformed_{0}, incomplete_{0};
-  // Authenticated mode: the verifier (receive thread only) and its drops per verdict, for poll().
-  std::unique_ptr<bus::auth::Verifier> verifier_;
+  // Authenticated mode: the receiver's drops per verdict, published with the counters above.
   std::atomic<uint64_t> auth_unsigned_{0}, auth_bad_mac_{0}, auth_stale_{0}, auth_replayed_{0};
   std::thread lcm_thread_;
   std::thread writer_thread_;

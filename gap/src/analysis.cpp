@@ -343,13 +343,31 @@ Result analyse(const io::Recording& rec, const Options& opt) {
     res.whiteness["final_where"] = localise(rf, s, k0, phases).sentence;
   }
 
-  // ---- improved model, fitted on all the data ----------------------------------------------------
+  // ---- the loop closed: the compensator's angle with and without the found model --------------
+  VectorXd comp_before, comp_after;
+  Applied written;
+  say("compensating the held-out blocks with the baseline and with the found model");
+  res.compensated = compensated_rmse(rec, sx, baseline_model, st, cur, &written, &comp_before, &comp_after);
+
+  // ---- improved model, fitted on all the data (what model.toml holds) ----------------------------
+  // If even the effects kept make the compensator's held-out angle worse than the baseline does,
+  // model.toml holds the baseline: a file that degrades the controller's angle helps no one (the
+  // effects stay named in gap.json and the report).
+  const bool write_baseline = !res.steps.empty() && !(res.compensated["rmse_written_deg"].get<double>() <
+                                                      res.compensated["rmse_before_deg"].get<double>());
+  res.compensated["model_toml"] = write_baseline ? "baseline (the found model made the held-out angle worse)" : "found model";
+  if (write_baseline) {
+    written.delay = written.backlash = false;
+    written.terms.assign(written.terms.size(), false);
+  }
   {
     const VectorXd b = cur.fit.beta_full;
-    const core::ModelCoefficients mm = moved_model(sx.cx.m, b);
+    const core::ModelCoefficients mm = write_baseline ? baseline_model : moved_model(sx.cx.m, b);
     const core::GapModel g = gap_model_of(st, b, sx.cx);
     json terms = json::array();
-    for (const core::GapTerm& t : g.terms) {
+    for (std::size_t i = 0; i < g.terms.size(); ++i) {
+      if (!written.terms[i]) continue;  // its online application made the held-out angle worse
+      const core::GapTerm& t = g.terms[i];
       json term = {{"effect", t.effect}, {"theta", t.theta}, {"coefficients_v", t.coefficients_v}};
       if (!t.thresholds_deg.empty()) term["thresholds_deg"] = t.thresholds_deg;
       if (!t.time_constants_s.empty()) term["time_constants_s"] = t.time_constants_s;
@@ -360,15 +378,11 @@ Result analyse(const io::Recording& rec, const Options& opt) {
     }
     auto dir = [](const core::DirectionCoefficients& x) { return json::array({x.c3, x.c4, x.c5, x.c6, x.c7, x.c8}); };
     res.model = {{"c1", mm.c1}, {"c2", mm.c2}, {"c9", mm.c9}, {"c10", mm.c10}, {"flexion", dir(mm.flexion)},
-                 {"extension", dir(mm.extension)}, {"reference_level_v", s.reference_level_v}, {"delay_s", st.delay_s},
-                 {"backlash_deg", st.backlash_deg}, {"duration_s", sx.cx.duration_s}, {"terms", terms}};
+                 {"extension", dir(mm.extension)}, {"reference_level_v", s.reference_level_v}, {"delay_s", written.delay ? st.delay_s : 0.0},
+                 {"backlash_deg", written.backlash ? st.backlash_deg : 0.0}, {"duration_s", sx.cx.duration_s},
+                 {"terms", terms}, {"left_out", res.compensated["left_out_of_model"]}};
     describe_range(res.model, s, k0);
   }
-
-  // ---- the loop closed: the compensator's angle with and without the found model --------------
-  VectorXd comp_before, comp_after;
-  say("compensating the held-out blocks with the baseline and with the found model");
-  res.compensated = compensated_rmse(rec, sx, baseline_model, st, cur, &comp_before, &comp_after);
 
   // ---- plot series (at most ~40k rows) ----------------------------------------------------------
   const Index stride = std::max<Index>(1, s.n / 40000);

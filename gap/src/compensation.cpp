@@ -61,8 +61,60 @@ double rms_of(const VectorXd& a, const VectorXd& ref, Index start, Index len) {
 
 }  // namespace
 
-nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, const core::ModelCoefficients& before, const State& st,
-                                const CurrentFit& after, VectorXd* angle_before, VectorXd* angle_after) {
+namespace {
+
+struct HeldOut {
+  double rmse_deg = 0;
+  nlohmann::json folds = nlohmann::json::array();
+  VectorXd angle;  // block by block, the angle of the model fitted on the other blocks
+};
+
+// The compensator's angle with the state's terms (those `use` keeps), fold by fold with the model
+// fitted on the other folds, scored on the held-out blocks. Terms the compensator refuses are
+// skipped and named in not_applied.
+HeldOut held_out(const io::Recording& rec, const Search& sx, const core::Calibration& base, const State& st,
+                 const CurrentFit& after, const Applied& use, const VectorXd& a0, nlohmann::json* not_applied) {
+  const Signals& s = *sx.cx.s;
+  const double rate = 1.0 / s.dt;
+  HeldOut h;
+  h.angle = a0;
+  double ss = 0;
+  Index n = 0;
+  for (std::size_t f = 0; f < sx.blocks.size(); ++f) {
+    core::Calibration cal = base;
+    cal.model = moved_model(sx.cx.m, after.fit.beta[f]);
+    core::GapModel g = gap_model_of(st, after.fit.beta[f], sx.cx);
+    if (!use.delay) g.delay_s = 0;
+    if (!use.backlash) g.backlash_deg = 0;
+    std::vector<core::GapTerm> kept;
+    for (std::size_t t = 0; t < g.terms.size(); ++t) {
+      if (t < use.terms.size() && !use.terms[t]) continue;
+      core::GapModel one;
+      one.terms = {g.terms[t]};
+      if (core::gap_problems(one, rate).empty()) kept.push_back(g.terms[t]);
+      else if (f == 0 && not_applied != nullptr) not_applied->push_back(g.terms[t].effect);
+    }
+    g.terms = std::move(kept);
+    if (!g.empty()) cal.gap = std::move(g);
+    const VectorXd af = compensate(rec, cal, rate);
+    const Index b = sx.blocks.start[f], l = sx.blocks.len[f];
+    h.angle.segment(b, l) = af.segment(b, l);
+    const double r0 = rms_of(a0, rec.angle_ref_deg, b, l), r1 = rms_of(af, rec.angle_ref_deg, b, l);
+    h.folds.push_back({{"rmse_before_deg", r0}, {"rmse_after_deg", r1}});
+    if (std::isfinite(r1)) {
+      ss += r1 * r1 * static_cast<double>(l);
+      n += l;
+    }
+  }
+  h.rmse_deg = n > 0 ? std::sqrt(ss / static_cast<double>(n)) : std::numeric_limits<double>::quiet_NaN();
+  return h;
+}
+
+}  // namespace
+
+nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, const core::ModelCoefficients& before,
+                                const State& st, const CurrentFit& after, Applied* written, VectorXd* angle_before,
+                                VectorXd* angle_after) {
   const Signals& s = *sx.cx.s;
   const double rate = 1.0 / s.dt;
   core::Calibration base;
@@ -71,50 +123,52 @@ nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, cons
   base.angle_min_deg = s.angle.minCoeff();
   base.angle_max_deg = s.angle.maxCoeff();
   const VectorXd a0 = compensate(rec, base, rate);
-  VectorXd a1 = a0;
-  nlohmann::json out;
-  nlohmann::json not_applied = nlohmann::json::array();
-  nlohmann::json folds = nlohmann::json::array();
-  double ss0 = 0, ss1 = 0;
-  Index n = 0;
+  double ss0 = 0;
+  Index n0 = 0;
   for (std::size_t f = 0; f < sx.blocks.size(); ++f) {
-    core::Calibration cal = base;
-    cal.model = moved_model(sx.cx.m, after.fit.beta[f]);
-    core::GapModel g = gap_model_of(st, after.fit.beta[f], sx.cx);
-    // What the compensator cannot apply online is left out here, as a user would have to.
-    std::vector<core::GapTerm> kept;
-    for (std::size_t t = 0; t < g.terms.size(); ++t) {
-      core::GapModel one;
-      one.terms = {g.terms[t]};
-      if (core::gap_problems(one, rate).empty()) kept.push_back(g.terms[t]);
-      else if (f == 0) not_applied.push_back(g.terms[t].effect);
-    }
-    g.terms = std::move(kept);
-    if (!g.empty()) cal.gap = std::move(g);
-    const VectorXd af = compensate(rec, cal, rate);
-    const Index b = sx.blocks.start[f], l = sx.blocks.len[f];
-    a1.segment(b, l) = af.segment(b, l);
-    const double r0 = rms_of(a0, rec.angle_ref_deg, b, l), r1 = rms_of(af, rec.angle_ref_deg, b, l);
-    folds.push_back({{"rmse_before_deg", r0}, {"rmse_after_deg", r1}});
-    if (std::isfinite(r0) && std::isfinite(r1)) {
-      ss0 += r0 * r0 * static_cast<double>(l);
-      ss1 += r1 * r1 * static_cast<double>(l);
-      n += l;
-    }
+    const double r0 = rms_of(a0, rec.angle_ref_deg, sx.blocks.start[f], sx.blocks.len[f]);
+    if (std::isfinite(r0)) { ss0 += r0 * r0 * static_cast<double>(sx.blocks.len[f]); n0 += sx.blocks.len[f]; }
   }
-  const double before_deg = n > 0 ? std::sqrt(ss0 / static_cast<double>(n)) : std::numeric_limits<double>::quiet_NaN();
-  const double after_deg = n > 0 ? std::sqrt(ss1 / static_cast<double>(n)) : std::numeric_limits<double>::quiet_NaN();
-  out = {{"rmse_before_deg", before_deg},
-         {"rmse_after_deg", after_deg},
-         {"reduction_pct", before_deg > 0 ? 100.0 * (1.0 - after_deg / before_deg) : 0.0},
-         {"folds", folds},
-         {"not_applied", not_applied},
-         {"how", "core::OnlineCompensator over the recording (velocity from the sensor); before: the baseline "
-                 "fitted to the recording; after: per fold, the model fitted on the other folds, scored on the "
-                 "held-out block against angle_ref_deg"}};
+  const double before_deg = n0 > 0 ? std::sqrt(ss0 / static_cast<double>(n0)) : std::numeric_limits<double>::quiet_NaN();
+  Applied all;
+  all.terms.assign(st.terms.size(), true);
+  nlohmann::json not_applied = nlohmann::json::array();
+  const HeldOut with_all = held_out(rec, sx, base, st, after, all, a0, &not_applied);
+
+  // Each accepted effect left out in turn: one whose online application makes the held-out angle
+  // worse (by > 2 %) is not written to model.toml (it stays named in the report). The choice is
+  // made on the same held-out blocks it is reported on, so rmse_written_deg is optimistic;
+  // rmse_after_deg (every appliable term) is the unbiased figure.
+  Applied keep = all;
+  nlohmann::json left_out = nlohmann::json::array();
+  auto try_without = [&](const std::string& effect, auto clear) {
+    Applied without = all;
+    clear(without);
+    const HeldOut h = held_out(rec, sx, base, st, after, without, a0, nullptr);
+    if (h.rmse_deg < 0.98 * with_all.rmse_deg) {
+      clear(keep);
+      left_out.push_back({{"effect", effect}, {"rmse_with_deg", with_all.rmse_deg}, {"rmse_without_deg", h.rmse_deg}});
+    }
+  };
+  if (st.delay_s != 0) try_without("time_delay", [](Applied& a) { a.delay = false; });
+  if (st.backlash_deg > 0) try_without("backlash", [](Applied& a) { a.backlash = false; });
+  for (std::size_t t = 0; t < st.terms.size(); ++t)
+    try_without(std::string(core::to_string(st.terms[t].effect)), [t](Applied& a) { a.terms[t] = false; });
+  const double written_deg = left_out.empty() ? with_all.rmse_deg
+                                              : held_out(rec, sx, base, st, after, keep, a0, nullptr).rmse_deg;
+  if (written != nullptr) *written = keep;
   if (angle_before != nullptr) *angle_before = a0;
-  if (angle_after != nullptr) *angle_after = a1;
-  return out;
+  if (angle_after != nullptr) *angle_after = with_all.angle;
+  return {{"rmse_before_deg", before_deg},
+          {"rmse_after_deg", with_all.rmse_deg},
+          {"reduction_pct", before_deg > 0 ? 100.0 * (1.0 - with_all.rmse_deg / before_deg) : 0.0},
+          {"folds", with_all.folds},
+          {"not_applied", not_applied},
+          {"left_out_of_model", left_out},
+          {"rmse_written_deg", written_deg},
+          {"how", "core::OnlineCompensator over the recording (velocity from the sensor); before: the baseline "
+                  "fitted to the recording; after: per fold, the model fitted on the other folds, scored on the "
+                  "held-out block against angle_ref_deg"}};
 }
 
 }  // namespace pof::gap

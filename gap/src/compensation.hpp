@@ -1,6 +1,8 @@
 #pragma once
 // Closing the loop in the report: the angle the compensator would output with the baseline alone
 // and with the found model, against the reference, on held-out blocks (docs/gap.md, section 5).
+#include <vector>
+
 #include <nlohmann/json.hpp>
 
 #include "pof/core/gap_terms.hpp"
@@ -13,12 +15,21 @@ namespace pof::gap {
 /// coefficients of beta (after the kBaseCols baseline columns, in term order).
 core::GapModel gap_model_of(const State& st, const Eigen::VectorXd& beta, const Context& cx);
 
+/// Which of a state's effects are applied: the kinematic ones and each voltage term (in order).
+struct Applied {
+  bool delay = true, backlash = true;
+  std::vector<bool> terms;
+};
+
 /// Runs core::OnlineCompensator over the recording with the baseline (`before`: its all-data fit)
 /// and, fold by fold, with the model fitted on the other folds (`after`, the fit of state `st` at
 /// sx's baseline: baseline moved and terms with the fold's coefficients), and scores each fold's held-out block against the reference
 /// angle: RMSE before and after, per fold and overall. Terms the compensator cannot apply online
-/// (drift) are left out of `after` and named in "not_applied".
-nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, const core::ModelCoefficients& before, const State& st,
-                                const CurrentFit& after, Eigen::VectorXd* angle_before, Eigen::VectorXd* angle_after);
+/// (drift) are left out of `after` and named in "not_applied". Then each effect is left out in
+/// turn; those whose online application makes the held-out angle worse are returned in `written`
+/// as not to be written to model.toml, and listed in "left_out_of_model".
+nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, const core::ModelCoefficients& before,
+                                const State& st, const CurrentFit& after, Applied* written, Eigen::VectorXd* angle_before,
+                                Eigen::VectorXd* angle_after);
 
 }  // namespace pof::gap

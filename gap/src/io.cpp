@@ -115,7 +115,18 @@ std::string report_md(const Result& r, const std::string& source) {
       << " deg with the baseline, " << c["rmse_after_deg"].get<double>() << " deg with the found model applied ("
       << c["reduction_pct"].get<double>() << " % lower)";
     if (!c["not_applied"].empty()) o << "; not applied online (the compensator refuses them): " << c["not_applied"].dump();
-    o << ".\n\n![compensated angle](compensated.png)\n\n";
+    o << ".\n\n";
+    for (const json& l : c["left_out_of_model"])
+      o << "- **" << l["effect"].get<std::string>() << " is not written to model.toml**: applied online it made the held-out "
+        << "angle worse (RMSE " << l["rmse_with_deg"].get<double>() << " deg with it, " << l["rmse_without_deg"].get<double>()
+        << " deg without). It is found all the same (above).\n";
+    if (!c["left_out_of_model"].empty())
+      o << "\nWith the effects model.toml holds: RMSE " << c["rmse_written_deg"].get<double>()
+        << " deg (chosen on these blocks, so optimistic).\n";
+    if (c.value("model_toml", "") != "found model")
+      o << "\n**model.toml holds the baseline**: with the found model the compensator's held-out angle was not "
+           "closer to the reference than with the baseline alone.\n";
+    o << "\n![compensated angle](compensated.png)\n\n";
   }
   o << "## What is left\n\n" << (r.unexplained ? "Structure remains that no candidate explains" : "No significant structure left")
     << ": residual RMS / scan-to-scan noise floor = " << r.whiteness["rms_over_noise_floor"].get<double>()

@@ -4,12 +4,8 @@
 # daemon applies a good one over udpm exactly as `pof compensate` does, and a SIGHUP to a file it
 # cannot apply keeps the previous calibration.
 source "$(dirname "$0")/lib.sh"
-PORT=$((20000 + RANDOM % 30000))   # ttl=0 multicast is host-wide: keep other runs out
-URL="udpm://239.255.76.67:$PORT?ttl=0"
+private_bus
 POF="$BIN_DIR/pof"
-pids=()
-cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; }
-trap cleanup EXIT
 
 "$POF" sim paper -o cal.csv --seed 11 2>/dev/null
 "$POF" calibrate cal.csv -o cal.toml >/dev/null 2>&1 || fail "pof calibrate failed"

@@ -13,14 +13,10 @@
 # set up), and its peak RSS must stay bounded. The recorder must stop cleanly with a readable log and
 # the malformed datagrams and abandoned fragmented messages counted in its manifest. Prints the daemon's RSS before and after.
 source "$(dirname "$0")/lib.sh"
-PORT=$((20000 + RANDOM % 30000))   # ttl=0 multicast is host-wide: keep other runs out
-URL="udpm://239.255.76.67:$PORT?ttl=0"
+private_bus
 POF="$BIN_DIR/pof"
 TESTPUB="$BIN_DIR/../tests/pof-testpub"
 HOSTILE="$SOURCE_DIR/tests/e2e/lcm_hostile.py"
-pids=()
-cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; }
-trap cleanup EXIT
 t_start=$(cut -d' ' -f1 /proc/uptime)
 
 mkdir -p py && lcm-gen -p --ppath py "$SOURCE_DIR"/lcmtypes/*.lcm || fail "lcm-gen (python)"

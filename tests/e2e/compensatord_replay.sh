@@ -5,12 +5,8 @@
 #   - the angles track the simulator's ground truth within the calibration's accuracy;
 #   - SIGHUP with a broken calibration keeps the daemon running on the old one and says why.
 source "$(dirname "$0")/lib.sh"
-PORT=$((20000 + RANDOM % 30000))   # ttl=0 multicast is host-wide: keep other runs out
-URL="udpm://239.255.76.67:$PORT?ttl=0"
+private_bus
 POF="$BIN_DIR/pof"
-pids=()
-cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; }
-trap cleanup EXIT
 
 "$POF" sim paper -o cal.csv --seed 11 2>/dev/null
 "$POF" calibrate cal.csv -o cal.toml >/dev/null 2>&1 || fail "pof calibrate failed"

@@ -5,12 +5,8 @@
 # (it waits for the messages, at most 30 s). pof-daqd's precedence: --lcm-url, then lcm.url of its
 # configuration file, then LCM_DEFAULT_URL (--print-config shows the URL it resolved to).
 source "$(dirname "$0")/lib.sh"
-PORT=$((20000 + RANDOM % 30000))   # ttl=0 multicast is host-wide: keep other runs out
-URL="udpm://239.255.76.67:$PORT?ttl=0"
+private_bus
 POF="$BIN_DIR/pof"
-pids=()
-cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; }
-trap cleanup EXIT
 unset LCM_DEFAULT_URL
 
 # Precedence, without a bus: the environment, then the file's lcm.url, then --lcm-url.

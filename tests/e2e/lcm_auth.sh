@@ -10,13 +10,9 @@
 # undecodable block; the recorder's manifest counts the same and its log holds the verified blocks;
 # lcm-logger's log holds the signed bytes, whose MACs Python's hashlib verifies; the spy shows drops.
 source "$(dirname "$0")/lib.sh"
-PORT=$((20000 + RANDOM % 30000))   # ttl=0 multicast is host-wide: keep other runs out
-URL="udpm://239.255.76.67:$PORT?ttl=0"
+private_bus
 POF="$BIN_DIR/pof"
 HOSTILE="$SOURCE_DIR/tests/e2e/lcm_hostile.py"
-pids=()
-cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; }
-trap cleanup EXIT
 unset POF_LCM_AUTH_KEY_FILE
 
 mkdir -p py && lcm-gen -p --ppath py "$SOURCE_DIR"/lcmtypes/*.lcm || fail "lcm-gen (python)"

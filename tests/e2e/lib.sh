@@ -17,6 +17,15 @@ expect_exit() {
   [ "$got" -eq "$want" ] || fail "'$*' exited $got, expected $want; stderr: $err"
 }
 
+# --- A bus of its own, and the processes a script starts ------------------------------------------
+# private_bus [GROUP]: PORT, a random port, and URL, a host-local udpm URL on it (ttl=0 multicast is
+# host-wide: a port of its own keeps other runs off this test's bus).
+private_bus() { PORT=$((20000 + RANDOM % 30000)); URL="udpm://${1:-239.255.76.67}:$PORT?ttl=0"; }
+# Background processes a script starts go into pids; they are killed when the script exits.
+pids=()
+kill_started() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; }
+trap kill_started EXIT
+
 # --- Waiting on readiness and conditions (tests/e2e/pof_wait.py), never on a fixed time ----------
 PY=/usr/bin/python3
 POF_WAIT="$SOURCE_DIR/tests/e2e/pof_wait.py"

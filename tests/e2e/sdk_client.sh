@@ -54,11 +54,7 @@ cc -std=c11 -Wall -Werror c_client.c -o c_client $(pkg-config --cflags --libs po
 ./c_client || fail "C types round trip failed"
 
 # Live: the installed daemons (sim backend) -> the C++ client.
-PORT=$((20000 + RANDOM % 30000))
-URL="udpm://239.255.76.67:$PORT?ttl=0"
-pids=()
-cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; }
-trap cleanup EXIT
+private_bus
 "$prefix/bin/pof" sim paper -o cal.csv 2>/dev/null
 "$prefix/bin/pof" calibrate cal.csv -o cal.toml >/dev/null 2>&1 || fail "installed pof calibrate failed"
 printf 'schema_version = 1\n[potentiometer]\ndeg_per_volt = 22.5\nzero_v = 0.5\n' >pot.toml

@@ -17,13 +17,9 @@
 #   - lcm-logplayer replay of the recorded POF_RAW through a fresh compensator reproduces the
 #     angles bit for bit (float) and the same statistics.
 source "$(dirname "$0")/daq_lib.sh"
-PORT=$((20000 + RANDOM % 30000))
-URL="udpm://239.255.77.67:$PORT?ttl=0"   # pof-vdaq's group (--lcm-port)
+private_bus 239.255.77.67
 REPLAY_URL="udpm://239.255.77.67:$((PORT + 1))?ttl=0"
 POF="$BIN_DIR/pof"
-pids=()
-cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; }
-trap cleanup EXIT
 
 # Calibration on the simulated rig (the paper's protocol), and the simulated potentiometer.
 "$POF" sim paper -o cal.csv --seed 11 2>/dev/null

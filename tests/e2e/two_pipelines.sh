@@ -4,12 +4,8 @@
 # rejected blocks), publishes one angle per scan of its own sensor, on its own suffixed channels,
 # and nothing is published on the unsuffixed channels.
 source "$(dirname "$0")/lib.sh"
-PORT=$((20000 + RANDOM % 30000))
-URL="udpm://239.255.76.67:$PORT?ttl=0"
+private_bus
 POF="$BIN_DIR/pof"
-pids=()
-cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; }
-trap cleanup EXIT
 
 "$POF" sim paper -o cal.csv 2>/dev/null
 "$POF" calibrate cal.csv -o cal.toml >/dev/null 2>&1 || fail "pof calibrate failed"

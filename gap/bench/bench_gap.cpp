@@ -71,11 +71,11 @@ void run_blind(int n, std::uint64_t seed0) {
       if (t.hidden.size() == 1) { ++one_trials; one_exact += t.correct() ? 1 : 0; }
       if (t.hidden.size() == 2) { ++two_trials; two_both += t.hits() == 2 ? 1 : 0; }
       shrink.push_back(t.shrink());
-      comp_down.push_back(t.gap["compensated"]["reduction_pct"].get<double>() / 100.0);
       const auto& c = t.gap["compensated"];
-      const double before = c["rmse_before_deg"].get<double>();
+      comp_down.push_back(c.value("reduction_pct", 0.0) / 100.0);  // 0 when the compensator could not run it
+      const double before = c.value("rmse_before_deg", 0.0);
       // model.toml holds the baseline when the found model did not beat it: no change then.
-      const double written = c["model_toml"].get<std::string>() == "found model" ? c["rmse_written_deg"].get<double>() : before;
+      const double written = c.value("model_toml", std::string()) == "found model" ? c.value("rmse_written_deg", before) : before;
       comp_written.push_back(before > 0 ? 1.0 - written / before : 0.0);
       for (const auto& h : t.hidden) {
         ++hidden_total;

@@ -347,14 +347,23 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   VectorXd comp_before, comp_after;
   Applied written;
   say("compensating the held-out blocks with the baseline and with the found model");
-  res.compensated = compensated_rmse(rec, sx, baseline_model, st, cur, &written, &comp_before, &comp_after);
+  try {
+    res.compensated = compensated_rmse(rec, sx, baseline_model, st, cur, &written, &comp_before, &comp_after);
+  } catch (const std::exception& e) {
+    // The compensator refused a model (std::invalid_argument from its constructor): the analysis
+    // stands, model.toml holds the baseline, and the report says why.
+    res.compensated = {{"error", std::string("the compensator could not run the found model: ") + e.what()}};
+    written.terms.assign(st.terms.size(), false);
+    comp_before = comp_after = VectorXd::Constant(s.n, std::numeric_limits<double>::quiet_NaN());
+  }
 
   // ---- improved model, fitted on all the data (what model.toml holds) ----------------------------
   // If even the effects kept make the compensator's held-out angle worse than the baseline does,
   // model.toml holds the baseline: a file that degrades the controller's angle helps no one (the
   // effects stay named in gap.json and the report).
-  const bool write_baseline = !res.steps.empty() && !(res.compensated["rmse_written_deg"].get<double>() <
-                                                      res.compensated["rmse_before_deg"].get<double>());
+  const bool write_baseline =
+      !res.steps.empty() && (res.compensated.contains("error") || !(res.compensated["rmse_written_deg"].get<double>() <
+                                                                    res.compensated["rmse_before_deg"].get<double>()));
   res.compensated["model_toml"] = write_baseline ? "baseline (the found model made the held-out angle worse)" : "found model";
   if (write_baseline) {
     written.delay = written.backlash = false;
@@ -380,7 +389,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
     res.model = {{"c1", mm.c1}, {"c2", mm.c2}, {"c9", mm.c9}, {"c10", mm.c10}, {"flexion", dir(mm.flexion)},
                  {"extension", dir(mm.extension)}, {"reference_level_v", s.reference_level_v}, {"delay_s", written.delay ? st.delay_s : 0.0},
                  {"backlash_deg", written.backlash ? st.backlash_deg : 0.0}, {"duration_s", sx.cx.duration_s},
-                 {"terms", terms}, {"left_out", res.compensated["left_out_of_model"]}};
+                 {"terms", terms}, {"left_out", res.compensated.value("left_out_of_model", json::array())}};
     describe_range(res.model, s, k0);
   }
 

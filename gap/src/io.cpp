@@ -108,6 +108,9 @@ std::string report_md(const Result& r, const std::string& source) {
       << s.evidence["reduction_pct"].get<double>() << " %), delta BIC " << s.evidence["delta_bic"].get<double>()
       << ", runner-up " << s.evidence["runner_up"].get<std::string>() << "\n\n";
   }
+  if (r.compensated.contains("error"))
+    o << "## The angle the compensator outputs\n\n" << r.compensated["error"].get<std::string>()
+      << "; model.toml holds the baseline.\n\n";
   if (r.compensated.contains("rmse_before_deg")) {
     const json& c = r.compensated;
     o << "## The angle the compensator outputs\n\n"

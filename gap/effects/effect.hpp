@@ -8,6 +8,7 @@
 // compensator). The basis functions here are the ones the compensator evaluates online
 // (docs/calibration.md, "[gap]"): a coefficient written to model.toml is volts per unit of the
 // basis, in the calibration's normalised voltage.
+#include <cmath>
 #include <optional>
 #include <string_view>
 #include <vector>
@@ -25,7 +26,6 @@ namespace pof::gap {
 struct Context {
   const Signals* s = nullptr;
   core::ModelCoefficients m;  // the baseline (the paper's structure refitted to this recording)
-  double deg_per_v = 0;       // |d angle / d v| of the baseline's quasi-static line (c9)
   double duration_s = 0;
 };
 
@@ -96,7 +96,8 @@ std::vector<double> log_refine(double best);
 /// best + j * step, j = -9..9 without 0, keeping values > min.
 std::vector<double> linear_refine(double best, double step, double min);
 /// An angle-like coefficient in volts per degree, as the angle error it causes [deg per deg].
-inline double as_angle_error(double v_per_unit, const Context& cx) { return -v_per_unit * cx.deg_per_v; }
+/// (|c9| of the baseline as it stands: the structure's coefficients move during the search.)
+inline double as_angle_error(double v_per_unit, const Context& cx) { return -v_per_unit * std::abs(cx.m.c9); }
 }  // namespace basis
 
 }  // namespace pof::gap

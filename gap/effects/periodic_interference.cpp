@@ -53,7 +53,7 @@ nlohmann::json physical(double f, const Eigen::VectorXd& b, const Context& cx) {
   // Amplitude at the middle of the range (45 deg), and its reference-channel share.
   const double vm = core::quasi_static_voltage(cx.m, 45.0);
   const double amp = std::hypot(b(0) + vm * b(2), b(1) + vm * b(3));
-  return {{"frequency_hz", f}, {"amplitude_mv", amp * 1e3}, {"amplitude_deg", amp * cx.deg_per_v},
+  return {{"frequency_hz", f}, {"amplitude_mv", amp * 1e3}, {"amplitude_deg", amp * std::abs(cx.m.c9)},
           {"reference_share_mv_per_v", std::hypot(b(2), b(3)) * 1e3}};
 }
 

@@ -190,13 +190,12 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   Search sx;
   sx.cx.s = &s;
   sx.cx.m = base.model;
-  sx.cx.deg_per_v = std::abs(base.model.c9);
   sx.cx.duration_s = s.t(s.n - 1) + s.dt;
   sx.blocks = cv::make_blocks(kp, std::max(2, opt.folds));
   const Kinematics k0 = make_kinematics(s.angle, s.dt, 0.0, base.model);
   const std::vector<Phase> phases = classify_phases(k0, s.dt);
   const double N = static_cast<double>(s.n);
-  const double c9 = sx.cx.deg_per_v;
+  const double c9 = std::abs(base.model.c9);  // gaps in degrees at the baseline's sensitivity, for every step
   auto gap_deg = [&](double cv_rss) { return std::sqrt(cv_rss / N) * c9; };
   // Residual in degrees: positive when the sensor reads a larger angle than the model (dv/dangle < 0).
   auto to_deg = [&](const VectorXd& r) { return VectorXd(-r * c9); };
@@ -209,7 +208,9 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   res.recording["fold_start_s"] = bounds;
 
   State st;
-  CurrentFit cur = fit_state(sx, st);
+  // The structure is relinearised like every later state, so what the refit (every 4th scan,
+  // <= 50 iterations) left is not credited to the first candidate.
+  CurrentFit cur = relinearise(sx, st);
   const core::ModelCoefficients baseline_model = moved_model(sx.cx.m, cur.fit.beta_full);
   res.baseline_gap_deg = gap_deg(cur.fit.cv_rss);
   {
@@ -241,7 +242,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
       const double dbic = n_eff * std::log(c.fit.cv_rss / rss0) + c.n_params * std::log(n_eff);
       scores[id] = {{"heldout_gap_deg", gap_deg(c.fit.cv_rss)}, {"reduction_pct", 100 * red}, {"delta_bic", dbic},
                     {"parameters", c.n_params}};
-      order.emplace_back(dbic, i);
+      if (std::isfinite(dbic)) order.emplace_back(dbic, i);  // (a residual of exactly 0 leaves nothing to rank)
     }
     std::sort(order.begin(), order.end());
     auto passes = [&](std::size_t i) {
@@ -254,7 +255,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
       const auto simpler = effect_def(cands[i].effect).generalises;
       if (!simpler) return i;
       const auto si = static_cast<std::size_t>(*simpler);
-      if (!cands[si].applicable || !passes(si)) return i;
+      if (!cands[si].applicable) return i;
       const double red_over = 1.0 - std::sqrt(cands[i].fit.cv_rss / cands[si].fit.cv_rss);
       const double dbic_over = n_eff * std::log(cands[i].fit.cv_rss / cands[si].fit.cv_rss) +
                                (cands[i].n_params - cands[si].n_params) * std::log(n_eff);
@@ -269,7 +270,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
     for (const auto& [dbic, i0] : order) {
       if (!passes(i0)) break;
       const std::size_t i = parsimonious(i0);
-      if (std::find(tried.begin(), tried.end(), i) != tried.end()) continue;
+      if (!passes(i) || std::find(tried.begin(), tried.end(), i) != tried.end()) continue;
       tried.push_back(i);
       Assessment a = assess(sx, st, cands[i], cur.d.X.cols());
       if (a.significant) { chosen = std::move(a); break; }
@@ -326,7 +327,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
     const double th_full = w.grid.empty() ? 0.0 : w.grid[w.fit.full_idx];
     st = st.with(w.effect, th_full);
     sx.cx.m = w.base;
-    if (st.size() > 1) refit_thetas(sx, st);
+    if (st.size() > 1) refit_thetas(sx, st, chosen->after);
     // The next ranking compares candidates with the state refitted the same way they are (accepted
     // nonlinear parameters fixed); the reported gaps stay the strict per-fold ones.
     cur = relinearise(sx, st);
@@ -385,11 +386,10 @@ Result analyse(const io::Recording& rec, const Options& opt) {
       term["parameters"] = p;
       terms.push_back(term);
     }
-    auto dir = [](const core::DirectionCoefficients& x) { return json::array({x.c3, x.c4, x.c5, x.c6, x.c7, x.c8}); };
-    res.model = {{"c1", mm.c1}, {"c2", mm.c2}, {"c9", mm.c9}, {"c10", mm.c10}, {"flexion", dir(mm.flexion)},
-                 {"extension", dir(mm.extension)}, {"reference_level_v", s.reference_level_v}, {"delay_s", written.delay ? st.delay_s : 0.0},
-                 {"backlash_deg", written.backlash ? st.backlash_deg : 0.0}, {"duration_s", sx.cx.duration_s},
-                 {"terms", terms}, {"left_out", res.compensated.value("left_out_of_model", json::array())}};
+    res.model = coefficients_json(mm);
+    res.model.update({{"reference_level_v", s.reference_level_v}, {"delay_s", written.delay ? st.delay_s : 0.0},
+                      {"backlash_deg", written.backlash ? st.backlash_deg : 0.0}, {"duration_s", sx.cx.duration_s},
+                      {"terms", terms}, {"left_out", res.compensated.value("left_out_of_model", json::array())}});
     describe_range(res.model, s, k0);
   }
 

@@ -10,14 +10,10 @@
 
 namespace pof::gap {
 
-namespace {
-
 nlohmann::json coefficients_json(const core::ModelCoefficients& m) {
   auto dir = [](const core::DirectionCoefficients& x) { return nlohmann::json::array({x.c3, x.c4, x.c5, x.c6, x.c7, x.c8}); };
   return {{"c1", m.c1}, {"c2", m.c2}, {"c9", m.c9}, {"c10", m.c10}, {"flexion", dir(m.flexion)}, {"extension", dir(m.extension)}};
 }
-
-}  // namespace
 
 Baseline fit_baseline(const io::Recording& rec, const Signals& s, const Kinematics& k0) {
   Baseline b;

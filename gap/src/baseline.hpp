@@ -13,6 +13,9 @@ struct Baseline {
   nlohmann::json detail;          // how it was fitted, and the dynamic model as a second baseline
 };
 
+/// Table-2 coefficients as JSON: c1, c2, c9, c10, flexion/extension [c3..c8] (gap.json, model).
+nlohmann::json coefficients_json(const core::ModelCoefficients& m);
+
 /// 1. The calibration procedure of `pof calibrate` (core::calibrate: f5 from the holds, f1-f4
 ///    from the constant-velocity tests), or the paper's table 2 when the recording has no
 ///    velocity tests (said in detail["start"]).

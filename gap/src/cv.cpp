@@ -16,8 +16,11 @@ using Eigen::VectorXd;
 namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
+// A design with a non-finite value (a moved structure outside its domain) scores as the worst fit,
+// never as a perfect one (std::max(0, NaN) would be 0).
 double rss_of(double yy, const VectorXd& g, const MatrixXd& G, const VectorXd& beta) {
-  return std::max(0.0, yy - 2.0 * beta.dot(g) + beta.dot(G * beta));
+  const double r = yy - 2.0 * beta.dot(g) + beta.dot(G * beta);
+  return std::isfinite(r) ? std::max(0.0, r) : kInf;
 }
 
 double lag1(const VectorXd& r) {
@@ -156,7 +159,6 @@ FoldFit cross_validate(const std::vector<Grams>& per_theta, Index shared) {
     const double h = rss_of(per_theta[bi].yy[f], per_theta[bi].g[f], per_theta[bi].G[f], bb);
     ff.theta_idx.push_back(bi);
     ff.beta.push_back(bb);
-    ff.heldout_rss.push_back(h);
     ff.cv_rss += h;
   }
   return ff;

@@ -37,7 +37,6 @@ Eigen::VectorXd solve(const Eigen::MatrixXd& G, const Eigen::VectorXd& g);
 struct FoldFit {
   std::vector<std::size_t> theta_idx;  // per fold: grid index chosen on the training blocks
   std::vector<Eigen::VectorXd> beta;   // per fold
-  std::vector<double> heldout_rss;     // per fold
   double cv_rss = 0;                   // sum of held-out RSS
   std::size_t full_idx = 0;            // grid index minimising the all-data RSS
   Eigen::VectorXd beta_full;

@@ -102,7 +102,7 @@ void coordinate(const Search& sx, State& st, const std::vector<double>& values, 
 
 }  // namespace
 
-void refit_thetas(const Search& sx, State& st) {
+void refit_thetas(const Search& sx, State& st, const VectorXd& resid) {
   // A creep time constant fitted while a delay was still missing would otherwise stay biased.
   if (st.delay_s != 0) {
     std::vector<double> v;
@@ -118,7 +118,7 @@ void refit_thetas(const Search& sx, State& st) {
   for (std::size_t i = 0; i < st.terms.size(); ++i) {
     const EffectDef& def = effect_def(st.terms[i].effect);
     if (!def.refit_theta) continue;
-    std::vector<double> values = def.grid(sx.cx, VectorXd());
+    std::vector<double> values = def.grid(sx.cx, resid);
     if (def.refine != nullptr)
       for (double x : def.refine(st.terms[i].theta)) values.push_back(x);
     coordinate(sx, st, values, st.terms[i].theta, [i](State& s, double x) { s.terms[i].theta = x; });

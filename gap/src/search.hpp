@@ -65,8 +65,9 @@ CurrentFit fit_state(const Search& sx, const State& st);
 Eigen::VectorXd heldout_residual(const Design& d, const cv::Blocks& b, const std::vector<Eigen::VectorXd>& beta);
 
 /// "Add and refit" (docs/gap.md, section 4): re-chooses the nonlinear parameters of the accepted
-/// terms on all data with the others fixed (one coordinate pass).
-void refit_thetas(const Search& sx, State& st);
+/// terms on all data with the others fixed (one coordinate pass). resid: the current held-out
+/// residual [V], for grids that look at it.
+void refit_thetas(const Search& sx, State& st, const Eigen::VectorXd& resid);
 
 struct CandidateResult {
   core::Effect effect;

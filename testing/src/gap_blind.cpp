@@ -211,7 +211,9 @@ core::ModelCoefficients draw_sensor(std::mt19937_64& rng, double spread) {
     // The sensor's output must stay inside the DAQ's +-5 V range over 0-90 deg (a user picks the
     // range for the sensor), and the f3 gain must stay positive at every speed.
     const double v0 = core::quasi_static_voltage(m, -5.0), v90 = core::quasi_static_voltage(m, 95.0);
-    const bool gains = m.flexion.c3 * m.c1 + m.flexion.c4 > 0.2 && m.extension.c3 * m.c1 + m.extension.c4 > 0.2;
+    // h runs from c1 (at rest) to 0 (fast, c2 < 0): the gain c3 h + c4 at both ends.
+    const bool gains = m.flexion.c3 * m.c1 + m.flexion.c4 > 0.2 && m.extension.c3 * m.c1 + m.extension.c4 > 0.2 &&
+                       m.flexion.c4 > 0.2 && m.extension.c4 > 0.2;
     if (v0 < 4.8 && v90 > 0.2 && gains) return m;
   }
   return p;

@@ -43,7 +43,7 @@ struct PaperRefit {
 
 /// Levenberg-Marquardt from m0 on every `stride`-th scan. angle [deg], speed |w| [rad/s] and
 /// direction per scan; v the normalised voltage. A step that would make the f3 gain c3 h + c4
-/// non-positive anywhere in the data (no inverse) is refused.
+/// non-positive on a row used (no inverse) is refused.
 PaperRefit refit_paper_model(const ModelCoefficients& m0, const Eigen::VectorXd& angle_deg,
                              const Eigen::VectorXd& speed_rad_s, const std::vector<Direction>& dir,
                              const Eigen::VectorXd& v, int stride = 4);

@@ -96,6 +96,24 @@ class PipelineTest : public ::testing::Test {
     delete blocks_;
   }
   static std::vector<pof::sim::Scan>* scans_;
+
+  struct OfflineInputs {
+    Eigen::VectorXd t, s, r, a;
+  };
+  // The recording the blocks carry, for the offline path: the pipeline sees the float samples of
+  // the message, so the offline path gets the same.
+  static OfflineInputs offline_inputs() {
+    const auto n = Eigen::Index(blocks_->size() * kScansPerBlock);
+    OfflineInputs in{Eigen::VectorXd(n), Eigen::VectorXd(n), Eigen::VectorXd(n), Eigen::VectorXd(n)};
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const auto& sc = (*scans_)[size_t(i)];
+      in.t[i] = double(i) / 200.0;
+      in.s[i] = double(float(sc.sensor_v));
+      in.r[i] = double(float(sc.reference_v));
+      in.a[i] = double(float(sc.angle_ref_deg));
+    }
+    return in;
+  }
   static std::vector<pof::raw_block_t>* blocks_;
 };
 std::vector<pof::sim::Scan>* PipelineTest::scans_ = nullptr;
@@ -108,15 +126,7 @@ TEST_F(PipelineTest, EveryScanMatchesTheOfflinePath) {
   for (const auto& b : *blocks_) p.on_block(b, 0, out);
 
   const auto n = Eigen::Index(blocks_->size() * kScansPerBlock);
-  Eigen::VectorXd t(n), s(n), r(n), a(n);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    // The pipeline sees the float samples of the message; give the offline path the same.
-    const auto& sc = (*scans_)[size_t(i)];
-    t[i] = double(i) / 200.0;
-    s[i] = double(float(sc.sensor_v));
-    r[i] = double(float(sc.reference_v));
-    a[i] = double(float(sc.angle_ref_deg));
-  }
+  const auto [t, s, r, a] = offline_inputs();
   const pof::core::OfflineResult off = pof::core::compensate_recording(t, s, r, a, paper_calibration().cal);
 
   ASSERT_EQ(Eigen::Index(out.angles.size()), n);
@@ -334,14 +344,7 @@ TEST_F(PipelineTest, GapTermsAreAppliedAsOfflineAndAReloadThatCannotApplyThemKee
   EXPECT_EQ(p.status(0).reload_failures, 1);
 
   const auto n = Eigen::Index(blocks_->size() * kScansPerBlock);
-  Eigen::VectorXd t(n), s(n), r(n), a(n);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const auto& sc = (*scans_)[size_t(i)];
-    t[i] = double(i) / 200.0;
-    s[i] = double(float(sc.sensor_v));
-    r[i] = double(float(sc.reference_v));
-    a[i] = double(float(sc.angle_ref_deg));
-  }
+  const auto [t, s, r, a] = offline_inputs();
   const auto with = pof::core::compensate_recording(t, s, r, a, gap_calibration(50).cal);
   const auto without = pof::core::compensate_recording(t, s, r, a, paper_calibration().cal);
   ASSERT_EQ(Eigen::Index(out.angles.size()), n);

@@ -170,16 +170,27 @@ GapCorrector::GapCorrector(const Calibration& cal, double scan_rate_hz) {
         break;
       case Effect::kAccelerationDependence: {
         // The causal quadratic least-squares fit over the last 2h: n = 2h fs + 1 scans (at least 3).
+        // `pof gap` estimates the acceleration from the smoothed reference angle; online it comes
+        // from the sensor's angle, whose white noise sigma the fit turns into an acceleration noise
+        // of sigma 2 sqrt(norm) / dt^2. Times the term's gain [deg per rad/s^2] that is the angle
+        // noise the term adds: on a 0.95 deg/(rad/s^2) term over 0.05 s it was 58 sigma (a hold
+        // read +-8 deg). So the window is lengthened (up to kMaxAccelerationWindowS) until the
+        // term adds at most kMaxAccelerationNoiseGain x the angle's own noise; its lag grows
+        // with it (acceleration_lag_s()).
         Acceleration a;
-        a.n = std::max(3, static_cast<int>(std::lround(2 * t.theta * scan_rate_hz)) + 1);
         a.coefficient = c[0];
-        const double m2 = (static_cast<double>(a.n) * a.n - 1) / 12.0;  // mean of j^2 over centred j
-        double s = 0;
-        for (int i = 0; i < a.n; ++i) {
-          const double j = i - (a.n - 1) / 2.0;
-          s += (j * j - m2) * (j * j - m2);
+        const double gain_deg = std::abs(c[0] * paper_.c9) * kRadPerDeg;  // deg of angle per deg/s^2
+        const int n_max = static_cast<int>(std::lround(2 * kMaxAccelerationWindowS * scan_rate_hz)) + 1;
+        for (a.n = std::max(3, static_cast<int>(std::lround(2 * t.theta * scan_rate_hz)) + 1);; ++a.n) {
+          const double m2 = (static_cast<double>(a.n) * a.n - 1) / 12.0;  // mean of j^2 over centred j
+          double s = 0;
+          for (int i = 0; i < a.n; ++i) {
+            const double j = i - (a.n - 1) / 2.0;
+            s += (j * j - m2) * (j * j - m2);
+          }
+          a.norm = 1.0 / s;
+          if (gain_deg * 2.0 * std::sqrt(a.norm) / (dt_ * dt_) <= kMaxAccelerationNoiseGain || a.n >= n_max) break;
         }
-        a.norm = 1.0 / s;
         longest = std::max(longest, a.n);
         accel_.push_back(a);
         break;

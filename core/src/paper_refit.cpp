@@ -59,8 +59,27 @@ double model_voltage_gradient(const ModelCoefficients& m, double angle, double s
 
 namespace {
 
-// Sum of squared residuals and the normal equations at m over the rows used; false if the f3 gain
-// c3 h + c4 is not positive somewhere (the model has no inverse there) or a value is not finite.
+bool gain_ok(const ModelCoefficients& m, const DirectionCoefficients& x, double speed) {
+  const double gain = x.c7 * (x.c3 * hysteresis_pct(m, speed) + x.c4);
+  return gain >= kChainGainMin && gain <= kChainGainMax;  // false for NaN
+}
+
+}  // namespace
+
+bool chain_admissible(const ModelCoefficients& m, double max_speed_rad_s) {
+  if (!std::isfinite(m.c9) || m.c9 == 0 || !std::isfinite(m.c10) || !std::isfinite(m.c1) || !std::isfinite(m.c2))
+    return false;
+  for (const DirectionCoefficients* x : {&m.flexion, &m.extension}) {
+    if (!std::isfinite(x->c5) || !std::isfinite(x->c6) || !std::isfinite(x->c8)) return false;
+    if (!gain_ok(m, *x, 0.0) || !gain_ok(m, *x, std::abs(max_speed_rad_s))) return false;
+  }
+  return true;
+}
+
+namespace {
+
+// Sum of squared residuals and the normal equations at m over the rows used; false if the chain
+// gain leaves [kChainGainMin, kChainGainMax] somewhere (chain_admissible) or a value is not finite.
 bool normal_equations(const ModelCoefficients& m, const Eigen::VectorXd& angle, const Eigen::VectorXd& speed,
                       const std::vector<Direction>& dir, const Eigen::VectorXd& v, int stride, Eigen::MatrixXd* G,
                       Eigen::VectorXd* gv, double* ssr, Eigen::Index* rows) {
@@ -74,7 +93,7 @@ bool normal_equations(const ModelCoefficients& m, const Eigen::VectorXd& angle, 
     const Direction d = dir[static_cast<std::size_t>(i)];
     if (d != Direction::kHold) {
       const DirectionCoefficients& x = m.of(d);
-      if (!(x.c3 * hysteresis_pct(m, speed(i)) + x.c4 > 0)) return false;
+      if (!gain_ok(m, x, speed(i))) return false;
     }
     const double mv = model_voltage_gradient(m, angle(i), speed(i), d, row.data());
     const double r = v(i) - mv;

@@ -27,6 +27,7 @@ struct Context {
   const Signals* s = nullptr;
   core::ModelCoefficients m;  // the baseline (the paper's structure refitted to this recording)
   double duration_s = 0;
+  double max_speed_rad_s = 0;  // the recording's largest |w| (where a moved structure must stay invertible)
 };
 
 enum class Acts : int {

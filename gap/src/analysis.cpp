@@ -193,6 +193,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   sx.cx.duration_s = s.t(s.n - 1) + s.dt;
   sx.blocks = cv::make_blocks(kp, std::max(2, opt.folds));
   const Kinematics k0 = make_kinematics(s.angle, s.dt, 0.0, base.model);
+  sx.cx.max_speed_rad_s = k0.w.cwiseAbs().maxCoeff();
   const std::vector<Phase> phases = classify_phases(k0, s.dt);
   const double N = static_cast<double>(s.n);
   const double c9 = std::abs(base.model.c9);  // gaps in degrees at the baseline's sensitivity, for every step
@@ -211,7 +212,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   // The structure is relinearised like every later state, so what the refit (every 4th scan,
   // <= 50 iterations) left is not credited to the first candidate.
   CurrentFit cur = relinearise(sx, st);
-  const core::ModelCoefficients baseline_model = moved_model(sx.cx.m, cur.fit.beta_full);
+  const core::ModelCoefficients baseline_model = moved_model(sx.cx, cur.fit.beta_full);
   res.baseline_gap_deg = gap_deg(cur.fit.cv_rss);
   {
     const Localisation loc = localise(to_deg(cur.cv_resid), s, k0, phases);
@@ -372,7 +373,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   }
   {
     const VectorXd b = cur.fit.beta_full;
-    const core::ModelCoefficients mm = write_baseline ? baseline_model : moved_model(sx.cx.m, b);
+    const core::ModelCoefficients mm = write_baseline ? baseline_model : moved_model(sx.cx, b);
     const core::GapModel g = gap_model_of(st, b, sx.cx);
     json terms = json::array();
     for (std::size_t i = 0; i < g.terms.size(); ++i) {

@@ -82,7 +82,7 @@ HeldOut held_out(const io::Recording& rec, const Search& sx, const core::Calibra
   Index n = 0;
   for (std::size_t f = 0; f < sx.blocks.size(); ++f) {
     core::Calibration cal = base;
-    cal.model = moved_model(sx.cx.m, after.fit.beta[f]);
+    cal.model = moved_model(sx.cx, after.fit.beta[f]);
     core::GapModel g = gap_model_of(st, after.fit.beta[f], sx.cx);
     if (!use.delay) g.delay_s = 0;
     if (!use.backlash) g.backlash_deg = 0;

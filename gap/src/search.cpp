@@ -67,15 +67,26 @@ CurrentFit fit_state(const Search& sx, const State& st) {
   return c;
 }
 
-core::ModelCoefficients moved_model(const core::ModelCoefficients& m, const VectorXd& beta) {
-  std::array<double, core::kRefitParameters> p = core::refit_parameters(m);
-  for (int i = 0; i < core::kRefitParameters; ++i) p[static_cast<std::size_t>(i)] += beta(i);
-  return core::with_refit_parameters(m, p);
+core::ModelCoefficients moved_model(const Context& cx, const VectorXd& beta) {
+  // The first-order step may be long along a direction the voltage barely tells apart (c3 against
+  // c4 while c2 |w| is small) and land on a chain that is not invertible at some speed: it is
+  // shortened (halved up to 8 times, then not taken) until the chain is admissible up to 1.5x the
+  // recording's largest speed (the compensator's estimate overshoots the reference's).
+  const std::array<double, core::kRefitParameters> p0 = core::refit_parameters(cx.m);
+  const double speed = 1.5 * cx.max_speed_rad_s;
+  double scale = 1;
+  for (int halving = 0; halving <= 8; ++halving, scale /= 2) {
+    std::array<double, core::kRefitParameters> p = p0;
+    for (int i = 0; i < core::kRefitParameters; ++i) p[static_cast<std::size_t>(i)] += scale * beta(i);
+    const core::ModelCoefficients m = core::with_refit_parameters(cx.m, p);
+    if (core::chain_admissible(m, speed)) return m;
+  }
+  return cx.m;
 }
 
 Search moved(const Search& sx, const VectorXd& beta) {
   Search out = sx;
-  out.cx.m = moved_model(sx.cx.m, beta);
+  out.cx.m = moved_model(sx.cx, beta);
   return out;
 }
 

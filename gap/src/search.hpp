@@ -47,7 +47,7 @@ inline constexpr Eigen::Index kBaseCols = core::kRefitParameters;
 Design build_design(const Search& sx, const State& st);
 
 /// The baseline's coefficients m moved by the first kBaseCols values of a solution beta.
-core::ModelCoefficients moved_model(const core::ModelCoefficients& m, const Eigen::VectorXd& beta);
+core::ModelCoefficients moved_model(const Context& cx, const Eigen::VectorXd& beta);
 
 /// sx with the baseline's coefficients moved by the first kBaseCols values of a solution beta.
 Search moved(const Search& sx, const Eigen::VectorXd& beta);

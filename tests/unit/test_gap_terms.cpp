@@ -294,17 +294,47 @@ TEST(GapBasis, RateDependentHysteresisFollowsSpeedDirectionAndThePaperOffset) {
 TEST(GapBasis, AccelerationIsACausalQuadraticFitOverTheLast2h) {
   const History h = history(60);
   const double hw = 0.05;  // n = 2 h fs + 1 = 21 scans
+  // A gain small enough (0.001 V per rad/s^2 x c9 = 0.046 deg per rad/s^2) that 21 scans already
+  // keep the term's noise below kMaxAccelerationNoiseGain: the window is theta's.
   GapModel g;
-  g.terms.push_back(term("acceleration_dependence", hw, {0.003}));
+  g.terms.push_back(term("acceleration_dependence", hw, {0.001}));
   const long n = std::lround(2 * hw * kFs) + 1;
   std::vector<double> want(h.size(), 0.0);
   // The committed angles before scan k: [k - n, k - 1]; nothing until n of them exist.
   for (long k = n; k < static_cast<long>(h.size()); ++k)
-    want[static_cast<std::size_t>(k)] = 0.003 * quadratic_acceleration(h.angle, k - n, k - 1);
+    want[static_cast<std::size_t>(k)] = 0.001 * quadratic_acceleration(h.angle, k - n, k - 1);
   expect_equal_series(predicted(g, h), want, 1e-9);
   Calibration cal = base_calibration();
   cal.gap = g;
   EXPECT_NEAR(GapCorrector(cal, kFs).acceleration_lag_s(), hw + kDt, 1e-12);
+}
+
+// A large acceleration gain over a short window turned the sensor angle's noise into tens of
+// times that noise (a hold read +-8 deg): the window grows until the term adds at most
+// kMaxAccelerationNoiseGain x the angle's white noise, measured here on a noisy hold.
+TEST(GapBasis, AccelerationWindowKeepsTheTermsNoiseBelowTheAnglesOwn) {
+  GapModel g;
+  g.terms.push_back(term("acceleration_dependence", 0.025, {0.02}));  // 0.91 deg per rad/s^2
+  Calibration cal = base_calibration();
+  cal.gap = g;
+  GapCorrector c(cal, kFs);
+  EXPECT_GT(c.acceleration_lag_s(), 0.025 + kDt);  // lengthened beyond theta's 11 scans
+  EXPECT_LE(c.acceleration_lag_s(), pof::core::kMaxAccelerationWindowS + kDt);
+  std::mt19937 rng(7);
+  const double sigma = 0.05;
+  std::normal_distribution<double> noise(0.0, sigma);
+  double ss = 0;
+  int n = 0;
+  for (int k = 0; k < 20000; ++k) {
+    c.advance(30.0 + noise(rng), kLevel, 0.0);
+    if (k < 400) continue;  // the window has filled
+    const double deg = c.acceleration_voltage() * cal.model.c9;
+    ss += deg * deg;
+    ++n;
+  }
+  const double added = std::sqrt(ss / n);
+  EXPECT_LT(added, 1.1 * pof::core::kMaxAccelerationNoiseGain * sigma);
+  EXPECT_GT(added, 0.5 * pof::core::kMaxAccelerationNoiseGain * sigma);  // not a window far longer than needed
 }
 
 TEST(GapBasis, SourcePowerCouplingUsesTheCausalOneSecondMeanOfTheReference) {

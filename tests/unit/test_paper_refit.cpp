@@ -87,3 +87,23 @@ TEST(PaperRefit, RecoversAnOwnSensorFromTable2) {
   EXPECT_NEAR(r.model.c9, truth.c9, 0.01 * truth.c9);
   EXPECT_NEAR(r.model.c10, truth.c10, 0.01 * truth.c10);
 }
+
+// The chain f3-f4 of table 2 has a gain of 1.01-1.04 at every speed. A structure `pof gap` once
+// reached by a long first-order step (c3 and c4 moved far and opposite, c2 from 0.10 to -1.6
+// s/rad) fitted the recording's speeds but had a gain of 20 at 1.5 rad/s; the compensator's
+// angle ran to 258 deg RMSE. Such a structure is not admissible.
+TEST(PaperRefit, ChainGainOutOfRangeIsNotAdmissible) {
+  const ModelCoefficients table2 = pof::core::paper_coefficients();
+  EXPECT_TRUE(pof::core::chain_admissible(table2, 5.0));
+  ModelCoefficients far = table2;
+  far.c1 = 0.6588;
+  far.c2 = -1.6002;
+  far.flexion.c3 = -31.98;
+  far.flexion.c4 = 22.11;
+  far.flexion.c7 = 1.0127;
+  EXPECT_TRUE(pof::core::chain_admissible(far, 0.0)) << "gain 1.04 at rest";
+  EXPECT_FALSE(pof::core::chain_admissible(far, 1.5)) << "gain 20 at 1.5 rad/s";
+  ModelCoefficients nan_c9 = table2;
+  nan_c9.c9 = std::nan("");
+  EXPECT_FALSE(pof::core::chain_admissible(nan_c9, 1.0));
+}

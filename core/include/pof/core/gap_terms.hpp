@@ -86,6 +86,9 @@ inline constexpr std::size_t kMaxGapTerms = 32;
 inline constexpr double kMaxGapDelayS = 1.0;          // |delay_s|: a DAQ or filter delay, not a second
 inline constexpr double kMaxGapBacklashDeg = 20.0;    // more play than this is a broken belt
 inline constexpr double kMaxAccelerationWindowS = 1.0;  // acceleration_dependence: h [s]
+/// acceleration_dependence online: the angle noise the term may add, as a multiple of the angle's
+/// own white noise; the estimate's window is lengthened until it does (GapCorrector).
+inline constexpr double kMaxAccelerationNoiseGain = 0.5;
 /// The notch applied for periodic_interference (RBJ biquad, see GapCorrector): its quality factor.
 inline constexpr double kNotchQ = 5.0;
 /// The window of the quadratic fit that extrapolates a positive delay (GapCorrector) [s].

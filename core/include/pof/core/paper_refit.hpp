@@ -34,6 +34,19 @@ ModelCoefficients with_refit_parameters(ModelCoefficients m, const std::array<do
 double model_voltage_gradient(const ModelCoefficients& m, double angle_deg, double speed_rad_s, Direction d,
                               double* gradient /* kRefitParameters values */);
 
+/// The f3-f4 chain undoes a hysteresis of a few percent, so its gain dV2/dV = c7 (c3 h + c4) stays
+/// near 1 (table 2: 1.01-1.04 at every speed). A structure whose gain leaves
+/// [kChainGainMin, kChainGainMax] at some speed reads the voltage there twice too steeply or too
+/// flatly: a fit may find one (c3 and c4 nearly collinear when c2 |w| is small move far and
+/// opposite, c2 compensating), and online, where |w| is an estimate, its angle runs away.
+inline constexpr double kChainGainMin = 0.5;
+inline constexpr double kChainGainMax = 2.0;
+
+/// Whether m's chain gain is within [kChainGainMin, kChainGainMax] in both directions at every
+/// speed in [0, max_speed_rad_s] (it is monotone in the speed: the ends suffice), and c9, c1 and
+/// every coefficient finite with c9 != 0.
+bool chain_admissible(const ModelCoefficients& m, double max_speed_rad_s);
+
 struct PaperRefit {
   ModelCoefficients model;
   double rms_before_v = 0, rms_after_v = 0;  // over the rows used
@@ -42,8 +55,8 @@ struct PaperRefit {
 };
 
 /// Levenberg-Marquardt from m0 on every `stride`-th scan. angle [deg], speed |w| [rad/s] and
-/// direction per scan; v the normalised voltage. A step that would make the f3 gain c3 h + c4
-/// non-positive on a row used (no inverse) is refused.
+/// direction per scan; v the normalised voltage. A step that would take the chain gain
+/// c7 (c3 h + c4) out of [kChainGainMin, kChainGainMax] on a row used is refused.
 PaperRefit refit_paper_model(const ModelCoefficients& m0, const Eigen::VectorXd& angle_deg,
                              const Eigen::VectorXd& speed_rad_s, const std::vector<Direction>& dir,
                              const Eigen::VectorXd& v, int stride = 4);

@@ -13,6 +13,7 @@
 #include "baseline.hpp"
 #include "compensation.hpp"
 #include "pof/base/errors.hpp"
+#include "pof/core/compensator.hpp"
 #include "pof/gap/gap.hpp"
 #include "pof/gap/localise.hpp"
 #include "search.hpp"
@@ -350,7 +351,8 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   Applied written;
   say("compensating the held-out blocks with the baseline and with the found model");
   try {
-    res.compensated = compensated_rmse(rec, sx, baseline_model, st, cur, &written, &comp_before, &comp_after);
+    const std::vector<bool> transition = transition_scans(k0, s.dt, core::CompensatorSettings{}.velocity_window_s);
+    res.compensated = compensated_rmse(rec, sx, baseline_model, st, cur, transition, &written, &comp_before, &comp_after);
   } catch (const std::exception& e) {
     // The compensator refused a model (std::invalid_argument from its constructor): the analysis
     // stands, model.toml holds the baseline, and the report says why.

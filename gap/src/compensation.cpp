@@ -1,6 +1,7 @@
 // The compensated angle before and after the found model (see compensation.hpp).
 #include "compensation.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -112,9 +113,19 @@ HeldOut held_out(const io::Recording& rec, const Search& sx, const core::Calibra
 
 }  // namespace
 
+std::vector<bool> transition_scans(const Kinematics& k, double dt, double window_s) {
+  const auto n = static_cast<std::size_t>(k.s_move.size());
+  std::vector<bool> out(n, false);
+  const auto len = static_cast<std::size_t>(std::lround(window_s / dt));
+  for (std::size_t i = 1; i < n; ++i)
+    if (k.s_move(static_cast<Index>(i)) != k.s_move(static_cast<Index>(i - 1)))
+      for (std::size_t j = i; j < std::min(n, i + len); ++j) out[j] = true;
+  return out;
+}
+
 nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, const core::ModelCoefficients& before,
-                                const State& st, const CurrentFit& after, Applied* written, VectorXd* angle_before,
-                                VectorXd* angle_after) {
+                                const State& st, const CurrentFit& after, const std::vector<bool>& transition,
+                                Applied* written, VectorXd* angle_before, VectorXd* angle_after) {
   const Signals& s = *sx.cx.s;
   const double rate = 1.0 / s.dt;
   core::Calibration base;
@@ -156,6 +167,28 @@ nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, cons
     try_without(std::string(core::to_string(st.terms[t].effect)), [t](Applied& a) { a.terms[t] = false; });
   const double written_deg = left_out.empty() ? with_all.rmse_deg
                                               : held_out(rec, sx, base, st, after, keep, a0, nullptr).rmse_deg;
+  // Outside the transitions (see compensation.hpp); every scan belongs to one held-out block.
+  double sb = 0, sa = 0, st_all = 0;
+  Index ns = 0;
+  for (Index i = 0; i < a0.size(); ++i) {
+    const double eb = a0(i) - rec.angle_ref_deg(i), ea = with_all.angle(i) - rec.angle_ref_deg(i);
+    if (!std::isfinite(eb) || !std::isfinite(ea)) continue;
+    st_all += eb * eb;
+    if (transition[static_cast<std::size_t>(i)]) continue;
+    sb += eb * eb;
+    sa += ea * ea;
+    ++ns;
+  }
+  const double steady_before = ns > 0 ? std::sqrt(sb / static_cast<double>(ns)) : std::numeric_limits<double>::quiet_NaN();
+  const double steady_after = ns > 0 ? std::sqrt(sa / static_cast<double>(ns)) : std::numeric_limits<double>::quiet_NaN();
+  nlohmann::json steady = {
+      {"rmse_before_deg", steady_before},
+      {"rmse_after_deg", steady_after},
+      {"reduction_pct", steady_before > 0 ? 100.0 * (1.0 - steady_after / steady_before) : 0.0},
+      {"share_of_scans", static_cast<double>(ns) / static_cast<double>(a0.size())},
+      {"transition_share_of_squared_error_before", st_all > 0 ? 1.0 - sb / st_all : 0.0},
+      {"how", "the scans more than 0.5 s (the compensator's velocity window) after every start, stop and reversal "
+              "of the reference"}};
   if (written != nullptr) *written = keep;
   if (angle_before != nullptr) *angle_before = a0;
   if (angle_after != nullptr) *angle_after = with_all.angle;
@@ -166,6 +199,7 @@ nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, cons
           {"not_applied", not_applied},
           {"left_out_of_model", left_out},
           {"rmse_written_deg", written_deg},
+          {"steady", steady},
           {"how", "core::OnlineCompensator over the recording (velocity from the sensor); before: the baseline "
                   "fitted to the recording; after: per fold, the model fitted on the other folds, scored on the "
                   "held-out block against angle_ref_deg"}};

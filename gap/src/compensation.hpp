@@ -28,8 +28,18 @@ struct Applied {
 /// (drift) are left out of `after` and named in "not_applied". Then each effect is left out in
 /// turn; those whose online application makes the held-out angle worse are returned in `written`
 /// as not to be written to model.toml, and listed in "left_out_of_model".
+///
+/// The same RMSEs are also reported without the scans of `transition` ("steady"): the paper
+/// model's inverse decides flexion, extension or hold from a velocity estimate that needs its
+/// window to see a start, stop or reversal, and until then reads the wrong branch (the step
+/// model's spikes). Those errors are the baseline's, the same before and after, and no effect
+/// term acts on them; the steady figures show what the found model changes everywhere else.
 nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, const core::ModelCoefficients& before,
-                                const State& st, const CurrentFit& after, Applied* written, Eigen::VectorXd* angle_before,
-                                Eigen::VectorXd* angle_after);
+                                const State& st, const CurrentFit& after, const std::vector<bool>& transition,
+                                Applied* written, Eigen::VectorXd* angle_before, Eigen::VectorXd* angle_after);
+
+/// Scans within window_s after the reference's direction changes (hold -> moving, moving -> hold,
+/// flexion <-> extension; Kinematics::s_move).
+std::vector<bool> transition_scans(const Kinematics& k, double dt, double window_s);
 
 }  // namespace pof::gap

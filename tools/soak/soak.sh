@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Fault soak (`./pofkit soak`): what the daemons do over many faults and a long run, beyond what the
-# e2e tests check once. Not part of `./pofkit test` (the full run takes about 90 minutes).
+# e2e tests check once. Not part of `./pofkit test` (the full run takes about 70 minutes).
 #
 #   1. unplug: N unplug/replug cycles of the virtual USB-6008 (pof-vdaq --scenario unplug
 #      --unplug-every) under pof-daqd: every cycle reconnected, its gap flagged (FLAG_GAP), and no

@@ -64,14 +64,36 @@ void OnlineCompensator::reset() noexcept {
   clear_window();
   inverter_.reset();  // the memory of the lost scans is unknown: start from a relaxed state
   terms_corrector_.reset();
-  terms_angle_ = terms_w_ = std::nan("");
+  terms_angle_ = terms_w_ = terms_u_ = std::nan("");
   gap_pending_ = true;
 }
 
 double OnlineCompensator::terms_voltage(double v, double reference_v, double w, Direction d) const noexcept {
   if (!terms_) return 0.0;
   const double guess = std::isfinite(terms_angle_) ? terms_angle_ : quasi_static_angle(cal_.model, v);
-  return terms_corrector_.voltage_at(guess, reference_v, w, d);
+  const double g0 = terms_corrector_.voltage_at(guess, reference_v, w, d);
+  if (!std::isfinite(terms_angle_) || !std::isfinite(terms_u_)) return g0;
+  // One Newton step on A = model^-1(v - g(A)) from the previous angle A0 (docs/calibration.md,
+  // "[gap]", step 2). Evaluated at A0 alone, g closes a loop whose error e_k = -s g' e_k-1 (s the
+  // model's dA/dv, g' the terms' dg/dA) oscillates and grows once |s g'| > 1: a strong memory
+  // hysteresis near a reversal read 9 deg RMSE on a blind recording. With the step, A - A0 is the
+  // model's change s (v - g0 - u_prev) divided by 1 + s g'; the combined voltage must stay
+  // monotone in A (1 + s g' > 0, as the dynamic model's inverse requires of its own terms), and
+  // where the terms would nearly cancel the model's slope the divisor is held at kMinTermsDivisor.
+  const double gp = (terms_corrector_.voltage_at(guess + kTermsSlopeStepDeg, reference_v, w, d) - g0) / kTermsSlopeStepDeg;
+  const double sg = model_slope(guess, w, d) * gp;
+  if (!std::isfinite(sg) || sg == 0) return g0;
+  const double moved = model_slope(guess, w, d) * (v - g0 - terms_u_) / std::max(1.0 + sg, kMinTermsDivisor);
+  return g0 + gp * moved;
+}
+
+double OnlineCompensator::model_slope(double angle, double w, Direction d) const noexcept {
+  // f3..f5 are affine in v (f5 alone in holds); the dynamic model's quasi-static slope (its loop's
+  // is small).
+  if (dynamic_) return 1.0 / cal_.dynamic->quasi_static_slope(angle);
+  if (d == Direction::kHold) return -cal_.model.c9;
+  const DirectionCoefficients& x = cal_.model.of(d);
+  return -cal_.model.c9 * x.c7 * f3_line(cal_.model, x, std::abs(w)).a;
 }
 
 double OnlineCompensator::angle_of(double v, double reference_v, double w, Direction d, bool* clamped) noexcept {
@@ -89,19 +111,9 @@ double OnlineCompensator::angle_of(double v, double reference_v, double w, Direc
     return angle;
   }
   terms_angle_ = angle;
-  // dA/dv of the model here, for the acceleration term (GapCorrector::advance): f3..f5 are affine
-  // in v (f5 alone in holds); the dynamic model's quasi-static slope (its loop's is small).
-  double angle_per_volt = 0;
-  if (terms_corrector_.has_acceleration()) {
-    if (dynamic_) {
-      angle_per_volt = 1.0 / cal_.dynamic->quasi_static_slope(angle);
-    } else if (d == Direction::kHold) {
-      angle_per_volt = -cal_.model.c9;
-    } else {
-      const DirectionCoefficients& x = cal_.model.of(d);
-      angle_per_volt = -cal_.model.c9 * x.c7 * f3_line(cal_.model, x, std::abs(w)).a;
-    }
-  }
+  terms_u_ = v;
+  // dA/dv of the model here, for the acceleration term (GapCorrector::advance).
+  const double angle_per_volt = terms_corrector_.has_acceleration() ? model_slope(angle, w, d) : 0.0;
   return terms_corrector_.advance(angle, reference_v, angle_per_volt);  // delay and backlash undone
 }
 

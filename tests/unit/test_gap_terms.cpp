@@ -675,6 +675,19 @@ TEST(GapRoundTrip, SensorSideTermsAreUndone) {
   }
 }
 
+// A memory hysteresis whose loop is steeper than the line itself (the stop operators' weights sum
+// to 1.5x the sensitivity, the same sign, so the voltage stays monotone in the angle): evaluated
+// at the previous scan's angle alone, the terms close a loop with gain 1.5 and every reversal
+// rings until the operators saturate. The Newton step to this scan's angle keeps it.
+TEST(GapRoundTrip, ATermSteeperThanTheLineDoesNotRing) {
+  const Calibration cal = linear_dynamic_calibration();
+  const double w = -1.5 / cal.model.c9 / 5;
+  const GapModel g = one(with_thresholds(term("memory_hysteresis", 0, {w, w, w, w, w}), {0.5, 1, 2, 4, 8}));
+  const RoundTrip r = round_trip("memory_hysteresis, 1.5x the line", cal, g);
+  EXPECT_GT(r.without, 1.0);
+  EXPECT_LT(r.with, r.without / 10);
+}
+
 // On the paper's chain the baseline has an error of its own (the direction decided late, the
 // steps at starts and stops), the same with and without the effect: what the terms add to it is
 // measured against the run without any effect.

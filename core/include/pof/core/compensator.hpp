@@ -101,9 +101,11 @@ class OnlineCompensator {
   void clear_window() noexcept;
   double push(double y) noexcept;  // returns slope [deg/scan], NaN with < 2 samples
   double short_slope() const noexcept;  // the reversal window's slope [deg/scan], NaN until it is full
-  // The [gap] terms' voltage at this scan, predicted at the previous scan's angle (f5 of v for the
-  // first) with velocity w [rad/s] and direction d.
+  // The [gap] terms' voltage at this scan: at the previous scan's angle (f5 of v for the first)
+  // with velocity w [rad/s] and direction d, plus one Newton step to this scan's angle.
   double terms_voltage(double v, double reference_v, double w, Direction d) const noexcept;
+  // dA/dv [deg/V] of the active model at angle [deg] with velocity w and direction d.
+  double model_slope(double angle, double w, Direction d) const noexcept;
   // The angle of normalised voltage v (the terms' voltage already subtracted) through the active
   // model, the [gap] kinematics undone when there are terms; w and d the paper chain's.
   double angle_of(double v, double reference_v, double w, Direction d, bool* clamped) noexcept;
@@ -126,6 +128,12 @@ class OnlineCompensator {
   GapCorrector terms_corrector_;
   double terms_angle_ = std::numeric_limits<double>::quiet_NaN();  // the previous scan's fibre angle
   double terms_w_ = std::numeric_limits<double>::quiet_NaN();      // the previous scan's velocity [rad/s]
+  double terms_u_ = std::numeric_limits<double>::quiet_NaN();      // the voltage the model inverted then [V]
+  // The terms' slope dg/dA is a difference over this step [deg] (their bases are smooth or
+  // piecewise linear in A: stop and play operators).
+  static constexpr double kTermsSlopeStepDeg = 1e-3;
+  // 1 + s g' below this (the terms cancelling most of the model's slope) is held here.
+  static constexpr double kMinTermsDivisor = 0.25;
 };
 
 }  // namespace pof::core

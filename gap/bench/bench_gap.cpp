@@ -44,6 +44,7 @@ void run_blind(int n, std::uint64_t seed0) {
   std::vector<Trial> trials;
   std::map<std::string, std::map<std::string, int>> confusion;  // hidden -> named -> count
   std::vector<double> shrink, comp_down, comp_written;  // held-out gap shrink; compensated-angle RMSE reduction
+  std::vector<double> comp_steady, transition_share;     // the same outside starts, stops and reversals
                                                         // with every appliable term / with what model.toml holds
   int hidden_total = 0, hits = 0, none_trials = 0, none_false = 0, extra = 0;
   int one_trials = 0, one_exact = 0, two_trials = 0, two_both = 0;  // the targets of docs/gap.md, section 6
@@ -77,6 +78,10 @@ void run_blind(int n, std::uint64_t seed0) {
       // model.toml holds the baseline when the found model did not beat it: no change then.
       const double written = c.value("model_toml", std::string()) == "found model" ? c.value("rmse_written_deg", before) : before;
       comp_written.push_back(before > 0 ? 1.0 - written / before : 0.0);
+      if (c.contains("steady")) {
+        comp_steady.push_back(c["steady"].value("reduction_pct", 0.0) / 100.0);
+        transition_share.push_back(c["steady"].value("transition_share_of_squared_error_before", 0.0));
+      }
       for (const auto& h : t.hidden) {
         ++hidden_total;
         const bool hit = std::count(t.found.begin(), t.found.end(), h.effect) > 0;
@@ -144,6 +149,9 @@ void run_blind(int n, std::uint64_t seed0) {
               "effect hidden: %.1f %% (n = %zu)\n", 100 * median_of(comp_down), comp_down.size());
   std::printf("the same with what model.toml holds (harmful terms left out, chosen on the same blocks: optimistic): "
               "%.1f %%\n", 100 * median_of(comp_written));
+  std::printf("the same outside the 0.5 s after each start, stop and reversal (the step model's own branch errors): "
+              "%.1f %% (n = %zu); those 0.5 s hold a median %.0f %% of the baseline's squared error\n",
+              100 * median_of(comp_steady), comp_steady.size(), 100 * median_of(transition_share));
   std::printf("slowest analysis: %.2f s\n\n", worst_time);
   std::fflush(stdout);
 }

@@ -29,6 +29,48 @@ constexpr std::size_t kMaxChannelBytes = LCM_MAX_CHANNEL_NAME_LENGTH;
 
 }  // namespace
 
+UdpmDatagram parse_udpm_datagram(const unsigned char* p, std::size_t n, uint32_t max_message_bytes) {
+  UdpmDatagram d;
+  if (n < 8) return d;
+  // A channel name: up to the first '\0' of `len` bytes, which must come, and not first.
+  const auto channel_at = [](const unsigned char* at, std::size_t len) -> std::string_view {
+    const auto* ch = reinterpret_cast<const char*>(at);
+    const std::size_t l = strnlen(ch, len);
+    if (l == len || l == 0 || l > kMaxChannelBytes) return {};
+    return {ch, l};
+  };
+  const uint32_t magic = get_be32(p);
+  d.seq = get_be32(p + 4);
+  if (magic == kMagicShort) {
+    d.channel = channel_at(p + 8, n - 8);
+    if (d.channel.empty()) return d;
+    d.payload = p + 8 + d.channel.size() + 1;
+    d.payload_size = n - 8 - d.channel.size() - 1;
+    d.kind = UdpmDatagram::Kind::kShort;
+    return d;
+  }
+  if (magic != kMagicFrag || n < 20) return d;
+  d.message_size = get_be32(p + 8);
+  d.offset = get_be32(p + 12);
+  d.fragment = get_be16(p + 16);
+  d.fragments = get_be16(p + 18);
+  // The header alone must be possible: a message within the limit, a fragment inside it, a number
+  // below the count. Nothing is allocated for a datagram that fails these.
+  if (d.message_size == 0 || d.message_size > max_message_bytes || d.fragments == 0 || d.fragment >= d.fragments)
+    return d;
+  d.payload = p + 20;
+  d.payload_size = n - 20;
+  if (d.fragment == 0) {
+    d.channel = channel_at(d.payload, d.payload_size);
+    if (d.channel.empty()) return d;
+    d.payload += d.channel.size() + 1;
+    d.payload_size -= d.channel.size() + 1;
+  }
+  if (uint64_t{d.offset} + d.payload_size > d.message_size) return d;  // e.g. offset 0xFFFFFFFF
+  d.kind = UdpmDatagram::Kind::kFragment;
+  return d;
+}
+
 UdpmReceiver::UdpmReceiver(const std::string& lcm_url, UdpmLimits limits) : limits_(limits) {
   const UdpmUrl url = parse_udpm_url(lcm_url);
   if (!url.ok()) throw pof::ConfigError("LCM URL '" + lcm_url + "': " + url.error);
@@ -153,77 +195,36 @@ void UdpmReceiver::drop_partial(std::map<uint64_t, Partial>::iterator it) {
 
 void UdpmReceiver::handle_datagram(const unsigned char* p, std::size_t n, const sockaddr_in& from, int64_t utime,
                                    const Sink& sink, int& delivered) {
-  if (n < 8) {
+  const UdpmDatagram d = parse_udpm_datagram(p, n, limits_.max_message_bytes);
+  if (d.kind == UdpmDatagram::Kind::kMalformed) {
     ++malformed_;
     return;
   }
-  const uint32_t magic = get_be32(p);
-  if (magic == kMagicShort) {
-    const auto* ch = reinterpret_cast<const char*>(p + 8);
-    const std::size_t max = n - 8;
-    const std::size_t len = strnlen(ch, max);
-    if (len == max || len == 0 || len > kMaxChannelBytes) {
-      ++malformed_;
-      return;
-    }
-    const std::string_view channel(ch, len);
+  if (d.kind == UdpmDatagram::Kind::kShort) {
     // liblcm 1.3.1 publishes LCM_SELF_TEST when a process first subscribes, to check its own
     // multicast loopback: an internal probe, not application traffic.
-    if (channel == "LCM_SELF_TEST") return;
-    sink(utime, channel, p + 8 + len + 1, static_cast<uint32_t>(n - 8 - len - 1));
+    if (d.channel == "LCM_SELF_TEST") return;
+    sink(utime, d.channel, d.payload, static_cast<uint32_t>(d.payload_size));
     ++delivered;
     return;
   }
-  if (magic != kMagicFrag || n < 20) {
-    ++malformed_;
-    return;
-  }
-  const uint32_t seq = get_be32(p + 4);
-  const uint32_t size = get_be32(p + 8);
-  const uint32_t offset = get_be32(p + 12);
-  const uint16_t frag_no = get_be16(p + 16);
-  const uint16_t frags = get_be16(p + 18);
-  const unsigned char* body = p + 20;
-  std::size_t body_len = n - 20;
   const uint64_t key = (uint64_t{from.sin_addr.s_addr} << 16) | from.sin_port;
-  // The header alone must be possible: a message within the limit, a fragment inside it, a number
-  // below the count. Nothing is allocated for a datagram that fails these.
-  if (size == 0 || size > limits_.max_message_bytes || frags == 0 || frag_no >= frags) {
-    ++malformed_;
-    return;
-  }
-  std::string_view channel;
-  if (frag_no == 0) {
-    const auto* ch = reinterpret_cast<const char*>(body);
-    const std::size_t len = strnlen(ch, body_len);
-    if (len == body_len || len == 0 || len > kMaxChannelBytes) {
-      ++malformed_;
-      return;
-    }
-    channel = std::string_view(ch, len);
-    body += len + 1;
-    body_len -= len + 1;
-  }
-  if (uint64_t{offset} + body_len > size) {  // e.g. offset 0xFFFFFFFF
-    ++malformed_;
-    return;
-  }
   auto it = partial_.find(key);
-  if (it != partial_.end() && it->second.seq != seq) {
+  if (it != partial_.end() && it->second.seq != d.seq) {
     ++incomplete_;  // the sender moved on: liblcm drops the incomplete message too
     drop_partial(it);
     it = partial_.end();
   }
-  if (it != partial_.end() && (size != it->second.size || frags != it->second.fragments)) {
+  if (it != partial_.end() && (d.message_size != it->second.size || d.fragments != it->second.fragments)) {
     ++malformed_;  // one message, two shapes: neither can be trusted
     drop_partial(it);
     return;
   }
-  Partial& m = it != partial_.end() ? it->second : start_partial(key, seq, size, frags);
+  Partial& m = it != partial_.end() ? it->second : start_partial(key, d.seq, d.message_size, d.fragments);
   m.last_heard = datagrams_;
-  if (!channel.empty()) m.channel.assign(channel);
-  std::memcpy(m.data.get() + offset, body, body_len);
-  m.received += static_cast<uint32_t>(body_len);
+  if (!d.channel.empty()) m.channel.assign(d.channel);
+  std::memcpy(m.data.get() + d.offset, d.payload, d.payload_size);  // inside: parse_udpm_datagram
+  m.received += static_cast<uint32_t>(d.payload_size);
   ++m.got;
   if (m.got == m.fragments) {
     const auto done = partial_.find(key);

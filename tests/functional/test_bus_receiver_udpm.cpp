@@ -24,6 +24,7 @@
 #include "pof/bus/receiver.hpp"
 #include "pof/base/errors.hpp"
 #include "pof/raw_block_t.hpp"
+#include "udpm_wire.hpp"
 
 namespace {
 
@@ -53,40 +54,12 @@ struct RawSender {
   }
 };
 
-void put32(std::vector<unsigned char>& d, uint32_t v) {
-  for (int i = 3; i >= 0; --i) d.push_back(static_cast<unsigned char>(v >> (8 * i)));
-}
-void put16(std::vector<unsigned char>& d, uint16_t v) {
-  d.push_back(static_cast<unsigned char>(v >> 8));
-  d.push_back(static_cast<unsigned char>(v));
-}
-// LC02 short message.
-std::vector<unsigned char> short_msg(uint32_t seq, const std::string& channel, const std::vector<unsigned char>& payload) {
-  std::vector<unsigned char> d;
-  put32(d, 0x4C433032);
-  put32(d, seq);
-  d.insert(d.end(), channel.begin(), channel.end());
-  d.push_back(0);
-  d.insert(d.end(), payload.begin(), payload.end());
-  return d;
-}
-// LC03 fragment; fragment 0 carries the channel.
+using pof::test::udpm_short;
+// A fragment of `body_bytes` bytes 0xAB; fragment 0 carries the channel POF_RAW.
 std::vector<unsigned char> fragment(uint32_t seq, uint32_t size, uint32_t offset, uint16_t no, uint16_t count,
                                     std::size_t body_bytes) {
-  std::vector<unsigned char> d;
-  put32(d, 0x4C433033);
-  put32(d, seq);
-  put32(d, size);
-  put32(d, offset);
-  put16(d, no);
-  put16(d, count);
-  if (no == 0) {
-    const std::string ch = "POF_RAW";
-    d.insert(d.end(), ch.begin(), ch.end());
-    d.push_back(0);
-  }
-  d.insert(d.end(), body_bytes, 0xAB);
-  return d;
+  return pof::test::udpm_fragment(seq, size, offset, no, count, no == 0 ? "POF_RAW" : "",
+                                  std::vector<unsigned char>(body_bytes, 0xAB));
 }
 
 }  // namespace
@@ -100,8 +73,8 @@ TEST(BusReceiver, UdpmUnicastToTheHostIsNotReceived) {
   std::vector<std::int64_t> got;
   rx.subscribe<pof::angle_t>("POF_ANGLE", [&](const pof::angle_t& a, const Delivery&) { got.push_back(a.seq); });
   RawSender s;
-  s.send("127.0.0.1", u.port, short_msg(1, "POF_ANGLE", encode(angle(666))));  // unicast first
-  s.send(u.group, u.port, short_msg(2, "POF_ANGLE", encode(angle(7))));        // then the group
+  s.send("127.0.0.1", u.port, udpm_short(1, "POF_ANGLE", encode(angle(666))));  // unicast first
+  s.send(u.group, u.port, udpm_short(2, "POF_ANGLE", encode(angle(7))));        // then the group
   handle_until(rx, [&] { return !got.empty(); });
   rx.handle(50);
   EXPECT_EQ(got, (std::vector<std::int64_t>{7}));
@@ -139,7 +112,7 @@ TEST(BusReceiver, UdpmHostileDatagramsAreCountedAndReassemblyIsBounded) {
   auto bytes = encode(bomb);
   const std::size_t n_scans_at = bytes.size() - 8;  // n_scans then flags, with no channels or scans
   for (int i = 0; i < 4; ++i) bytes[n_scans_at + static_cast<std::size_t>(i)] = i == 0 ? 0x7f : 0xff;
-  s.send(u.group, u.port, short_msg(7, "POF_RAW", bytes));
+  s.send(u.group, u.port, udpm_short(7, "POF_RAW", bytes));
   // And then a good one, fragmented, from liblcm.
   pof::raw_block_t good{};
   good.seq = 42;
@@ -175,8 +148,8 @@ TEST(BusReceiver, UdpmAuthenticatedVerifiesWhatIsSubscribedOnlyAlsoFragmented) {
   rx.subscribe<pof::angle_t>("POF_ANGLE", [&](const pof::angle_t& a, const Delivery&) { angles.push_back(a.seq); });
   rx.subscribe<pof::raw_block_t>("POF_RAW", [&](const pof::raw_block_t& b, const Delivery&) { blocks.push_back(b.n_scans); });
   RawSender s;
-  s.send(u.group, u.port, short_msg(1, "OTHER_APP", encode(angle(1))));   // nobody's: not verified
-  s.send(u.group, u.port, short_msg(2, "POF_ANGLE", encode(angle(666))));  // unsigned
+  s.send(u.group, u.port, udpm_short(1, "OTHER_APP", encode(angle(1))));   // nobody's: not verified
+  s.send(u.group, u.port, udpm_short(2, "POF_ANGLE", encode(angle(666))));  // unsigned
   pof::bus::Publisher pub(lc, key);
   ASSERT_EQ(pub.publish("POF_ANGLE", angle(7)), 0);
   pof::raw_block_t big{};  // ~120 KB: liblcm sends it in fragments, the trailer in the last one

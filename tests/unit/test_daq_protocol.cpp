@@ -240,6 +240,12 @@ TEST(MccUsb1208ls, ScanTimerBandsAndQueue) {
   EXPECT_EQ(q[0][3], 0x88);
   EXPECT_EQ(q[1][2], 2);
   EXPECT_EQ(q[1][4], 0x8F);
+  // The queue holds 1 to 8 entries [3]: other lengths are refused (13 used to write past `q`;
+  // found by tests/fuzz/fuzz_mcc_usb1208ls.cpp).
+  const std::uint8_t ch13[13] = {};
+  for (const std::size_t n : {0U, 9U, 12U, 13U}) {
+    EXPECT_THROW(mcc::load_queue_reports(std::span(ch13, n), mcc::kSe10V, q), std::invalid_argument) << n;
+  }
   EXPECT_EQ(mcc::gain_for(true, 2.5), mcc::kBp2_5V);
   EXPECT_FALSE(mcc::gain_for(false, 5.0));
 }

@@ -2,6 +2,8 @@
 #include "pof/daq/protocol/mcc_usb1208ls.hpp"
 
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 namespace pof::daq::mcc {
 
@@ -43,8 +45,11 @@ OutReport ain_report(std::uint8_t channel, Gain gain) {
 
 std::size_t load_queue_reports(std::span<const std::uint8_t> channels, Gain gain,
                                std::array<OutReport, 2>& out) {
-  out = {};
   const std::size_t n = channels.size();
+  // Two reports of 6 entries would hold 12, but the device's queue holds 8 [3]: a longer list
+  // would be refused by it, and one beyond 12 would not fit `out`.
+  if (n == 0 || n > 8) throw std::invalid_argument("USB-1208LS channel/gain queue: 1 to 8 channels, not " + std::to_string(n));
+  out = {};
   out[0][1] = kALoadQueue;
   out[0][2] = static_cast<std::uint8_t>(n);
   const std::size_t first = n > 6 ? 6 : n;

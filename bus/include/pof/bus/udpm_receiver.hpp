@@ -49,6 +49,32 @@
 
 namespace pof::bus {
 
+/// One datagram of the wire format above, its header checked: what parse_udpm_datagram() found.
+/// Pointers and views point into the datagram.
+struct UdpmDatagram {
+  enum class Kind : uint8_t {
+    kMalformed,  // too short, an unknown magic, no channel or one longer than liblcm allows, or a
+                 // fragment header that cannot be (size 0 or above the limit, number >= count,
+                 // count 0, bytes beyond the declared message size)
+    kShort,      // LC02: a whole message
+    kFragment,   // LC03: one fragment of a message
+  };
+  Kind kind = Kind::kMalformed;
+  uint32_t seq = 0;
+  std::string_view channel;                // kShort, and fragment 0; empty for the other fragments
+  const unsigned char* payload = nullptr;  // the message (kShort) or this fragment's bytes of it
+  std::size_t payload_size = 0;
+  uint32_t message_size = 0;  // kFragment: the whole message's
+  uint32_t offset = 0;        // kFragment: where payload goes in the message
+  uint16_t fragment = 0;      // kFragment: number, below `fragments`
+  uint16_t fragments = 0;
+};
+
+/// Parses the `n` bytes of one datagram. Pure and total: it reads only p[0, n), allocates nothing,
+/// and a kFragment always fits its message (offset + payload_size <= message_size <=
+/// max_message_bytes), so the reassembly may copy it without further checks.
+UdpmDatagram parse_udpm_datagram(const unsigned char* p, std::size_t n, uint32_t max_message_bytes);
+
 struct UdpmLimits {
   uint32_t max_message_bytes = 16u << 20;   // largest message reassembled from fragments
   std::size_t max_senders = 64;             // senders with a message in reassembly at once

@@ -87,6 +87,7 @@ using OutReport = std::array<std::uint8_t, kOutReportBytes>;
 
 OutReport ain_report(std::uint8_t channel, Gain gain);
 /// Channel/gain queue: one report per <= 6 entries [3]; returns how many reports were filled.
+/// Throws std::invalid_argument unless 1 to 8 channels are given (the queue's size [3]).
 std::size_t load_queue_reports(std::span<const std::uint8_t> channels, Gain gain,
                                std::array<OutReport, 2>& out);
 OutReport ain_stop_report();

@@ -1,5 +1,7 @@
 #include "pof/bus/udpm_receiver.hpp"
 
+#include <algorithm>
+
 #include <arpa/inet.h>
 #include <poll.h>
 #include <sys/socket.h>
@@ -188,6 +190,20 @@ UdpmReceiver::Partial& UdpmReceiver::start_partial(uint64_t key, uint32_t seq, u
   return m;
 }
 
+namespace {
+// Whether the fragments cover [0, size) once each: counts and byte totals can agree while two
+// fragments overlap and leave a hole (two halves both at offset 0).
+bool tiles(std::vector<std::pair<uint32_t, uint32_t>>& pieces, uint32_t size) {
+  std::sort(pieces.begin(), pieces.end());
+  uint64_t at = 0;
+  for (const auto& [offset, bytes] : pieces) {
+    if (offset != at) return false;
+    at += bytes;
+  }
+  return at == size;
+}
+}  // namespace
+
 void UdpmReceiver::drop_partial(std::map<uint64_t, Partial>::iterator it) {
   partial_bytes_ -= it->second.size;
   partial_.erase(it);
@@ -225,14 +241,15 @@ void UdpmReceiver::handle_datagram(const unsigned char* p, std::size_t n, const 
   if (!d.channel.empty()) m.channel.assign(d.channel);
   std::memcpy(m.data.get() + d.offset, d.payload, d.payload_size);  // inside: parse_udpm_datagram
   m.received += static_cast<uint32_t>(d.payload_size);
+  m.pieces.emplace_back(d.offset, static_cast<uint32_t>(d.payload_size));
   ++m.got;
   if (m.got == m.fragments) {
     const auto done = partial_.find(key);
-    if (m.received == m.size && !m.channel.empty()) {
+    if (m.received == m.size && !m.channel.empty() && tiles(m.pieces, m.size)) {
       sink(utime, m.channel, m.data.get(), m.size);
       ++delivered;
     } else {
-      ++malformed_;  // duplicated fragments, or fragment 0 never came
+      ++malformed_;  // duplicated or overlapping fragments, or fragment 0 never came
     }
     drop_partial(done);
   }

@@ -99,6 +99,11 @@ TEST(BusReceiver, UdpmHostileDatagramsAreCountedAndReassemblyIsBounded) {
   s.send(u.group, u.port, fragment(4, 100000, 0, 5, 2, 1000));
   s.send(u.group, u.port, fragment(5, 100000, 0, 1, 0, 1000));
   want_malformed += 4;
+  // Two fragments whose counts and byte total are right but which overlap and leave a hole: the
+  // bytes 100-199 no fragment wrote must not be delivered.
+  s.send(u.group, u.port, fragment(8, 200 + 8, 0, 0, 2, 100));
+  s.send(u.group, u.port, fragment(8, 200 + 8, 0, 1, 2, 108));
+  ++want_malformed;
   // Garbage and short junk.
   for (int i = 0; i < 100; ++i) s.send(u.group, u.port, std::vector<unsigned char>(static_cast<std::size_t>(1 + i), 0x5A));
   want_malformed += 100;

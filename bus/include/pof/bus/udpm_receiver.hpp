@@ -114,6 +114,9 @@ class UdpmReceiver {
     uint64_t last_heard = 0;  // datagram count when this sender was last heard
     std::string channel;
     std::unique_ptr<unsigned char[]> data;  // `size` bytes, not value-initialised (see the bounds)
+    // (offset, bytes) of every fragment taken: at completion they must tile [0, size) exactly, or
+    // bytes no fragment wrote (uninitialised heap) would be delivered as the message.
+    std::vector<std::pair<uint32_t, uint32_t>> pieces;
   };
   // Starts reassembly of a `size`-byte message for `key`, evicting as the bounds require.
   Partial& start_partial(uint64_t key, uint32_t seq, uint32_t size, uint16_t frags);

@@ -9,6 +9,12 @@
 //     pipeline's lag; the model's own filter lag comes on top, docs/controller.md, "Latency").
 // Prints one line per second and a summary; exits 0 once --count angles have arrived, 1 on timeout.
 //
+// Authenticated mode (docs/deployment.md, "Authenticated mode"): with --key-file (the bus key, as
+// `pof keygen` writes it; refused, exit 78, unless only its owner may read it), every message is
+// verified before it is decoded, by the verifier pofkit's own receivers use (pofkit::auth), and
+// one that is not is dropped and counted per verdict (unsigned, bad_mac, stale, replayed) in the
+// summary. Without it nothing is verified: a forged POF_ANGLE is taken like pofkit's.
+//
 // Robustness, as in pof-compensatord: messages are decoded here, not by a typed subscription, so a
 // malformed datagram on the bus is counted and skipped instead of ending the controller.
 #include <lcm/lcm-cpp.hpp>
@@ -21,10 +27,14 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <exception>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "pof/angle_t.hpp"
+#include "pof/bus/auth.hpp"      // the verifier of the authenticated mode (pofkit::auth)
+#include "pof/bus/auth_key.hpp"  // the bus key file and its permission checks
 #include "pof/bus/channels.hpp"  // pofkit's channel names
 #include "pof/bus/url.hpp"       // the LCM URL rule every pofkit process follows
 #include "pof/lcm/utime.hpp"     // microseconds since the epoch, the utime convention
@@ -35,11 +45,21 @@ struct Stats {
   std::int64_t angles = 0, lost = 0, undecodable = 0, unusable = 0, flagged = 0;
   std::int64_t last_seq = -1;
   std::vector<double> age_ms;
+  std::unique_ptr<pof::bus::auth::Verifier> verifier;  // with --key-file; it counts the drops
 };
 
-void on_message(const lcm::ReceiveBuffer* rbuf, const std::string& /*channel*/, Stats* s) {
+void on_message(const lcm::ReceiveBuffer* rbuf, const std::string& channel, Stats* s) {
+  std::size_t size = rbuf->data_size;
+  if (s->verifier) {
+    // Before decoding: a forged message is not even parsed. The counter is compared with this
+    // host's realtime clock, so sender and controller need synchronised clocks (chrony, PTP).
+    const auto v = s->verifier->verify(channel, static_cast<const unsigned char*>(rbuf->data), size,
+                                       pof::bus::auth::counter_time(pof::lcmutil::now_utime()));
+    if (!v.ok()) return;  // counted by the verifier, per verdict
+    size = v.message_size;  // the LCM message in front of the trailer
+  }
   pof::angle_t m;
-  if (rbuf->data_size > INT32_MAX || m.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) {
+  if (size > INT32_MAX || m.decode(rbuf->data, 0, static_cast<int>(size)) < 0) {
     ++s->undecodable;
     return;
   }
@@ -61,14 +81,15 @@ double percentile(std::vector<double> v, double p) {
 }
 
 int usage(const char* argv0) {
-  std::fprintf(stderr, "usage: %s [--lcm-url URL] [--sensor-id ID] [--count N] [--timeout S]\n", argv0);
+  std::fprintf(stderr, "usage: %s [--lcm-url URL] [--sensor-id ID] [--count N] [--timeout S] [--key-file PATH]\n",
+               argv0);
   return 2;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string url_opt, sensor_id;
+  std::string url_opt, sensor_id, key_file;
   long count = 200;
   double timeout_s = 30;
   for (int i = 1; i < argc; ++i) {
@@ -83,6 +104,7 @@ int main(int argc, char** argv) {
     else if (a == "--sensor-id") sensor_id = v;
     else if (a == "--count") count = std::strtol(v, nullptr, 10);
     else if (a == "--timeout") timeout_s = std::strtod(v, nullptr);
+    else if (a == "--key-file") key_file = v;
     else return usage(argv[0]);
   }
   const std::string url = pof::bus::resolve_url(url_opt);
@@ -93,9 +115,19 @@ int main(int argc, char** argv) {
     return 1;
   }
   Stats s;
+  if (!key_file.empty()) {
+    try {
+      s.verifier = std::make_unique<pof::bus::auth::Verifier>(pof::bus::auth::load_key_file(key_file));
+    } catch (const std::exception& e) {  // pof::ConfigError: names the file and what is wrong with it
+      std::fprintf(stderr, "pof-angle-client: %s\n", e.what());
+      return 78;
+    }
+  }
   lcm::Subscription* sub = lc.subscribeFunction(channel, &on_message, &s);
   sub->setQueueCapacity(10000);  // LCM's default of 30 drops silently at 200 Hz under load
-  std::printf("listening on %s (%s)\n", channel.c_str(), url.c_str());
+  const std::string verifying =
+      s.verifier ? ", verifying with key id " + pof::bus::auth::key_id_hex(s.verifier->key_id()) : "";
+  std::printf("listening on %s (%s)%s\n", channel.c_str(), url.c_str(), verifying.c_str());
 
   const auto t0 = std::chrono::steady_clock::now();
   auto next_line = t0 + std::chrono::seconds(1);
@@ -112,10 +144,17 @@ int main(int argc, char** argv) {
     }
   }
   std::printf("summary: angles=%lld lost=%lld undecodable=%lld unusable=%lld flagged=%lld "
-              "age_p50_ms=%.3f age_p99_ms=%.3f age_max_ms=%.3f\n",
+              "age_p50_ms=%.3f age_p99_ms=%.3f age_max_ms=%.3f",
               static_cast<long long>(s.angles), static_cast<long long>(s.lost),
               static_cast<long long>(s.undecodable), static_cast<long long>(s.unusable),
               static_cast<long long>(s.flagged), percentile(s.age_ms, 50), percentile(s.age_ms, 99),
               s.age_ms.empty() ? NAN : *std::max_element(s.age_ms.begin(), s.age_ms.end()));
+  if (s.verifier) {  // what the authenticated mode dropped, per verdict: dropped_bad_mac=2 ...
+    for (const auto v : pof::bus::auth::kDropVerdicts) {
+      std::printf(" dropped_%s=%llu", pof::bus::auth::verdict_name(v),
+                  static_cast<unsigned long long>(s.verifier->count(v)));
+    }
+  }
+  std::printf("\n");
   return s.angles >= count ? 0 : 1;
 }

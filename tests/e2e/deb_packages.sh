@@ -26,6 +26,7 @@ has "$runtime" usr/bin/pof usr/bin/pof-daqd usr/bin/pof-compensatord \
   usr/share/java/pof_lcmtypes.jar
 for r in "$SOURCE_DIR"/deploy/udev/*.rules; do has "$runtime" "usr/lib/udev/rules.d/$(basename "$r")"; done
 has "$dev" usr/include/pof/angle_t.hpp usr/include/pof_angle_t.h usr/include/pof/core/compensator.hpp \
+  usr/include/pof/bus/auth.hpp usr/include/pof/bus/auth_key.hpp usr/lib/libpof_auth.a \
   usr/lib/libpof_core.a usr/lib/libpof_lcmtypes_c.a usr/lib/cmake/pofkit/pofkitConfig.cmake \
   usr/lib/pkgconfig/pofkit.pc usr/share/pofkit/lcmtypes/angle_t.lcm
 if dpkg-deb -c "$runtime" | awk '$6 ~ /^\.\/usr\/include\// {f=1} END {exit !f}'; then fail "headers in the runtime package"; fi
@@ -36,6 +37,11 @@ for lib in libc6 liblcm libusb-1.0 libhidapi libsodium; do
   case "$depends" in *"$lib"*) ;; *) fail "pofkit Depends lacks $lib: $depends" ;; esac
 done
 [ "$(dpkg-deb -f "$dev" Package)" = pofkit-dev ] || fail "dev package name: $(dpkg-deb -f "$dev" Package)"
+# pofkit::auth (libpof_auth.a) links libsodium: pofkitConfig.cmake and pofkit.pc need its -dev package.
+dev_depends=$(dpkg-deb -f "$dev" Depends)
+for pkg in liblcm-dev libeigen3-dev libsodium-dev pkg-config; do
+  case "$dev_depends" in *"$pkg"*) ;; *) fail "pofkit-dev Depends lacks $pkg: $dev_depends" ;; esac
+done
 mkdir -p ctl && dpkg-deb -e "$runtime" ctl
 for c in /etc/pof/pof.env /etc/pof/record.env /etc/pof/daqd.toml; do
   awk -v c="$c" '$0 == c {f=1} END {exit !f}' ctl/conffiles || fail "$c is not a conffile: $(cat ctl/conffiles)"

@@ -9,13 +9,14 @@ sockets (what any process on the host, or any machine on the segment, can send).
   lcm_hostile.py hostile PORT   garbage, decode bombs, impossible fragments, a horde of senders,
                                 unicast to 127.0.0.1, then a first block and two forged far ahead.
   lcm_hostile.py tail PORT      two replays/duplicates, then five good blocks after pof-testpub's.
-  lcm_hostile.py forge PORT KEYFILE OUT.json
+  lcm_hostile.py forge PORT KEYFILE OUT.json [POF_RAW|POF_ANGLE]
       the authenticated mode (tests/e2e/lcm_auth.sh): captures 5 signed POF_RAW messages of the
       live pof-daqd, then sends 3 unsigned blocks, 2 signed with another key, 2 captured ones
       with a byte changed (4 bad MACs), 3 signed with the bus key but with counters 60 s off this
       host's clock (an old session's capture; 2 behind, 1 ahead: stale) and 3 captured ones again
       (replayed); writes what it sent per verdict to OUT.json. Every forged block claims scans
-      from 10^12 on, far from the real stream's.
+      from 10^12 on, far from the real stream's. With POF_ANGLE (tests/e2e/sdk_client.sh): the same
+      on pof-compensatord's angles, forged angles of 90 deg claiming seq and scans from 10^12 on.
 
 The message types come from lcm-gen's Python output in ./py (the script generates it).
 Wire format: lcm/lcm_udpm.c (see bus/include/pof/bus/udpm_receiver.hpp). The authenticated mode's
@@ -66,6 +67,17 @@ def block(seq, first_scan, utime):
     b.volts = [[4.0, 4.35] for _ in range(SCANS_PER_BLOCK)]
     b.flags = raw_block_t.FLAG_SIMULATED
     return b.encode()
+
+
+def angle(seq, scan_index, utime):
+    a = angle_t()
+    a.utime = utime
+    a.publish_utime = utime
+    a.seq = seq
+    a.scan_index = scan_index
+    a.angle_deg = a.angle_uncomp_deg = 90.0
+    a.angle_ref_deg = float("nan")
+    return a.encode()
 
 
 def raw_bytes(sensor_len=3, n_channels=2, names=("sensor", "reference"), n_scans=1, volts=2,
@@ -200,7 +212,7 @@ def receiver(port):
     return r
 
 
-def forge(port, key_file, out):
+def forge(port, key_file, out, channel="POF_RAW"):
     key = read_key(key_file)
     r = receiver(port)
     captured = []
@@ -213,27 +225,30 @@ def forge(port, key_file, out):
         if len(d) < 9 or struct.unpack(">I", d[:4])[0] != LC02:
             continue
         ch, _, payload = d[8:].partition(b"\0")
-        if ch == b"POF_RAW" and verify(key, "POF_RAW", payload) is not None:
+        if ch == channel.encode() and verify(key, channel, payload) is not None:
             captured.append(payload)
     if len(captured) < 5:
-        sys.exit(f"forge: only {len(captured)} signed POF_RAW messages seen in 30 s")
+        sys.exit(f"forge: only {len(captured)} signed {channel} messages seen in 30 s")
     t = now_us()
     other = os.urandom(32)
-    forged = [block(2**40 + k, 10**12 + SCANS_PER_BLOCK * k, t) for k in range(8)]
+    if channel == "POF_ANGLE":
+        forged = [angle(10**12 + k, 10**12 + k, t) for k in range(8)]
+    else:
+        forged = [block(2**40 + k, 10**12 + SCANS_PER_BLOCK * k, t) for k in range(8)]
     altered = []
     for c in captured[:2]:
         m = bytearray(c)
-        m[20] ^= 0x01  # inside the block (its utime), the trailer intact
+        m[20] ^= 0x01  # inside the message (its utime), the trailer intact
         altered.append(bytes(m))
     sent = {
         "unsigned": [forged[0], forged[1], forged[2]],
-        "bad_mac": [sign(other, "POF_RAW", forged[3], t), sign(other, "POF_RAW", forged[4], t + 1)] + altered,
-        "stale": [sign(key, "POF_RAW", forged[5], t - 60_000_000), sign(key, "POF_RAW", forged[6], t - 59_000_000),
-                  sign(key, "POF_RAW", forged[7], t + 60_000_000)],
+        "bad_mac": [sign(other, channel, forged[3], t), sign(other, channel, forged[4], t + 1)] + altered,
+        "stale": [sign(key, channel, forged[5], t - 60_000_000), sign(key, channel, forged[6], t - 59_000_000),
+                  sign(key, channel, forged[7], t + 60_000_000)],
         "replayed": captured[2:5],
     }
     s = sender()
-    paced(s, port, [lc02("POF_RAW", m, seq=1000 + i) for i, m in enumerate(sum(sent.values(), []))])
+    paced(s, port, [lc02(channel, m, seq=1000 + i) for i, m in enumerate(sum(sent.values(), []))])
     json.dump({k: len(v) for k, v in sent.items()}, open(out, "w"))
 
 
@@ -273,6 +288,6 @@ if __name__ == "__main__":
     elif cmd == "tail":
         tail(port)
     elif cmd == "forge":
-        forge(port, sys.argv[3], sys.argv[4])
+        forge(port, sys.argv[3], sys.argv[4], *sys.argv[5:6])
     else:
         sys.exit("usage: lcm_hostile.py listen|hostile|tail|forge PORT ...")

@@ -2,7 +2,10 @@
 # pure core and the C/C++/Python message types, a CMake package and a pkg-config file;
 # examples/cpp_client builds out of tree against that prefix alone (find_package(pofkit)), a C program
 # builds with pkg-config, and the installed daemons (sim backend) feed live angles to the C++ client
-# and to the Python client (examples/python) running on the installed Python package.
+# and to the Python client (examples/python) running on the installed Python package. Then the
+# authenticated mode: the installed daemons sign with a bus key, and the C++ client, given the key
+# (--key-file), verifies every angle with the installed pofkit::auth and drops what a forger
+# injects on POF_ANGLE (tests/e2e/lcm_hostile.py forge), counted per verdict on its summary line.
 source "$(dirname "$0")/lib.sh"
 BUILD_DIR=$(readlink -f "$BIN_DIR/..")
 prefix="$WORK_DIR/prefix"
@@ -10,7 +13,7 @@ cmake --install "$BUILD_DIR" --prefix "$prefix" >install.log || fail "cmake --in
 
 for f in include/pof/angle_t.hpp include/pof/raw_block_t.hpp include/pof_angle_t.h include/pof_raw_block_t.h \
   include/pof/core/compensator.hpp include/pof/core/calibration.hpp include/pof/bus/url.hpp include/pof/bus/channels.hpp \
-  lib/libpof_core.a lib/libpof_lcmtypes_c.a lib/cmake/pofkit/pofkitConfig.cmake \
+  include/pof/bus/auth.hpp include/pof/bus/auth_key.hpp lib/libpof_auth.a lib/libpof_core.a lib/libpof_lcmtypes_c.a lib/cmake/pofkit/pofkitConfig.cmake \
   lib/cmake/pofkit/pofkitConfigVersion.cmake lib/cmake/pofkit/pofkitTargets.cmake lib/pkgconfig/pofkit.pc \
   share/pofkit/lcmtypes/angle_t.lcm share/pofkit/lcmtypes/raw_block_t.lcm share/pofkit/plot/calibration_report.py \
   etc/pof/pof.env etc/pof/daqd.toml; do
@@ -93,4 +96,36 @@ for out in "${outs[@]}"; do
   case "$summary" in *" undecodable=0 "*) ;; *) fail "$out: angles not decoded: $summary" ;; esac
   case "$summary" in *"age_p50_ms=nan"*) fail "$out: no sample age measured: $summary" ;; esac
 done
+
+# The authenticated mode, on a bus of its own: pof-daqd and pof-compensatord sign with the key;
+# the forger captures 5 of the signed angles and sends 3 unsigned, 4 with a bad MAC, 3 stale and
+# 3 replayed ones (forged.json) right after, long before the client has its 400 angles.
+private_bus
+"$prefix/bin/pof" keygen -o bus.key 2>/dev/null || fail "installed pof keygen failed"
+install -m 0644 bus.key open.key
+expect_exit 78 client/pof-angle-client --lcm-url "$URL" --key-file open.key --count 1 --timeout 1
+grep -q "bus key file 'open.key': mode 0644" <<<"$err" || fail "the client took a key others may read: $err"
+start_ready "$PORT" auth-client.err client/pof-angle-client --lcm-url "$URL" --key-file bus.key --count 400 \
+  --timeout 25 >auth-client.out
+auth_client=$!; pids+=($auth_client)
+PYTHONPATH="$prefix/lib/python3/dist-packages" start_ready "$PORT" forge.err \
+  "$PY" "$SOURCE_DIR/tests/e2e/lcm_hostile.py" forge "$PORT" bus.key forged.json POF_ANGLE
+forger=$!; pids+=($forger)
+start_ready notify auth-comp.log "$prefix/bin/pof-compensatord" --cal cal.toml --pot-cal pot.toml --lcm-url "$URL" \
+  --auth-key-file bus.key
+pids+=($!)
+"$prefix/bin/pof-daqd" --device sim:session --lcm-url "$URL" --auth-key-file bus.key --duration 6 2>auth-daqd.log &
+pids+=($!)
+wait $forger || fail "forger: $(cat forge.err)"
+wait $auth_client || fail "the verifying client did not get 400 angles: $(cat auth-client.out auth-client.err) / \
+$(tail -3 auth-comp.log) / $(tail -3 auth-daqd.log)"
+cat auth-client.out
+grep -q "verifying with key id" auth-client.out || fail "the client did not say it verifies: $(cat auth-client.out)"
+summary=$(awk '/^summary:/' auth-client.out)
+# forged.json: what the forger sent per verdict; the client must have dropped exactly that.
+want=$("$PY" -c 'import json, sys; d = json.load(open("forged.json"))
+print(" ".join("dropped_%s=%d" % (k, d[k]) for k in ("unsigned", "bad_mac", "stale", "replayed")))')
+[ "$want" = "dropped_unsigned=3 dropped_bad_mac=4 dropped_stale=3 dropped_replayed=3" ] || fail "forged.json: $want"
+case "$summary" in *" $want") ;; *) fail "the client's drops are not the forgeries ($want): $summary" ;; esac
+case "$summary" in *" angles=400 "*" undecodable=0 "*) ;; *) fail "verified angles not decoded: $summary" ;; esac
 echo ok

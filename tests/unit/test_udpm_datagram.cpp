@@ -42,7 +42,8 @@ TEST(UdpmDatagram, ShortMessageIsChannelAndPayload) {
 }
 
 TEST(UdpmDatagram, FragmentZeroCarriesTheChannelTheOthersDoNot) {
-  const UdpmDatagram f0 = parse(udpm_fragment(5, 300, 0, 0, 3, "POF_RAW", bytes(100)));
+  const auto d0 = udpm_fragment(5, 300, 0, 0, 3, "POF_RAW", bytes(100));  // channel and payload point into it
+  const UdpmDatagram f0 = parse(d0);
   ASSERT_EQ(f0.kind, Kind::kFragment);
   EXPECT_EQ(f0.seq, 5u);
   EXPECT_EQ(f0.channel, "POF_RAW");

@@ -81,9 +81,10 @@ double OnlineCompensator::terms_voltage(double v, double reference_v, double w, 
   // monotone in A (1 + s g' > 0, as the dynamic model's inverse requires of its own terms), and
   // where the terms would nearly cancel the model's slope the divisor is held at kMinTermsDivisor.
   const double gp = (terms_corrector_.voltage_at(guess + kTermsSlopeStepDeg, reference_v, w, d) - g0) / kTermsSlopeStepDeg;
-  const double sg = model_slope(guess, w, d) * gp;
+  const double slope = model_slope(guess, w, d);
+  const double sg = slope * gp;
   if (!std::isfinite(sg) || sg == 0) return g0;
-  const double moved = model_slope(guess, w, d) * (v - g0 - terms_u_) / std::max(1.0 + sg, kMinTermsDivisor);
+  const double moved = slope * (v - g0 - terms_u_) / std::max(1.0 + sg, kMinTermsDivisor);
   return g0 + gp * moved;
 }
 

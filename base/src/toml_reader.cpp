@@ -1,5 +1,7 @@
 #include "pof/base/toml_reader.hpp"
 
+#include <cstdio>
+
 #include <algorithm>
 #include <charconv>
 #include <climits>
@@ -86,6 +88,18 @@ T read_value(const toml::node& n, const TomlCheck<toml_check_t<T>>& check, const
     static_assert(std::is_same_v<T, std::string>, "TOML values are read as bool, integers, double or std::string");
     if (!n.is_string()) at.fail("expected a string, got " + describe(n));
     std::string v = n.as_string()->get();
+    // No value of ours (a URL, an id, a path, an effect name) holds a control character, and one
+    // that starts with a newline does not survive our own writer: toml++ writes it as a
+    // multi-line literal string, whose first newline TOML trims on reading (found by fuzz_daq_config).
+    for (std::size_t i = 0; i < v.size(); ++i) {
+      const auto c = static_cast<unsigned char>(v[i]);
+      if (c < 0x20 || c == 0x7f) {
+        char code[8];
+        std::snprintf(code, sizeof code, "U+%04X", c);
+        at.fail(std::string("expected a string without control characters, got ") + code + " at character " +
+                std::to_string(i + 1));
+      }
+    }
     at.check(check.want(v), "'" + excerpt(v) + "'");
     return v;
   }

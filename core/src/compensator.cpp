@@ -44,7 +44,8 @@ OnlineCompensator::OnlineCompensator(const Calibration& cal, const CompensatorSe
   if (cal.gap && !cal.gap->empty()) {
     if (const auto problems = gap_problems(*cal.gap, s.scan_rate_hz); !problems.empty())
       throw std::invalid_argument("compensator: " + problems.front().describe());
-    terms_corrector_ = GapCorrector(cal, s.scan_rate_hz);
+    terms_chain_.terms = GapCorrector(cal, s.scan_rate_hz);
+    quiet_chain_.terms = terms_chain_.terms;
     terms_ = true;
   }
   guard_.level_v = cal.reference_level_v;
@@ -63,16 +64,36 @@ void OnlineCompensator::clear_window() noexcept {
 void OnlineCompensator::reset() noexcept {
   clear_window();
   inverter_.reset();  // the memory of the lost scans is unknown: start from a relaxed state
-  terms_corrector_.reset();
-  terms_angle_ = terms_w_ = terms_u_ = std::nan("");
+  terms_chain_.restart();
+  quiet_chain_.restart();
   gap_pending_ = true;
 }
 
 double OnlineCompensator::terms_voltage(double v, double reference_v, double w, Direction d) const noexcept {
   if (!terms_) return 0.0;
-  const double guess = std::isfinite(terms_angle_) ? terms_angle_ : quasi_static_angle(cal_.model, v);
-  const double g0 = terms_corrector_.voltage_at(guess, reference_v, w, d);
-  if (!std::isfinite(terms_angle_) || !std::isfinite(terms_u_)) return g0;
+  const double guess = std::isfinite(terms_chain_.angle) ? terms_chain_.angle : quasi_static_angle(cal_.model, v);
+  return terms_voltage(terms_chain_, v, reference_v, w, d, model_slope(guess, w, d));
+}
+
+double OnlineCompensator::quiet_angle(double v, double reference_v, double* g) const noexcept {
+  // f5 is the hold's model (dA/dv = -c9 everywhere) and this angle decides the direction: the
+  // terms that switch with it (rate_dependent_hysteresis) are off here, as in a hold.
+  *g = terms_voltage(quiet_chain_, v, reference_v, 0.0, Direction::kHold, -cal_.model.c9);
+  return quasi_static_angle(cal_.model, v - *g);
+}
+
+void OnlineCompensator::commit_quiet(double angle, double u, double reference_v) noexcept {
+  quiet_chain_.angle = angle;
+  quiet_chain_.u = u;
+  // f5's slope reconstructs the angle without the acceleration term for its own window.
+  quiet_chain_.terms.advance(angle, reference_v, quiet_chain_.terms.has_acceleration() ? -cal_.model.c9 : 0.0);
+}
+
+double OnlineCompensator::terms_voltage(const TermsChain& c, double v, double reference_v, double w, Direction d,
+                                        double slope) const noexcept {
+  const double guess = std::isfinite(c.angle) ? c.angle : quasi_static_angle(cal_.model, v);
+  const double g0 = c.terms.voltage_at(guess, reference_v, w, d);
+  if (!std::isfinite(c.angle) || !std::isfinite(c.u)) return g0;
   // One Newton step on A = model^-1(v - g(A)) from the previous angle A0 (docs/calibration.md,
   // "[gap]", step 2). Evaluated at A0 alone, g closes a loop whose error e_k = -s g' e_k-1 (s the
   // model's dA/dv, g' the terms' dg/dA) oscillates and grows once |s g'| > 1: a strong memory
@@ -80,11 +101,10 @@ double OnlineCompensator::terms_voltage(double v, double reference_v, double w, 
   // model's change s (v - g0 - u_prev) divided by 1 + s g'; the combined voltage must stay
   // monotone in A (1 + s g' > 0, as the dynamic model's inverse requires of its own terms), and
   // where the terms would nearly cancel the model's slope the divisor is held at kMinTermsDivisor.
-  const double gp = (terms_corrector_.voltage_at(guess + kTermsSlopeStepDeg, reference_v, w, d) - g0) / kTermsSlopeStepDeg;
-  const double slope = model_slope(guess, w, d);
+  const double gp = (c.terms.voltage_at(guess + kTermsSlopeStepDeg, reference_v, w, d) - g0) / kTermsSlopeStepDeg;
   const double sg = slope * gp;
   if (!std::isfinite(sg) || sg == 0) return g0;
-  const double moved = slope * (v - g0 - terms_u_) / std::max(1.0 + sg, kMinTermsDivisor);
+  const double moved = slope * (v - g0 - c.u) / std::max(1.0 + sg, kMinTermsDivisor);
   return g0 + gp * moved;
 }
 
@@ -108,14 +128,14 @@ double OnlineCompensator::angle_of(double v, double reference_v, double w, Direc
   }
   if (!terms_) return angle;
   if (!std::isfinite(angle)) {
-    terms_corrector_.interrupt();
+    terms_chain_.terms.interrupt();
     return angle;
   }
-  terms_angle_ = angle;
-  terms_u_ = v;
+  terms_chain_.angle = angle;
+  terms_chain_.u = v;
   // dA/dv of the model here, for the acceleration term (GapCorrector::advance).
-  const double angle_per_volt = terms_corrector_.has_acceleration() ? model_slope(angle, w, d) : 0.0;
-  return terms_corrector_.advance(angle, reference_v, angle_per_volt);  // delay and backlash undone
+  const double angle_per_volt = terms_chain_.terms.has_acceleration() ? model_slope(angle, w, d) : 0.0;
+  return terms_chain_.terms.advance(angle, reference_v, angle_per_volt);  // delay and backlash undone
 }
 
 double OnlineCompensator::delay_s() const noexcept { return (n_ - 1) / (2.0 * s_.scan_rate_hz); }
@@ -181,32 +201,35 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
     // Unusable scan: the window is emptied so that the velocity is never computed across it.
     out.quality |= nz.finite_input ? quality::kReferenceLost : quality::kInvalidInput;
     out.quality |= quality::kSettling;
-    out.angle_deg = out.angle_uncomp_deg = out.velocity_rad_s = terms_w_ = nan;
+    out.angle_deg = out.angle_uncomp_deg = out.velocity_rad_s = nan;
     clear_window();
-    if (terms_) terms_corrector_.interrupt();
+    if (terms_) {
+      terms_chain_.terms.interrupt();
+      quiet_chain_.terms.interrupt();
+    }
     return out;
   }
   out.angle_uncomp_deg = quasi_static_angle(cal_.model, nz.v);
-  // [gap] periodic interference is notched out before either model sees the voltage; the other
-  // terms' voltage is predicted with the previous scan's velocity and direction (again below with
-  // this scan's when a term depends on them).
-  const double v = terms_ ? terms_corrector_.filter(nz.v) : nz.v;
-  double g = terms_voltage(v, reference_v, terms_w_, phase_);
+  // [gap] periodic interference is notched out before either model sees the voltage.
+  const double v = terms_ ? terms_chain_.terms.filter(nz.v) : nz.v;
   bool clamped = false;
-  const double y = s_.velocity_source == VelocitySource::kReference ? angle_ref_deg
-                   : terms_                                         ? quasi_static_angle(cal_.model, v - g)
-                                                                    : out.angle_uncomp_deg;
+  // With [gap] terms the velocity is estimated on f5 of the voltage after the quiet chain's terms
+  // (see quiet_chain_): never on an angle that went through the direction it is to decide.
+  double g_quiet = 0;
+  const double y_quiet = terms_ ? quiet_angle(v, reference_v, &g_quiet) : out.angle_uncomp_deg;
+  if (terms_ && !std::isfinite(y_quiet)) quiet_chain_.terms.interrupt();
+  const double y = s_.velocity_source == VelocitySource::kReference ? angle_ref_deg : y_quiet;
   if (!std::isfinite(y)) {
     out.quality |= quality::kInvalidInput | quality::kSettling;
     // The dynamic model needs no velocity; the paper's falls back to f5 without one.
-    if (terms_corrector_.uses_velocity()) g = terms_voltage(v, reference_v, nan, Direction::kHold);
+    const double g = terms_voltage(v, reference_v, nan, Direction::kHold);
     out.angle_deg = angle_of(v - g, reference_v, nan, Direction::kHold, &clamped);
-    out.velocity_rad_s = terms_w_ = nan;
+    out.velocity_rad_s = nan;
     clear_window();
     return out;
   }
   const double w = push(y) * s_.scan_rate_hz * kRadPerDeg;
-  out.velocity_rad_s = terms_w_ = w;
+  out.velocity_rad_s = w;
   // Direction with a dead band (hold_rad_s < move_rad_s). With the reversal window on, its slope
   // ws (lag ~(M-1)/2fs) flips flexion <-> extension as soon as it clearly sees the opposite sense,
   // the long window may only flip when ws agrees (no flip-back while it still lags), and a hold
@@ -230,7 +253,17 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
   }
   out.phase = phase_;
   const double aw = std::abs(w);
-  if (terms_corrector_.uses_velocity()) g = terms_voltage(v, reference_v, w, phase_);
+  double g = 0;
+  if (terms_) {
+    // The paper chain inverts on the branch of `phase_`, decided ~0.25 s late (the velocity
+    // window): its angle overshoots at starts, stops and reversals, and memory terms driven by it
+    // (stop operators at a hold after a 2 deg overshoot back) end on the wrong side. So there the
+    // terms are the quiet chain's, at the quiet angle, with this scan's velocity and direction.
+    // The dynamic model's inverse decides nothing: its own chain, one Newton step to this angle.
+    if (dynamic_ || !std::isfinite(y_quiet)) g = terms_voltage(v, reference_v, w, phase_);
+    else g = quiet_chain_.terms.voltage_at(y_quiet, reference_v, w, phase_);
+    if (std::isfinite(y_quiet)) commit_quiet(y_quiet, v - g_quiet, reference_v);
+  }
   out.angle_deg = angle_of(v - g, reference_v, w, phase_, &clamped);
   if (clamped) out.quality |= quality::kAngleExtrapolated;
   if (phase_ != Direction::kHold &&

@@ -101,9 +101,27 @@ class OnlineCompensator {
   void clear_window() noexcept;
   double push(double y) noexcept;  // returns slope [deg/scan], NaN with < 2 samples
   double short_slope() const noexcept;  // the reversal window's slope [deg/scan], NaN until it is full
-  // The [gap] terms' voltage at this scan: at the previous scan's angle (f5 of v for the first)
-  // with velocity w [rad/s] and direction d, plus one Newton step to this scan's angle.
+  // The state of one chain of [gap] terms over one angle: the terms, the angle they were last
+  // advanced to and the voltage inverted then.
+  struct TermsChain {
+    GapCorrector terms;
+    double angle = std::numeric_limits<double>::quiet_NaN();  // the previous scan's angle [deg]
+    double u = std::numeric_limits<double>::quiet_NaN();      // the voltage inverted then [V]
+    void restart() noexcept {
+      terms.reset();
+      angle = u = std::numeric_limits<double>::quiet_NaN();
+    }
+  };
+  // A chain's voltage at this scan: at its previous angle (f5 of v for the first) with velocity w
+  // [rad/s] and direction d, plus one Newton step to this scan's angle on a model of slope dA/dv
+  // `slope` there.
+  double terms_voltage(const TermsChain& c, double v, double reference_v, double w, Direction d, double slope) const noexcept;
+  // The published chain's voltage: slope of the active model.
   double terms_voltage(double v, double reference_v, double w, Direction d) const noexcept;
+  // f5 of v with the quiet chain's terms (voltage *g) taken off: the velocity source's angle.
+  double quiet_angle(double v, double reference_v, double* g) const noexcept;
+  // Commits this scan's quiet angle and the voltage f5 inverted (v - g) to the quiet chain.
+  void commit_quiet(double angle, double u, double reference_v) noexcept;
   // dA/dv [deg/V] of the active model at angle [deg] with velocity w and direction d.
   double model_slope(double angle, double w, Direction d) const noexcept;
   // The angle of normalised voltage v (the terms' voltage already subtracted) through the active
@@ -124,11 +142,14 @@ class OnlineCompensator {
   std::int64_t since_refresh_ = 0;
   Direction phase_ = Direction::kHold;
   bool gap_pending_ = false;
-  bool terms_ = false;            // a GapCorrector runs
-  GapCorrector terms_corrector_;
-  double terms_angle_ = std::numeric_limits<double>::quiet_NaN();  // the previous scan's fibre angle
-  double terms_w_ = std::numeric_limits<double>::quiet_NaN();      // the previous scan's velocity [rad/s]
-  double terms_u_ = std::numeric_limits<double>::quiet_NaN();      // the voltage the model inverted then [V]
+  bool terms_ = false;  // [gap] terms run
+  // Two copies of the same terms. `terms_chain_` is advanced with the published fibre angle (the
+  // active model's inverse). `quiet_chain_` is advanced with f5 of the voltage after its own terms:
+  // the sensor's velocity, hence the direction, is estimated on that angle, which never depends on
+  // the branch the paper chain picked; on the paper chain its terms also give the published angle's
+  // voltage, whose own angle overshoots at every late direction decision (docs/calibration.md,
+  // "[gap]", steps 2 and 4). `terms_chain_` notches the voltage and undoes the kinematics.
+  TermsChain terms_chain_, quiet_chain_;
   // The terms' slope dg/dA is a difference over this step [deg] (their bases are smooth or
   // piecewise linear in A: stop and play operators).
   static constexpr double kTermsSlopeStepDeg = 1e-3;

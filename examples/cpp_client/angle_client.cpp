@@ -9,8 +9,9 @@
 //     pipeline's lag; the model's own filter lag comes on top, docs/controller.md, "Latency").
 // Prints one line per second and a summary; exits 0 once --count angles have arrived, 1 on timeout.
 //
-// Authenticated mode (docs/deployment.md, "Authenticated mode"): with --key-file (the bus key, as
-// `pof keygen` writes it; refused, exit 78, unless only its owner may read it), every message is
+// Authenticated mode (docs/deployment.md, "Authenticated mode"): with a key file, --key-file or
+// else $POF_LCM_AUTH_KEY_FILE as for pofkit's own processes (pof::bus::auth::resolve_key_file; the
+// bus key as `pof keygen` writes it, refused, exit 78, unless only its owner may read it), every message is
 // verified before it is decoded, by the verifier pofkit's own receivers use (pofkit::auth), and
 // one that is not is dropped and counted per verdict (unsigned, bad_mac, stale, replayed) in the
 // summary. Without it nothing is verified: a forged POF_ANGLE is taken like pofkit's.
@@ -81,7 +82,7 @@ double percentile(std::vector<double> v, double p) {
 }
 
 int usage(const char* argv0) {
-  std::fprintf(stderr, "usage: %s [--lcm-url URL] [--sensor-id ID] [--count N] [--timeout S] [--key-file PATH]\n",
+  std::fprintf(stderr, "usage: %s [--lcm-url URL] [--sensor-id ID] [--count N] [--timeout S] [--key-file PATH (default $POF_LCM_AUTH_KEY_FILE)]\n",
                argv0);
   return 2;
 }
@@ -115,9 +116,9 @@ int main(int argc, char** argv) {
     return 1;
   }
   Stats s;
-  if (!key_file.empty()) {
+  if (const std::string key = pof::bus::auth::resolve_key_file(key_file); !key.empty()) {
     try {
-      s.verifier = std::make_unique<pof::bus::auth::Verifier>(pof::bus::auth::load_key_file(key_file));
+      s.verifier = std::make_unique<pof::bus::auth::Verifier>(pof::bus::auth::load_key_file(key));
     } catch (const std::exception& e) {  // pof::ConfigError: names the file and what is wrong with it
       std::fprintf(stderr, "pof-angle-client: %s\n", e.what());
       return 78;

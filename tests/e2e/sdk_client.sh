@@ -4,7 +4,8 @@
 # builds with pkg-config, and the installed daemons (sim backend) feed live angles to the C++ client
 # and to the Python client (examples/python) running on the installed Python package. Then the
 # authenticated mode: the installed daemons sign with a bus key, and the C++ client, given the key
-# (--key-file), verifies every angle with the installed pofkit::auth and drops what a forger
+# ($POF_LCM_AUTH_KEY_FILE, as the units give it; --key-file for a key others may read: refused),
+# verifies every angle with the installed pofkit::auth and drops what a forger
 # injects on POF_ANGLE (tests/e2e/lcm_hostile.py forge), counted per verdict on its summary line.
 source "$(dirname "$0")/lib.sh"
 BUILD_DIR=$(readlink -f "$BIN_DIR/..")
@@ -105,8 +106,9 @@ private_bus
 install -m 0644 bus.key open.key
 expect_exit 78 client/pof-angle-client --lcm-url "$URL" --key-file open.key --count 1 --timeout 1
 grep -q "bus key file 'open.key': mode 0644" <<<"$err" || fail "the client took a key others may read: $err"
-start_ready "$PORT" auth-client.err client/pof-angle-client --lcm-url "$URL" --key-file bus.key --count 400 \
-  --timeout 25 >auth-client.out
+# The key from the environment, as the units give it to pofkit's own processes (--key-file above).
+POF_LCM_AUTH_KEY_FILE=bus.key start_ready "$PORT" auth-client.err client/pof-angle-client --lcm-url "$URL" \
+  --count 400 --timeout 25 >auth-client.out
 auth_client=$!; pids+=($auth_client)
 PYTHONPATH="$prefix/lib/python3/dist-packages" start_ready "$PORT" forge.err \
   "$PY" "$SOURCE_DIR/tests/e2e/lcm_hostile.py" forge "$PORT" bus.key forged.json POF_ANGLE

@@ -332,8 +332,14 @@ void Daemon::publisher_main() {
       queue_.pop();
       msg.publish_utime = now_utime();
       const int len = msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
-      if (len <= 0 || pub.publish(raw_channel, buf.data(), static_cast<std::size_t>(len)) != 0)
+      if (len <= 0) {
+        // The buffer is sized for the largest block the backend may queue: a bug, not the bus's doing.
+        refused(raw_channel, "could not encode a raw_block_t of " + std::to_string(msg.n_scans) + " scans x " +
+                                 std::to_string(chans.size()) + " channels for " + raw_channel + " into " +
+                                 std::to_string(buf.size()) + " bytes (counted in publish_failures)");
+      } else if (pub.publish(raw_channel, buf.data(), static_cast<std::size_t>(len)) != 0) {
         refused(raw_channel, raw_refused);
+      }
       counters_.blocks.fetch_add(1, std::memory_order_relaxed);
     }
     std::deque<std::pair<State, std::string>> events;

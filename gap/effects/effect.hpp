@@ -28,6 +28,8 @@ struct Context {
   core::ModelCoefficients m;  // the baseline (the paper's structure refitted to this recording)
   double duration_s = 0;
   double max_speed_rad_s = 0;  // the recording's largest |w| (where a moved structure must stay invertible)
+  core::ModelCoefficients origin;  // the baseline as fitted, before any move (how far m may move)
+  double angle_min_deg = 0, angle_max_deg = 90;  // the recording's angle range
 };
 
 enum class Acts : int {

@@ -190,7 +190,9 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   const Baseline base = fit_baseline(rec, s, kp);
   Search sx;
   sx.cx.s = &s;
-  sx.cx.m = base.model;
+  sx.cx.m = sx.cx.origin = base.model;
+  sx.cx.angle_min_deg = s.angle.minCoeff();
+  sx.cx.angle_max_deg = s.angle.maxCoeff();
   sx.cx.duration_s = s.t(s.n - 1) + s.dt;
   sx.blocks = cv::make_blocks(kp, std::max(2, opt.folds));
   const Kinematics k0 = make_kinematics(s.angle, s.dt, 0.0, base.model);

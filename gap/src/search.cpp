@@ -1,6 +1,8 @@
 // The model `pof gap` grows and the evaluation of candidates against it (see search.hpp).
 #include "search.hpp"
 
+#include "pof/core/model.hpp"
+
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -67,19 +69,54 @@ CurrentFit fit_state(const Search& sx, const State& st) {
   return c;
 }
 
+namespace {
+
+// The largest distance [deg] between two structures' moving branches, and of the first's from its
+// own quasi-static line, over the recording's angle range and speeds up to `speed` (both
+// directions, a 5 x 7 grid: the branches are smooth in both).
+struct BranchDistance {
+  double between = 0, own = 0;
+};
+BranchDistance branch_distance(const core::ModelCoefficients& a, const core::ModelCoefficients& b, const Context& cx,
+                               double speed) {
+  BranchDistance out;
+  for (int i = 0; i <= 4; ++i) {
+    const double angle = cx.angle_min_deg + (cx.angle_max_deg - cx.angle_min_deg) * i / 4.0;
+    for (int j = 0; j <= 6; ++j) {
+      const double w = speed * j / 6.0;
+      for (const core::Direction d : {core::Direction::kFlexion, core::Direction::kExtension}) {
+        const double va = core::model_voltage(a, angle, w, d);
+        out.between = std::max(out.between, std::abs(va - core::model_voltage(b, angle, w, d)) * std::abs(a.c9));
+        out.own = std::max(out.own, std::abs(va - core::quasi_static_voltage(a, angle)) * std::abs(a.c9));
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
 core::ModelCoefficients moved_model(const Context& cx, const VectorXd& beta) {
   // The first-order step may be long along a direction the voltage barely tells apart (c3 against
-  // c4 while c2 |w| is small) and land on a chain that is not invertible at some speed: it is
-  // shortened (halved up to 8 times, then not taken) until the chain is admissible up to 1.5x the
-  // recording's largest speed (the compensator's estimate overshoots the reference's).
+  // c4 while c2 |w| is small, or the structure against a memory term that draws the same loop)
+  // and land on a chain that is not invertible at some speed, or far from any sensor: it is
+  // shortened (halved up to 8 times, then not taken) until
+  //  - the chain is admissible up to 1.5x the recording's largest speed (the compensator's
+  //    estimate overshoots the reference's), and
+  //  - its moving branches are within the fitted baseline's own hysteresis (its largest branch
+  //    offset from f5, at least kMinStructureMoveDeg) of the baseline's: a move may change the
+  //    hysteresis by up to its size, not draw another sensor. Unbounded, a blind recording's
+  //    structure moved with a memory term to branches 49 deg off f5 at 1.5x its speeds (held-out
+  //    angle 8.8 deg RMSE against 0.78 for the baseline).
   const std::array<double, core::kRefitParameters> p0 = core::refit_parameters(cx.m);
   const double speed = 1.5 * cx.max_speed_rad_s;
+  const double limit = std::max(kMinStructureMoveDeg, branch_distance(cx.origin, cx.origin, cx, speed).own);
   double scale = 1;
   for (int halving = 0; halving <= 8; ++halving, scale /= 2) {
     std::array<double, core::kRefitParameters> p = p0;
     for (int i = 0; i < core::kRefitParameters; ++i) p[static_cast<std::size_t>(i)] += scale * beta(i);
     const core::ModelCoefficients m = core::with_refit_parameters(cx.m, p);
-    if (core::chain_admissible(m, speed)) return m;
+    if (core::chain_admissible(m, speed) && branch_distance(m, cx.origin, cx, speed).between <= limit) return m;
   }
   return cx.m;
 }

@@ -46,6 +46,10 @@ inline constexpr Eigen::Index kBaseCols = core::kRefitParameters;
 
 Design build_design(const Search& sx, const State& st);
 
+/// A moved structure's branches may depart from the fitted baseline's by its own hysteresis, and
+/// by at least this [deg] (the paper's table 2 has ~3 deg; see moved_model).
+inline constexpr double kMinStructureMoveDeg = 3.0;
+
 /// The baseline's coefficients m moved by the first kBaseCols values of a solution beta.
 core::ModelCoefficients moved_model(const Context& cx, const Eigen::VectorXd& beta);
 

@@ -372,6 +372,8 @@ Result analyse(const io::Recording& rec, const Options& opt) {
                                                                     res.compensated["rmse_before_deg"].get<double>()));
   res.compensated["model_toml"] = write_baseline ? "baseline (the found model made the held-out angle worse)" : "found model";
   if (write_baseline) {
+    // rmse_written_deg is what model.toml holds: the baseline's now (the kept terms' was not lower).
+    res.compensated["rmse_written_deg"] = res.compensated["rmse_before_deg"];
     written.delay = written.backlash = false;
     written.terms.assign(written.terms.size(), false);
   }

@@ -422,6 +422,32 @@ std::vector<std::optional<DynamicModel>> fold_models(const DynamicFitResult& fit
   return out;
 }
 
+VectorXd dynamic_coefficients(const DynamicModel& m) {
+  VectorXd b(m.degree + 1 + m.n_operators + m.n_prony);
+  Index c = 0;
+  for (int k = 0; k <= m.degree; ++k) b(c++) = m.poly[static_cast<std::size_t>(k)];
+  for (int o = 0; o < m.n_operators; ++o) b(c++) = m.weight_v_per_deg[static_cast<std::size_t>(o)];
+  for (int j = 0; j < m.n_prony; ++j) b(c++) = m.prony_gain_v_per_deg[static_cast<std::size_t>(j)];
+  return b;
+}
+
+DynamicModel with_dynamic_coefficients(DynamicModel m, const VectorXd& b) {
+  Design d;
+  d.n_poly = m.degree + 1;
+  d.n_ops = m.n_operators;
+  d.n_prony = m.n_prony;
+  return with_coefficients(m, b, d);
+}
+
+MatrixXd dynamic_regressors(const DynamicModel& m, const VectorXd& angle, double rate_hz) {
+  const Design d = build_design(m, VectorXd::Zero(angle.size()), angle, rate_hz, 1);
+  MatrixXd out = MatrixXd::Zero(angle.size(), d.X.cols());
+  for (std::size_t r = 0; r < d.scan.size(); ++r) out.row(d.scan[r]) = d.X.row(static_cast<Index>(r));
+  return out;
+}
+
+bool dynamic_invertible(const DynamicModel& m, double rate_hz) { return invertible(m, rate_hz); }
+
 VectorXd forward_dynamic(const DynamicModel& m, const VectorXd& angle, double rate_hz) {
   const DynamicKernel k(m, rate_hz);
   DynamicState s;

@@ -1,9 +1,10 @@
 // bench_gap: the blind benchmark of `pof gap` (docs/gap.md) and the speed of `pof gap`.
 //
-//   bench_gap [--blind N] [--seed S] [--out DIR] [--keep] [--benchmark_* flags]
+//   bench_gap [--blind N] [--seed S] [--out DIR] [--keep] [--dynamic-share P] [--benchmark_* flags]
 //
 // 1. Blind: N recordings from the physics simulator (pof_sim), every 5th with no hidden effect,
-//    every 5th+4 with two, the rest with one, effect and magnitude drawn at random per seed
+//    every 5th+4 with two, the rest with one, effect and magnitude drawn at random per seed; each
+//    sensor with its own coefficients, a share P (default 0.5) of them of the dynamic model's kind
 //    (testing/src/gap_blind.cpp). Each is written to CSV and analysed from the file alone; then the draw is
 //    compared: confusion matrix, effects named correctly, false discoveries on the recordings with
 //    nothing hidden, median held-out gap shrink. Summary on stdout, per-trial JSON in DIR.
@@ -39,15 +40,72 @@ fs::path g_dir = fs::temp_directory_path() / "pof_bench_gap";
 std::string g_long_csv;
 bool g_keep = false;  // --keep: leave the blind CSV files in DIR
 
-void run_blind(int n, std::uint64_t seed0) {
-  using pof::gap::blind::Trial;
-  std::vector<Trial> trials;
-  std::map<std::string, std::map<std::string, int>> confusion;  // hidden -> named -> count
+double median_of(std::vector<double> x) {
+  std::sort(x.begin(), x.end());
+  return x.empty() ? 0.0 : (x.size() % 2 ? x[x.size() / 2] : 0.5 * (x[x.size() / 2 - 1] + x[x.size() / 2]));
+}
+
+// The targets of docs/gap.md, section 6, over a set of trials.
+struct Tally {
   std::vector<double> shrink, comp_down, comp_written;  // held-out gap shrink; compensated-angle RMSE reduction
   std::vector<double> comp_steady, transition_share;     // the same outside starts, stops and reversals
-                                                        // with every appliable term / with what model.toml holds
-  int hidden_total = 0, hits = 0, none_trials = 0, none_false = 0, extra = 0;
-  int one_trials = 0, one_exact = 0, two_trials = 0, two_both = 0;  // the targets of docs/gap.md, section 6
+  int n = 0, hidden_total = 0, hits = 0, none_trials = 0, none_false = 0, extra = 0;
+  int one_trials = 0, one_exact = 0, two_trials = 0, two_both = 0;
+
+  void add(const pof::gap::blind::Trial& t) {
+    ++n;
+    if (t.hidden.empty()) {
+      ++none_trials;
+      none_false += t.found.empty() ? 0 : 1;
+      return;
+    }
+    if (t.hidden.size() == 1) { ++one_trials; one_exact += t.correct() ? 1 : 0; }
+    if (t.hidden.size() == 2) { ++two_trials; two_both += t.hits() == 2 ? 1 : 0; }
+    hidden_total += static_cast<int>(t.hidden.size());
+    hits += t.hits();
+    extra += t.false_finds();
+    shrink.push_back(t.shrink());
+    const auto& c = t.gap["compensated"];
+    comp_down.push_back(c.value("reduction_pct", 0.0) / 100.0);  // 0 when the compensator could not run it
+    const double before = c.value("rmse_before_deg", 0.0);
+    // model.toml holds the baseline when the found model did not beat it: no change then.
+    const double written = c.value("model_toml", std::string()) == "found model" ? c.value("rmse_written_deg", before) : before;
+    comp_written.push_back(before > 0 ? 1.0 - written / before : 0.0);
+    if (c.contains("steady")) {
+      comp_steady.push_back(c["steady"].value("reduction_pct", 0.0) / 100.0);
+      transition_share.push_back(c["steady"].value("transition_share_of_squared_error_before", 0.0));
+    }
+  }
+
+  void print() const {
+    auto pct = [](int a, int b) { return b ? 100.0 * a / b : 0.0; };
+    std::printf("recordings: %d (%d with no hidden effect, %d hidden effects in the others)\n", n, none_trials, hidden_total);
+    std::printf("effects named correctly: %d / %d = %.1f %%\n", hits, hidden_total, pct(hits, hidden_total));
+    std::printf("false discoveries on recordings with no hidden effect: %d / %d = %.1f %%\n", none_false, none_trials,
+                pct(none_false, none_trials));
+    std::printf("extra (wrong) effects named on recordings with hidden effects: %d\n", extra);
+    std::printf("one hidden effect: named with no extra in %d / %d = %.1f %%\n", one_exact, one_trials, pct(one_exact, one_trials));
+    std::printf("two hidden effects: both named in %d / %d = %.1f %%\n", two_both, two_trials, pct(two_both, two_trials));
+    std::vector<double> sorted = shrink;
+    std::sort(sorted.begin(), sorted.end());
+    std::printf("median held-out gap shrink with an effect hidden: %.1f %% (min %.1f %%, n = %zu)\n", 100 * median_of(shrink),
+                sorted.empty() ? 0.0 : 100 * sorted.front(), sorted.size());
+    std::printf("median held-out compensated-angle RMSE reduction (pof compensate's angle vs the reference) with an "
+                "effect hidden: %.1f %% (n = %zu)\n", 100 * median_of(comp_down), comp_down.size());
+    std::printf("the same with what model.toml holds (harmful terms left out, chosen on the same blocks: optimistic): "
+                "%.1f %%\n", 100 * median_of(comp_written));
+    std::printf("the same outside the 0.5 s after each start, stop and reversal (the step model's own branch errors): "
+                "%.1f %% (n = %zu); those 0.5 s hold a median %.0f %% of the baseline's squared error\n",
+                100 * median_of(comp_steady), comp_steady.size(), 100 * median_of(transition_share));
+  }
+};
+
+void run_blind(int n, std::uint64_t seed0, double dynamic_share) {
+  using pof::gap::blind::Trial;
+  std::map<std::string, std::map<std::string, int>> confusion;  // hidden -> named -> count
+  Tally all_trials;
+  std::map<std::string, Tally> by_sensor;       // "paper" / "dynamic" sensor
+  std::map<std::string, int> baseline_choice;   // "<sensor> sensor -> <baseline> baseline"
   double worst_time = 0;
   nlohmann::json all = nlohmann::json::array();
   std::cerr << "blind benchmark: " << n << " recordings\n";
@@ -55,37 +113,25 @@ void run_blind(int n, std::uint64_t seed0) {
     // The number of hidden effects follows the seed: seed % 5 == 1 none, == 0 two, else one.
     const std::uint64_t seed = seed0 + static_cast<std::uint64_t>(i);
     const int count = seed % 5 == 1 ? 0 : (seed % 5 == 0 ? 2 : 1);
-    const Trial t = pof::gap::blind::run_trial(seed, count, false, g_dir);
+    const Trial t = pof::gap::blind::run_trial(seed, count, false, g_dir, {}, 0.3, dynamic_share);
     if (!g_keep) fs::remove(t.csv);
     worst_time = std::max(worst_time, t.analysis_s);
+    const std::string sensor = t.dynamic.is_null() ? "paper" : "dynamic";
+    const std::string chosen = t.gap["baseline"].contains("choice") ? t.gap["baseline"]["choice"].value("chosen", "?") : "?";
     std::string hid, fnd;
     for (const auto& h : t.hidden) hid += (hid.empty() ? "" : "+") + h.effect;
     for (const auto& f : t.found) fnd += (fnd.empty() ? "" : "+") + f;
-    std::fprintf(stderr, "  seed %3llu hidden %-45s found %-45s gap %.3f -> %.3f deg (%.1f s)\n",
-                 static_cast<unsigned long long>(seed), hid.empty() ? "none" : hid.c_str(), fnd.empty() ? "none" : fnd.c_str(),
-                 t.baseline_gap_deg, t.final_gap_deg, t.analysis_s);
+    std::fprintf(stderr, "  seed %3llu %-7s sensor, %-7s baseline, hidden %-45s found %-45s gap %.3f -> %.3f deg (%.1f s)\n",
+                 static_cast<unsigned long long>(seed), sensor.c_str(), chosen.c_str(), hid.empty() ? "none" : hid.c_str(),
+                 fnd.empty() ? "none" : fnd.c_str(), t.baseline_gap_deg, t.final_gap_deg, t.analysis_s);
+    all_trials.add(t);
+    by_sensor[sensor].add(t);
+    baseline_choice[sensor + " sensor -> " + chosen + " baseline"]++;
     if (t.hidden.empty()) {
-      ++none_trials;
-      none_false += t.found.empty() ? 0 : 1;
       confusion["none"][t.found.empty() ? "none" : t.found.front()]++;
     } else {
-      if (t.hidden.size() == 1) { ++one_trials; one_exact += t.correct() ? 1 : 0; }
-      if (t.hidden.size() == 2) { ++two_trials; two_both += t.hits() == 2 ? 1 : 0; }
-      shrink.push_back(t.shrink());
-      const auto& c = t.gap["compensated"];
-      comp_down.push_back(c.value("reduction_pct", 0.0) / 100.0);  // 0 when the compensator could not run it
-      const double before = c.value("rmse_before_deg", 0.0);
-      // model.toml holds the baseline when the found model did not beat it: no change then.
-      const double written = c.value("model_toml", std::string()) == "found model" ? c.value("rmse_written_deg", before) : before;
-      comp_written.push_back(before > 0 ? 1.0 - written / before : 0.0);
-      if (c.contains("steady")) {
-        comp_steady.push_back(c["steady"].value("reduction_pct", 0.0) / 100.0);
-        transition_share.push_back(c["steady"].value("transition_share_of_squared_error_before", 0.0));
-      }
       for (const auto& h : t.hidden) {
-        ++hidden_total;
         const bool hit = std::count(t.found.begin(), t.found.end(), h.effect) > 0;
-        hits += hit ? 1 : 0;
         std::string col = "none";
         if (hit) col = h.effect;
         else
@@ -93,22 +139,17 @@ void run_blind(int n, std::uint64_t seed0) {
             if (std::none_of(t.hidden.begin(), t.hidden.end(), [&](const auto& x) { return x.effect == f; })) { col = f; break; }
         confusion[h.effect][col]++;
       }
-      extra += t.false_finds();
     }
-    nlohmann::json j{{"seed", seed}, {"found", t.found}, {"baseline_gap_deg", t.baseline_gap_deg},
+    nlohmann::json j{{"seed", seed}, {"sensor", sensor}, {"found", t.found}, {"baseline_gap_deg", t.baseline_gap_deg},
                      {"final_gap_deg", t.final_gap_deg}, {"analysis_s", t.analysis_s},
-                     {"compensated", t.gap["compensated"]}, {"baseline", t.gap["baseline"]["refit_rms_mv"]}};
+                     {"compensated", t.gap["compensated"]}, {"baseline", t.gap["baseline"]["refit_rms_mv"]},
+                     {"baseline_choice", t.gap["baseline"].value("choice", nlohmann::json())}};
+    if (!t.dynamic.is_null()) j["dynamic_sensor"] = t.dynamic;
     for (const auto& h : t.hidden) j["hidden"].push_back({{"effect", h.effect}, {"truth", h.truth}});
     j["steps"] = t.gap["steps"];
     all.push_back(j);
   }
   pof::io::write_file_atomic(g_dir / "blind.json", all.dump(1) + "\n");
-  auto median_of = [](std::vector<double> x) {
-    std::sort(x.begin(), x.end());
-    return x.empty() ? 0.0 : (x.size() % 2 ? x[x.size() / 2] : 0.5 * (x[x.size() / 2 - 1] + x[x.size() / 2]));
-  };
-  std::sort(shrink.begin(), shrink.end());
-  const double median = median_of(shrink);
   // Markdown, ready for BENCHMARKS.md.
   std::vector<std::string> cols{"none"};
   for (auto id : pof::core::kEffectIds) cols.emplace_back(id);
@@ -134,25 +175,15 @@ void run_blind(int n, std::uint64_t seed0) {
     }
     std::cout << '\n';
   }
-  std::printf("\nrecordings: %d (%d with no hidden effect, %d hidden effects in the others)\n", n, none_trials, hidden_total);
-  std::printf("effects named correctly: %d / %d = %.1f %%\n", hits, hidden_total, hidden_total ? 100.0 * hits / hidden_total : 0.0);
-  std::printf("false discoveries on recordings with no hidden effect: %d / %d = %.1f %%\n", none_false, none_trials,
-              none_trials ? 100.0 * none_false / none_trials : 0.0);
-  std::printf("extra (wrong) effects named on recordings with hidden effects: %d\n", extra);
-  std::printf("one hidden effect: named with no extra in %d / %d = %.1f %%\n", one_exact, one_trials,
-              one_trials ? 100.0 * one_exact / one_trials : 0.0);
-  std::printf("two hidden effects: both named in %d / %d = %.1f %%\n", two_both, two_trials,
-              two_trials ? 100.0 * two_both / two_trials : 0.0);
-  std::printf("median held-out gap shrink with an effect hidden: %.1f %% (min %.1f %%, n = %zu)\n", 100 * median,
-              shrink.empty() ? 0.0 : 100 * shrink.front(), shrink.size());
-  std::printf("median held-out compensated-angle RMSE reduction (pof compensate's angle vs the reference) with an "
-              "effect hidden: %.1f %% (n = %zu)\n", 100 * median_of(comp_down), comp_down.size());
-  std::printf("the same with what model.toml holds (harmful terms left out, chosen on the same blocks: optimistic): "
-              "%.1f %%\n", 100 * median_of(comp_written));
-  std::printf("the same outside the 0.5 s after each start, stop and reversal (the step model's own branch errors): "
-              "%.1f %% (n = %zu); those 0.5 s hold a median %.0f %% of the baseline's squared error\n",
-              100 * median_of(comp_steady), comp_steady.size(), 100 * median_of(transition_share));
-  std::printf("slowest analysis: %.2f s\n\n", worst_time);
+  std::printf("\nAll recordings\n");
+  all_trials.print();
+  for (const auto& [sensor, tally] : by_sensor) {
+    std::printf("\nSensors of the %s kind\n", sensor.c_str());
+    tally.print();
+  }
+  std::printf("\nbaseline taken:");
+  for (const auto& [k, v] : baseline_choice) std::printf(" %s %d;", k.c_str(), v);
+  std::printf("\nslowest analysis: %.2f s\n\n", worst_time);
   std::fflush(stdout);
 }
 
@@ -191,6 +222,7 @@ BENCHMARK(BM_Gap40minFull)->Unit(benchmark::kSecond)->Iterations(2)->UseRealTime
 int main(int argc, char** argv) {
   int n = 50;
   std::uint64_t seed = 1;
+  double dynamic_share = 0.5;
   std::vector<char*> rest{argv[0]};
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -198,10 +230,11 @@ int main(int argc, char** argv) {
     else if (a == "--seed" && i + 1 < argc) seed = std::strtoull(argv[++i], nullptr, 10);
     else if (a == "--out" && i + 1 < argc) g_dir = argv[++i];
     else if (a == "--keep") g_keep = true;
+    else if (a == "--dynamic-share" && i + 1 < argc) dynamic_share = std::atof(argv[++i]);
     else rest.push_back(argv[i]);
   }
   fs::create_directories(g_dir);
-  if (n > 0) run_blind(n, seed);
+  if (n > 0) run_blind(n, seed, dynamic_share);
   int rc = static_cast<int>(rest.size());
   benchmark::Initialize(&rc, rest.data());
   make_long_recording();

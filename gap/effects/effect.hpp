@@ -16,6 +16,7 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include "pof/core/dynamic_model.hpp"
 #include "pof/core/effects.hpp"
 #include "pof/core/model.hpp"
 #include "pof/gap/signals.hpp"
@@ -25,11 +26,14 @@ namespace pof::gap {
 /// What every effect may use: the recording and the baseline model it is added to.
 struct Context {
   const Signals* s = nullptr;
-  core::ModelCoefficients m;  // the baseline (the paper's structure refitted to this recording)
+  core::ModelCoefficients m;  // the paper's structure refitted to this recording (the baseline unless dyn is set)
   double duration_s = 0;
   double max_speed_rad_s = 0;  // the recording's largest |w| (where a moved structure must stay invertible)
   core::ModelCoefficients origin;  // the baseline as fitted, before any move (how far m may move)
   double angle_min_deg = 0, angle_max_deg = 90;  // the recording's angle range
+  // The dynamic model when it is the baseline (docs/gap.md, section 1): its regressors are the
+  // structure columns and its voltage v0; m still gives f5 and the sensitivity effects scale by.
+  std::optional<core::DynamicModel> dyn, dyn_origin;  // now, and as fitted before any move
 };
 
 enum class Acts : int {

@@ -16,6 +16,7 @@
 #include "pof/core/compensator.hpp"
 #include "pof/gap/gap.hpp"
 #include "pof/gap/localise.hpp"
+#include "pof/io/report_json.hpp"
 #include "search.hpp"
 #include "whiteness.hpp"
 
@@ -93,7 +94,8 @@ Assessment assess(const Search& sx, const State& st, const CandidateResult& w, I
   a.candidate = &w;
   a.after.resize(sx.cx.s->n);
   Search at = sx;  // the candidate was scored at its own linearisation of the baseline
-  at.cx.m = w.base;
+  at.cx.m = w.base.paper;
+  at.cx.dyn = w.base.dynamic;
   std::vector<json> fold_params;
   for (std::size_t f = 0; f < sx.blocks.size(); ++f) {
     const double th = w.grid.empty() ? 0.0 : w.grid[w.fit.theta_idx[f]];
@@ -130,6 +132,7 @@ CurrentFit relinearise(Search& sx, const State& st) {
     CurrentFit next = fit_state(at, st);
     if (!(next.fit.full_rss < cur.fit.full_rss)) break;
     sx.cx.m = at.cx.m;
+    sx.cx.dyn = at.cx.dyn;
     cur = std::move(next);
   }
   return cur;
@@ -188,15 +191,15 @@ Result analyse(const io::Recording& rec, const Options& opt) {
 
   say("baseline: fitting the paper's model structure to the recording (calibration, then every coefficient)");
   const Baseline base = fit_baseline(rec, s, kp);
-  Search sx;
-  sx.cx.s = &s;
-  sx.cx.m = sx.cx.origin = base.model;
-  sx.cx.angle_min_deg = s.angle.minCoeff();
-  sx.cx.angle_max_deg = s.angle.maxCoeff();
-  sx.cx.duration_s = s.t(s.n - 1) + s.dt;
-  sx.blocks = cv::make_blocks(kp, std::max(2, opt.folds));
+  Search sx0;
+  sx0.cx.s = &s;
+  sx0.cx.m = sx0.cx.origin = base.model;
+  sx0.cx.angle_min_deg = s.angle.minCoeff();
+  sx0.cx.angle_max_deg = s.angle.maxCoeff();
+  sx0.cx.duration_s = s.t(s.n - 1) + s.dt;
+  sx0.blocks = cv::make_blocks(kp, std::max(2, opt.folds));
   const Kinematics k0 = make_kinematics(s.angle, s.dt, 0.0, base.model);
-  sx.cx.max_speed_rad_s = k0.w.cwiseAbs().maxCoeff();
+  sx0.cx.max_speed_rad_s = k0.w.cwiseAbs().maxCoeff();
   const std::vector<Phase> phases = classify_phases(k0, s.dt);
   const double N = static_cast<double>(s.n);
   const double c9 = std::abs(base.model.c9);  // gaps in degrees at the baseline's sensitivity, for every step
@@ -205,140 +208,218 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   auto to_deg = [&](const VectorXd& r) { return VectorXd(-r * c9); };
 
   Result res;
-  res.recording = {{"scans", s.n}, {"rate_hz", 1.0 / s.dt}, {"duration_s", sx.cx.duration_s},
-                   {"reference_level_v", s.reference_level_v}, {"folds", sx.blocks.size()}};
+  res.recording = {{"scans", s.n}, {"rate_hz", 1.0 / s.dt}, {"duration_s", sx0.cx.duration_s},
+                   {"reference_level_v", s.reference_level_v}, {"folds", sx0.blocks.size()}};
   json bounds = json::array();
-  for (std::size_t i = 0; i < sx.blocks.size(); ++i) bounds.push_back(s.t(sx.blocks.start[i]));
+  for (std::size_t i = 0; i < sx0.blocks.size(); ++i) bounds.push_back(s.t(sx0.blocks.start[i]));
   res.recording["fold_start_s"] = bounds;
 
-  State st;
-  // The structure is relinearised like every later state, so what the refit (every 4th scan,
-  // <= 50 iterations) left is not credited to the first candidate.
-  CurrentFit cur = relinearise(sx, st);
-  const core::ModelCoefficients baseline_model = moved_model(sx.cx, cur.fit.beta_full);
-  res.baseline_gap_deg = gap_deg(cur.fit.cv_rss);
+  // One search per baseline: `start` fits the structure alone, `grow` adds effects one step at a
+  // time (docs/gap.md, sections 3-4).
+  struct Grown {
+    Search sx;
+    State st;
+    CurrentFit cur;
+    Structure baseline;      // the structure alone, fitted on all data
+    VectorXd baseline_resid;  // its held-out residual [V]
+    double baseline_gap = 0, final_gap = 0;
+    std::vector<Step> steps;
+    VectorXd strict_resid;  // the held-out residual of the last accepted step [V]
+    json last_rejected;
+  };
+  auto start = [&](Search from) {
+    Grown g;
+    g.sx = std::move(from);
+    // The structure is relinearised like every later state, so what the refit (every 4th scan,
+    // <= 50 iterations) left is not credited to the first candidate.
+    g.cur = relinearise(g.sx, g.st);
+    g.baseline = moved_structure(g.sx.cx, g.cur.fit.beta_full);
+    g.baseline_resid = g.strict_resid = g.cur.cv_resid;
+    g.baseline_gap = g.final_gap = gap_deg(g.cur.fit.cv_rss);
+    return g;
+  };
+  auto grow = [&](Grown& g) {
+    Search& sx = g.sx;
+    State& st = g.st;
+    CurrentFit& cur = g.cur;
+    VectorXd& strict_resid = g.strict_resid;
+    for (int step = 1; step <= opt.max_steps; ++step) {
+      say("step " + std::to_string(step) + ": fitting " + std::to_string(core::kEffectCount) + " candidate effects");
+      const std::vector<CandidateResult> cands = evaluate_all(sx, st, cur, opt.threads);
+      const double n_eff = cv::effective_n(cur.cv_resid);
+      const double rss0 = cur.fit.cv_rss;
+      json scores = json::object();
+      std::vector<std::pair<double, std::size_t>> order;  // (delta BIC, candidate), best first
+      for (std::size_t i = 0; i < cands.size(); ++i) {
+        const CandidateResult& c = cands[i];
+        const std::string id(core::to_string(c.effect));
+        if (!c.applicable) { scores[id] = {{"applicable", false}, {"note", c.note}}; continue; }
+        const double red = 1.0 - std::sqrt(c.fit.cv_rss / rss0);
+        const double dbic = n_eff * std::log(c.fit.cv_rss / rss0) + c.n_params * std::log(n_eff);
+        scores[id] = {{"heldout_gap_deg", gap_deg(c.fit.cv_rss)}, {"reduction_pct", 100 * red}, {"delta_bic", dbic},
+                      {"parameters", c.n_params}};
+        if (std::isfinite(dbic)) order.emplace_back(dbic, i);  // (a residual of exactly 0 leaves nothing to rank)
+      }
+      std::sort(order.begin(), order.end());
+      auto passes = [&](std::size_t i) {
+        const double red = 1.0 - std::sqrt(cands[i].fit.cv_rss / rss0);
+        return red >= opt.min_reduction && -scores[std::string(core::to_string(cands[i].effect))]["delta_bic"].get<double>() > opt.min_delta_bic;
+      };
+      // Parsimony between nested effects: the general one must beat the simpler one it generalises
+      // by the acceptance rule, as a further step on top of it would have to.
+      auto parsimonious = [&](std::size_t i) {
+        const auto simpler = effect_def(cands[i].effect).generalises;
+        if (!simpler) return i;
+        const auto si = static_cast<std::size_t>(*simpler);
+        if (!cands[si].applicable) return i;
+        const double red_over = 1.0 - std::sqrt(cands[i].fit.cv_rss / cands[si].fit.cv_rss);
+        const double dbic_over = n_eff * std::log(cands[i].fit.cv_rss / cands[si].fit.cv_rss) +
+                                 (cands[i].n_params - cands[si].n_params) * std::log(n_eff);
+        if (red_over >= opt.min_reduction && -dbic_over > opt.min_delta_bic) return i;
+        scores[std::string(core::to_string(cands[i].effect))]["not_preferred_to"] = std::string(core::to_string(*simpler));
+        return si;
+      };
+      // The first candidate, best delta BIC first, that passes the rule and whose magnitude its
+      // jackknife tells apart from zero (|x| > 2 SE: a 4 +- 3 ms delay is no finding).
+      std::optional<Assessment> chosen;
+      std::vector<std::size_t> tried;
+      for (const auto& [dbic, i0] : order) {
+        if (!passes(i0)) break;
+        const std::size_t i = parsimonious(i0);
+        if (!passes(i) || std::find(tried.begin(), tried.end(), i) != tried.end()) continue;
+        tried.push_back(i);
+        Assessment a = assess(sx, st, cands[i], cur.d.X.cols());
+        if (a.significant) { chosen = std::move(a); break; }
+        scores[std::string(core::to_string(cands[i].effect))]["not_significant"] = a.significance;
+        say("step " + std::to_string(step) + ": " + std::string(core::to_string(cands[i].effect)) + " " + a.significance);
+      }
+      if (!chosen) {
+        if (!order.empty()) {
+          const CandidateResult& b = cands[order.front().second];
+          const double red = 1.0 - std::sqrt(b.fit.cv_rss / rss0);
+          say("step " + std::to_string(step) + ": best " + std::string(core::to_string(b.effect)) + " (" + fmt(100 * red, 1) +
+              " %, dBIC " + fmt(order.front().first, 1) + "): not significant, stopping");
+          g.last_rejected = {{"effect", std::string(core::to_string(b.effect))}, {"reduction_pct", 100 * red},
+                                            {"delta_bic", order.front().first}, {"all", scores}};
+        }
+        break;
+      }
+      const CandidateResult& w = *chosen->candidate;
+      const EffectDef& def = effect_def(w.effect);
+      const std::string wid(core::to_string(w.effect));
+      const double red = 1.0 - std::sqrt(w.fit.cv_rss / rss0);
+      const double wbic = scores[wid]["delta_bic"].get<double>();
+      say("step " + std::to_string(step) + ": " + wid + " (held-out gap " + fmt(gap_deg(rss0)) + " -> " +
+          fmt(gap_deg(w.fit.cv_rss)) + " deg, " + fmt(100 * red, 1) + " %, dBIC " + fmt(wbic, 1) + "): accepted");
+
+      // Where: the part of the residual this effect explains, localised.
+      const VectorXd explained = to_deg(VectorXd(cur.cv_resid - chosen->after));
+      const Localisation loc = localise(explained, s, k0, phases);
+      const Localisation before_loc = localise(to_deg(cur.cv_resid), s, k0, phases);
+      Step stp;
+      stp.effect = wid;
+      stp.gap_deg = gap_deg(w.fit.cv_rss);
+      stp.where = loc.sentence;
+      stp.parameters = chosen->parameters;
+      std::string runner_up;
+      double runner_bic = 0;
+      for (const auto& [dbic, i] : order)
+        if (cands[i].effect != w.effect) { runner_up = std::string(core::to_string(cands[i].effect)); runner_bic = dbic; break; }
+      stp.evidence = {{"heldout_gap_before_deg", gap_deg(rss0)},
+                      {"heldout_gap_after_deg", stp.gap_deg},
+                      {"reduction_pct", 100 * red},
+                      {"delta_bic", wbic},
+                      {"n_eff", n_eff},
+                      {"meaning", std::string(def.meaning)},
+                      {"significance", chosen->significance},
+                      {"runner_up", runner_up},
+                      {"runner_up_delta_bic", runner_bic},
+                      {"residual_before_where", before_loc.sentence},
+                      {"phase_rms_before_deg", phase_rms(to_deg(cur.cv_resid), phases)},
+                      {"phase_rms_after_deg", phase_rms(to_deg(chosen->after), phases)},
+                      {"explained_localisation", loc.detail},
+                      {"candidates", scores}};
+      g.steps.push_back(stp);
+      const double th_full = w.grid.empty() ? 0.0 : w.grid[w.fit.full_idx];
+      st = st.with(w.effect, th_full);
+      sx.cx.m = w.base.paper;
+      sx.cx.dyn = w.base.dynamic;
+      if (st.size() > 1) refit_thetas(sx, st, chosen->after);
+      // The next ranking compares candidates with the state refitted the same way they are (accepted
+      // nonlinear parameters fixed); the reported gaps stay the strict per-fold ones.
+      cur = relinearise(sx, st);
+      g.steps.back().evidence["heldout_gap_refitted_deg"] = gap_deg(cur.fit.cv_rss);
+      strict_resid = chosen->after;
+    }
+    g.final_gap = g.steps.empty() ? g.baseline_gap : g.steps.back().gap_deg;
+  };
+
+  // The paper structure first; then the second baseline, the dynamic model fitted to the recording
+  // (docs/gap.md, section 1), searched from too (when: below). It is taken when, with effects of
+  // its own, it explains the recording better by the acceptance rule's margin (opt.min_reduction), or as well (within it) with
+  // fewer effects: the same loop told by stop operators and Prony terms in the structure or by
+  // memory and creep terms on the paper's steps is one explanation, and the shorter is the
+  // sensor's. A paper-structure sensor with a creep keeps the paper structure and names the creep;
+  // a fibre with memory and relaxation gets the dynamic model and no effect.
+  say("baseline: the paper's structure");
+  Grown chosen = start(sx0);
+  say("baseline: held-out gap " + fmt(chosen.baseline_gap) + " deg");
+  grow(chosen);
+  json choice = {{"paper", {{"heldout_gap_deg", chosen.baseline_gap}, {"final_gap_deg", chosen.final_gap},
+                            {"steps", chosen.steps.size()}}}};
+  if (base.dynamic) {
+    Search sd = sx0;
+    sd.cx.dyn = sd.cx.dyn_origin = base.dynamic;
+    Grown dyn = start(sd);
+    choice["dynamic"] = {{"heldout_gap_deg", dyn.baseline_gap}};
+    const double margin = 1.0 - opt.min_reduction;
+    // Searched from when its structure alone beats the paper structure alone, or is not worse
+    // than the paper structure with its effects (by the margin either way): a dynamic structure
+    // missing one effect can lose to the paper structure with three, and win once it has that one.
+    if (dyn.baseline_gap < margin * chosen.baseline_gap || dyn.baseline_gap * margin < chosen.final_gap) {
+      say("baseline: the dynamic model (held-out gap " + fmt(dyn.baseline_gap) + " deg; the paper structure with its " +
+          "effects " + fmt(chosen.final_gap) + " deg): searching from it too");
+      grow(dyn);
+      choice["dynamic"]["final_gap_deg"] = dyn.final_gap;
+      choice["dynamic"]["steps"] = dyn.steps.size();
+      const bool better = dyn.final_gap < margin * chosen.final_gap;
+      const bool simpler = dyn.final_gap * margin <= chosen.final_gap && dyn.steps.size() < chosen.steps.size();
+      if (better || simpler) {
+        choice["why"] = better ? "the dynamic model with its effects explains the recording better"
+                               : "the dynamic model explains the recording as well with fewer effects";
+        chosen = std::move(dyn);
+      } else {
+        choice["why"] = "the paper structure with its effects explains the recording as well or better, with no more effects";
+      }
+    } else {
+      choice["dynamic"]["not_searched"] = "its structure alone does not beat the paper structure alone, and is worse than the "
+                                          "paper structure with its effects, by " + fmt(100 * opt.min_reduction, 0) + " %";
+    }
+  }
+  const Search& fin = chosen.sx;
+  choice["chosen"] = fin.cx.dyn ? "dynamic" : "paper";
+  const Structure baseline_model = chosen.baseline;
+  res.baseline_gap_deg = chosen.baseline_gap;
+  res.steps = chosen.steps;
+  if (!chosen.last_rejected.is_null()) res.whiteness["last_rejected"] = chosen.last_rejected;
   {
-    const Localisation loc = localise(to_deg(cur.cv_resid), s, k0, phases);
+    const Localisation loc = localise(to_deg(chosen.baseline_resid), s, k0, phases);
     res.baseline = base.detail;
+    res.baseline["choice"] = choice;
+    res.baseline["structure"] = choice["chosen"];
+    if (baseline_model.dynamic) res.baseline["dynamic"]["model"] = io::dynamic_model_json(*baseline_model.dynamic);
     res.baseline["c9_deg_per_v"] = base.model.c9;
     res.baseline["c10_deg"] = base.model.c10;
     res.baseline["heldout_gap_deg"] = res.baseline_gap_deg;
     res.baseline["where"] = loc.sentence;
     res.baseline["localisation"] = loc.detail;
   }
-  say("baseline: held-out gap " + fmt(res.baseline_gap_deg) + " deg");
-  const VectorXd resid_baseline = to_deg(cur.cv_resid);
-  const VectorXd model_baseline = s.v - cur.cv_resid;
-  VectorXd strict_resid = cur.cv_resid;
-
-  for (int step = 1; step <= opt.max_steps; ++step) {
-    say("step " + std::to_string(step) + ": fitting " + std::to_string(core::kEffectCount) + " candidate effects");
-    const std::vector<CandidateResult> cands = evaluate_all(sx, st, cur, opt.threads);
-    const double n_eff = cv::effective_n(cur.cv_resid);
-    const double rss0 = cur.fit.cv_rss;
-    json scores = json::object();
-    std::vector<std::pair<double, std::size_t>> order;  // (delta BIC, candidate), best first
-    for (std::size_t i = 0; i < cands.size(); ++i) {
-      const CandidateResult& c = cands[i];
-      const std::string id(core::to_string(c.effect));
-      if (!c.applicable) { scores[id] = {{"applicable", false}, {"note", c.note}}; continue; }
-      const double red = 1.0 - std::sqrt(c.fit.cv_rss / rss0);
-      const double dbic = n_eff * std::log(c.fit.cv_rss / rss0) + c.n_params * std::log(n_eff);
-      scores[id] = {{"heldout_gap_deg", gap_deg(c.fit.cv_rss)}, {"reduction_pct", 100 * red}, {"delta_bic", dbic},
-                    {"parameters", c.n_params}};
-      if (std::isfinite(dbic)) order.emplace_back(dbic, i);  // (a residual of exactly 0 leaves nothing to rank)
-    }
-    std::sort(order.begin(), order.end());
-    auto passes = [&](std::size_t i) {
-      const double red = 1.0 - std::sqrt(cands[i].fit.cv_rss / rss0);
-      return red >= opt.min_reduction && -scores[std::string(core::to_string(cands[i].effect))]["delta_bic"].get<double>() > opt.min_delta_bic;
-    };
-    // Parsimony between nested effects: the general one must beat the simpler one it generalises
-    // by the acceptance rule, as a further step on top of it would have to.
-    auto parsimonious = [&](std::size_t i) {
-      const auto simpler = effect_def(cands[i].effect).generalises;
-      if (!simpler) return i;
-      const auto si = static_cast<std::size_t>(*simpler);
-      if (!cands[si].applicable) return i;
-      const double red_over = 1.0 - std::sqrt(cands[i].fit.cv_rss / cands[si].fit.cv_rss);
-      const double dbic_over = n_eff * std::log(cands[i].fit.cv_rss / cands[si].fit.cv_rss) +
-                               (cands[i].n_params - cands[si].n_params) * std::log(n_eff);
-      if (red_over >= opt.min_reduction && -dbic_over > opt.min_delta_bic) return i;
-      scores[std::string(core::to_string(cands[i].effect))]["not_preferred_to"] = std::string(core::to_string(*simpler));
-      return si;
-    };
-    // The first candidate, best delta BIC first, that passes the rule and whose magnitude its
-    // jackknife tells apart from zero (|x| > 2 SE: a 4 +- 3 ms delay is no finding).
-    std::optional<Assessment> chosen;
-    std::vector<std::size_t> tried;
-    for (const auto& [dbic, i0] : order) {
-      if (!passes(i0)) break;
-      const std::size_t i = parsimonious(i0);
-      if (!passes(i) || std::find(tried.begin(), tried.end(), i) != tried.end()) continue;
-      tried.push_back(i);
-      Assessment a = assess(sx, st, cands[i], cur.d.X.cols());
-      if (a.significant) { chosen = std::move(a); break; }
-      scores[std::string(core::to_string(cands[i].effect))]["not_significant"] = a.significance;
-      say("step " + std::to_string(step) + ": " + std::string(core::to_string(cands[i].effect)) + " " + a.significance);
-    }
-    if (!chosen) {
-      if (!order.empty()) {
-        const CandidateResult& b = cands[order.front().second];
-        const double red = 1.0 - std::sqrt(b.fit.cv_rss / rss0);
-        say("step " + std::to_string(step) + ": best " + std::string(core::to_string(b.effect)) + " (" + fmt(100 * red, 1) +
-            " %, dBIC " + fmt(order.front().first, 1) + "): not significant, stopping");
-        res.whiteness["last_rejected"] = {{"effect", std::string(core::to_string(b.effect))}, {"reduction_pct", 100 * red},
-                                          {"delta_bic", order.front().first}, {"all", scores}};
-      }
-      break;
-    }
-    const CandidateResult& w = *chosen->candidate;
-    const EffectDef& def = effect_def(w.effect);
-    const std::string wid(core::to_string(w.effect));
-    const double red = 1.0 - std::sqrt(w.fit.cv_rss / rss0);
-    const double wbic = scores[wid]["delta_bic"].get<double>();
-    say("step " + std::to_string(step) + ": " + wid + " (held-out gap " + fmt(gap_deg(rss0)) + " -> " +
-        fmt(gap_deg(w.fit.cv_rss)) + " deg, " + fmt(100 * red, 1) + " %, dBIC " + fmt(wbic, 1) + "): accepted");
-
-    // Where: the part of the residual this effect explains, localised.
-    const VectorXd explained = to_deg(VectorXd(cur.cv_resid - chosen->after));
-    const Localisation loc = localise(explained, s, k0, phases);
-    const Localisation before_loc = localise(to_deg(cur.cv_resid), s, k0, phases);
-    Step stp;
-    stp.effect = wid;
-    stp.gap_deg = gap_deg(w.fit.cv_rss);
-    stp.where = loc.sentence;
-    stp.parameters = chosen->parameters;
-    std::string runner_up;
-    double runner_bic = 0;
-    for (const auto& [dbic, i] : order)
-      if (cands[i].effect != w.effect) { runner_up = std::string(core::to_string(cands[i].effect)); runner_bic = dbic; break; }
-    stp.evidence = {{"heldout_gap_before_deg", gap_deg(rss0)},
-                    {"heldout_gap_after_deg", stp.gap_deg},
-                    {"reduction_pct", 100 * red},
-                    {"delta_bic", wbic},
-                    {"n_eff", n_eff},
-                    {"meaning", std::string(def.meaning)},
-                    {"significance", chosen->significance},
-                    {"runner_up", runner_up},
-                    {"runner_up_delta_bic", runner_bic},
-                    {"residual_before_where", before_loc.sentence},
-                    {"phase_rms_before_deg", phase_rms(to_deg(cur.cv_resid), phases)},
-                    {"phase_rms_after_deg", phase_rms(to_deg(chosen->after), phases)},
-                    {"explained_localisation", loc.detail},
-                    {"candidates", scores}};
-    res.steps.push_back(stp);
-    const double th_full = w.grid.empty() ? 0.0 : w.grid[w.fit.full_idx];
-    st = st.with(w.effect, th_full);
-    sx.cx.m = w.base;
-    if (st.size() > 1) refit_thetas(sx, st, chosen->after);
-    // The next ranking compares candidates with the state refitted the same way they are (accepted
-    // nonlinear parameters fixed); the reported gaps stay the strict per-fold ones.
-    cur = relinearise(sx, st);
-    res.steps.back().evidence["heldout_gap_refitted_deg"] = gap_deg(cur.fit.cv_rss);
-    strict_resid = chosen->after;
-  }
-  res.final_gap_deg = res.steps.empty() ? res.baseline_gap_deg : res.steps.back().gap_deg;
+  const VectorXd resid_baseline = to_deg(chosen.baseline_resid);
+  const VectorXd model_baseline = s.v - chosen.baseline_resid;
+  const VectorXd& strict_resid = chosen.strict_resid;
+  const State& st = chosen.st;
+  const CurrentFit& cur = chosen.cur;
+  res.final_gap_deg = chosen.final_gap;
 
   const VectorXd rf = to_deg(strict_resid);
   {
@@ -354,7 +435,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   say("compensating the held-out blocks with the baseline and with the found model");
   try {
     const std::vector<bool> transition = transition_scans(k0, s.dt, core::CompensatorSettings{}.velocity_window_s);
-    res.compensated = compensated_rmse(rec, sx, baseline_model, st, cur, transition, &written, &comp_before, &comp_after);
+    res.compensated = compensated_rmse(rec, fin, baseline_model, st, cur, transition, &written, &comp_before, &comp_after);
   } catch (const std::exception& e) {
     // The compensator refused a model (std::invalid_argument from its constructor): the analysis
     // stands, model.toml holds the baseline, and the report says why.
@@ -379,8 +460,8 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   }
   {
     const VectorXd b = cur.fit.beta_full;
-    const core::ModelCoefficients mm = write_baseline ? baseline_model : moved_model(sx.cx, b);
-    const core::GapModel g = gap_model_of(st, b, sx.cx);
+    const Structure mm = write_baseline ? baseline_model : moved_structure(fin.cx, b);
+    const core::GapModel g = gap_model_of(st, b, fin.cx);
     json terms = json::array();
     for (std::size_t i = 0; i < g.terms.size(); ++i) {
       if (!written.terms[i]) continue;  // its online application made the held-out angle worse
@@ -393,9 +474,12 @@ Result analyse(const io::Recording& rec, const Options& opt) {
       term["parameters"] = p;
       terms.push_back(term);
     }
-    res.model = coefficients_json(mm);
+    res.model = coefficients_json(mm.paper);
+    res.model["structure"] = mm.dynamic ? "dynamic" : "paper";
+    if (mm.dynamic) res.model["dynamic"] = io::dynamic_model_json(*mm.dynamic);
+    res.dynamic_model = mm.dynamic;
     res.model.update({{"reference_level_v", s.reference_level_v}, {"delay_s", written.delay ? st.delay_s : 0.0},
-                      {"backlash_deg", written.backlash ? st.backlash_deg : 0.0}, {"duration_s", sx.cx.duration_s},
+                      {"backlash_deg", written.backlash ? st.backlash_deg : 0.0}, {"duration_s", fin.cx.duration_s},
                       {"terms", terms}, {"left_out", res.compensated.value("left_out_of_model", json::array())}});
     describe_range(res.model, s, k0);
   }

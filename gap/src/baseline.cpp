@@ -49,6 +49,7 @@ Baseline fit_baseline(const io::Recording& rec, const Signals& s, const Kinemati
   try {
     const core::DynamicFitResult dyn = core::fit_dynamic(rec.t_s, s.v, s.angle);
     const core::DynamicModel& m = dyn.model;
+    b.dynamic = m;
     d["dynamic"] = {{"heldout_rmse_deg", dyn.chosen.cv_rmse_deg},
                     {"degree", m.degree},
                     {"stop_operators", m.n_operators},

@@ -19,7 +19,7 @@ core::GapModel gap_model_of(const State& st, const VectorXd& beta, const Context
   core::GapModel g;
   g.delay_s = st.delay_s;
   g.backlash_deg = st.backlash_deg;
-  Index c = kBaseCols;
+  Index c = base_cols(cx);
   for (const Term& t : st.terms) {
     const EffectDef& def = effect_def(t.effect);
     core::GapTerm term;
@@ -73,7 +73,7 @@ struct HeldOut {
 // The compensator's angle with the state's terms (those `use` keeps), fold by fold with the model
 // fitted on the other folds, scored on the held-out blocks. Terms the compensator refuses are
 // skipped and named in not_applied.
-HeldOut held_out(const io::Recording& rec, const Search& sx, const core::Calibration& base, const State& st,
+HeldOut held_out(const io::Recording& rec, const Search& sx, const State& st,
                  const CurrentFit& after, const Applied& use, const VectorXd& a0, nlohmann::json* not_applied) {
   const Signals& s = *sx.cx.s;
   const double rate = 1.0 / s.dt;
@@ -82,8 +82,7 @@ HeldOut held_out(const io::Recording& rec, const Search& sx, const core::Calibra
   double ss = 0;
   Index n = 0;
   for (std::size_t f = 0; f < sx.blocks.size(); ++f) {
-    core::Calibration cal = base;
-    cal.model = moved_model(sx.cx, after.fit.beta[f]);
+    core::Calibration cal = calibration_of(moved_structure(sx.cx, after.fit.beta[f]), s);
     core::GapModel g = gap_model_of(st, after.fit.beta[f], sx.cx);
     if (!use.delay) g.delay_s = 0;
     if (!use.backlash) g.backlash_deg = 0;
@@ -123,16 +122,25 @@ std::vector<bool> transition_scans(const Kinematics& k, double dt, double window
   return out;
 }
 
-nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, const core::ModelCoefficients& before,
+core::Calibration calibration_of(const Structure& m, const Signals& s) {
+  core::Calibration cal;
+  cal.model = m.paper;
+  if (m.dynamic) {
+    cal.dynamic = m.dynamic;
+    cal.active = core::ModelKind::kDynamic;
+  }
+  cal.reference_level_v = s.reference_level_v;
+  cal.angle_min_deg = s.angle.minCoeff();
+  cal.angle_max_deg = s.angle.maxCoeff();
+  return cal;
+}
+
+nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, const Structure& before,
                                 const State& st, const CurrentFit& after, const std::vector<bool>& transition,
                                 Applied* written, VectorXd* angle_before, VectorXd* angle_after) {
   const Signals& s = *sx.cx.s;
   const double rate = 1.0 / s.dt;
-  core::Calibration base;
-  base.model = before;
-  base.reference_level_v = s.reference_level_v;
-  base.angle_min_deg = s.angle.minCoeff();
-  base.angle_max_deg = s.angle.maxCoeff();
+  const core::Calibration base = calibration_of(before, s);
   const VectorXd a0 = compensate(rec, base, rate);
   double ss0 = 0;
   Index n0 = 0;
@@ -144,7 +152,7 @@ nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, cons
   Applied all;
   all.terms.assign(st.terms.size(), true);
   nlohmann::json not_applied = nlohmann::json::array();
-  const HeldOut with_all = held_out(rec, sx, base, st, after, all, a0, &not_applied);
+  const HeldOut with_all = held_out(rec, sx, st, after, all, a0, &not_applied);
 
   // Each accepted effect left out in turn: one whose online application makes the held-out angle
   // worse (by > 2 %) is not written to model.toml (it stays named in the report). The choice is
@@ -155,7 +163,7 @@ nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, cons
   auto try_without = [&](const std::string& effect, auto clear) {
     Applied without = all;
     clear(without);
-    const HeldOut h = held_out(rec, sx, base, st, after, without, a0, nullptr);
+    const HeldOut h = held_out(rec, sx, st, after, without, a0, nullptr);
     if (h.rmse_deg < 0.98 * with_all.rmse_deg) {
       clear(keep);
       left_out.push_back({{"effect", effect}, {"rmse_with_deg", with_all.rmse_deg}, {"rmse_without_deg", h.rmse_deg}});
@@ -166,7 +174,7 @@ nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, cons
   for (std::size_t t = 0; t < st.terms.size(); ++t)
     try_without(std::string(core::to_string(st.terms[t].effect)), [t](Applied& a) { a.terms[t] = false; });
   const double written_deg = left_out.empty() ? with_all.rmse_deg
-                                              : held_out(rec, sx, base, st, after, keep, a0, nullptr).rmse_deg;
+                                              : held_out(rec, sx, st, after, keep, a0, nullptr).rmse_deg;
   // Outside the transitions (see compensation.hpp); every scan belongs to one held-out block.
   double sb = 0, sa = 0, st_all = 0;
   Index ns = 0;

@@ -12,7 +12,7 @@
 namespace pof::gap {
 
 /// The state's effect terms as the compensator's GapModel (docs/calibration.md, "[gap]"), with the
-/// coefficients of beta (after the kBaseCols baseline columns, in term order).
+/// coefficients of beta (after the base_cols baseline columns, in term order).
 core::GapModel gap_model_of(const State& st, const Eigen::VectorXd& beta, const Context& cx);
 
 /// Which of a state's effects are applied: the kinematic ones and each voltage term (in order).
@@ -22,7 +22,7 @@ struct Applied {
 };
 
 /// Runs core::OnlineCompensator over the recording with the baseline (`before`: its all-data fit)
-/// and, fold by fold, with the model fitted on the other folds (`after`, the fit of state `st` at
+/// (the dynamic model when it is the baseline) and, fold by fold, with the model fitted on the other folds (`after`, the fit of state `st` at
 /// sx's baseline: baseline moved and terms with the fold's coefficients), and scores each fold's held-out block against the reference
 /// angle: RMSE before and after, per fold and overall. Terms the compensator cannot apply online
 /// (drift) are left out of `after` and named in "not_applied". Then each effect is left out in
@@ -34,9 +34,13 @@ struct Applied {
 /// window to see a start, stop or reversal, and until then reads the wrong branch (the step
 /// model's spikes). Those errors are the baseline's, the same before and after, and no effect
 /// term acts on them; the steady figures show what the found model changes everywhere else.
-nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, const core::ModelCoefficients& before,
+nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, const Structure& before,
                                 const State& st, const CurrentFit& after, const std::vector<bool>& transition,
                                 Applied* written, Eigen::VectorXd* angle_before, Eigen::VectorXd* angle_after);
+
+/// The calibration the compensator runs for a structure: the dynamic model, when there is one,
+/// active (inverted online), the paper structure otherwise; range and normalisation from s.
+core::Calibration calibration_of(const Structure& m, const Signals& s);
 
 /// Scans within window_s after the reference's direction changes (hold -> moving, moving -> hold,
 /// flexion <-> extension; Kinematics::s_move).

@@ -65,6 +65,13 @@ std::string model_toml(const Result& r, const std::string& source) {
   f.quality.n_holds = m["n_holds"].get<std::int64_t>();
   f.equation_flexion = "paper eq. (11), coefficients refitted to the voltage by pof gap";
   f.equation_extension = "paper eq. (12), coefficients refitted to the voltage by pof gap";
+  if (r.dynamic_model) {
+    // The dynamic baseline explained the recording better: the compensator inverts it
+    // (docs/calibration.md, "The dynamic model"); the paper structure stays as the fallback.
+    cal.dynamic = r.dynamic_model;
+    cal.active = core::ModelKind::kDynamic;
+    f.dynamic_note = "pof gap: the dynamic model explained the recording better than the paper structure (gap.json, baseline.choice)";
+  }
   core::GapModel g;
   g.delay_s = m["delay_s"].get<double>();
   g.backlash_deg = m["backlash_deg"].get<double>();
@@ -90,7 +97,8 @@ std::string report_md(const Result& r, const std::string& source) {
   o << "# Model gap report: " << source << "\n\n"
     << "Held-out RMS residual (time-blocked " << r.recording["folds"].get<std::size_t>() << "-fold CV) in degrees.\n\n"
     << "| step | effect | held-out gap [deg] | parameters |\n|---|---|---|---|\n"
-    << "| 0 | baseline (paper structure, coefficients fitted to the recording) | " << r.baseline_gap_deg << " | c9 = "
+    << "| 0 | baseline (" << (r.dynamic_model ? "dynamic model" : "paper structure")
+    << ", coefficients fitted to the recording) | " << r.baseline_gap_deg << " | c9 = "
     << r.baseline["c9_deg_per_v"].get<double>() << " deg/V, c10 = " << r.baseline["c10_deg"].get<double>() << " deg |\n";
   int i = 1;
   for (const Step& s : r.steps) o << "| " << i++ << " | " << s.effect << " | " << s.gap_deg << " | `" << s.parameters.dump() << "` |\n";
@@ -100,6 +108,23 @@ std::string report_md(const Result& r, const std::string& source) {
   if (r.baseline.contains("dynamic") && r.baseline["dynamic"].contains("heldout_rmse_deg"))
     o << " Second baseline, the dynamic model (docs/calibration.md): held-out RMSE "
       << r.baseline["dynamic"]["heldout_rmse_deg"].get<double>() << " deg over its own folds.";
+  if (r.baseline.contains("choice")) {
+    const json& c = r.baseline["choice"];
+    o << "\n\n**Baseline taken: " << (c.value("chosen", "") == "dynamic" ? "the dynamic model" : "the paper structure")
+      << "** (docs/gap.md, section 1). Paper structure: held-out gap " << c["paper"]["heldout_gap_deg"].get<double>()
+      << " deg alone, " << c["paper"]["final_gap_deg"].get<double>() << " deg with its " << c["paper"]["steps"].get<std::size_t>()
+      << " effect(s).";
+    if (c.contains("dynamic")) {
+      const json& d = c["dynamic"];
+      o << " Dynamic model: " << d["heldout_gap_deg"].get<double>() << " deg alone";
+      if (d.contains("final_gap_deg"))
+        o << ", " << d["final_gap_deg"].get<double>() << " deg with its " << d["steps"].get<std::size_t>() << " effect(s)";
+      else
+        o << " (not searched from: " << d.value("not_searched", "") << ")";
+      o << ".";
+    }
+    if (c.contains("why")) o << " " << c["why"].get<std::string>() << ".";
+  }
   o << "\n\n**Baseline residual:** " << r.baseline["where"].get<std::string>() << "\n\n";
   i = 1;
   for (const Step& s : r.steps) {

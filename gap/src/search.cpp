@@ -1,6 +1,7 @@
 // The model `pof gap` grows and the evaluation of candidates against it (see search.hpp).
 #include "search.hpp"
 
+#include "pof/core/dynamic_fit.hpp"
 #include "pof/core/model.hpp"
 
 #include <algorithm>
@@ -31,20 +32,35 @@ State State::with(core::Effect e, double theta) const {
   return s;
 }
 
+Index base_cols(const Context& cx) {
+  return cx.dyn ? cx.dyn->degree + 1 + cx.dyn->n_operators + cx.dyn->n_prony : Index{core::kRefitParameters};
+}
+
+Kinematics baseline_kinematics(const Context& cx, double delay_s, double backlash_deg) {
+  Kinematics k = make_kinematics(cx.s->angle, cx.s->dt, delay_s, cx.m);
+  if (backlash_deg > 0) apply_backlash(k, backlash_deg, cx.s->dt, cx.m);
+  if (cx.dyn) {
+    // The dynamic model runs its memory over the angle the sensor sees (delayed, behind the play).
+    k.gradient = core::dynamic_regressors(*cx.dyn, k.angle, 1.0 / cx.s->dt);
+    k.v0 = k.gradient * core::dynamic_coefficients(*cx.dyn);
+  }
+  return k;
+}
+
 Design build_design(const Search& sx, const State& st) {
   const Context& cx = sx.cx;
   Design d;
-  d.k = make_kinematics(cx.s->angle, cx.s->dt, st.delay_s, cx.m);
-  if (st.backlash_deg > 0) apply_backlash(d.k, st.backlash_deg, cx.s->dt, cx.m);
+  d.k = baseline_kinematics(cx, st.delay_s, st.backlash_deg);
+  const Index nb = base_cols(cx);
   std::vector<MatrixXd> cols;
-  Index total = kBaseCols;
+  Index total = nb;
   for (const Term& t : st.terms) {
     cols.push_back(effect_def(t.effect).columns(t.theta, cx, d.k));
     total += cols.back().cols();
   }
   d.X.resize(cx.s->n, total);
-  d.X.leftCols(kBaseCols) = d.k.gradient;
-  Index c = kBaseCols;
+  d.X.leftCols(nb) = d.k.gradient;
+  Index c = nb;
   for (const MatrixXd& C : cols) {
     d.X.middleCols(c, C.cols()) = C;
     c += C.cols();
@@ -64,7 +80,7 @@ CurrentFit fit_state(const Search& sx, const State& st) {
   CurrentFit c;
   c.d = build_design(sx, st);
   c.grams = cv::make_grams(c.d.X, c.d.y, sx.blocks);
-  c.fit = cv::cross_validate({c.grams}, kBaseCols);
+  c.fit = cv::cross_validate({c.grams}, base_cols(sx.cx));
   c.cv_resid = heldout_residual(c.d, sx.blocks, c.fit.beta);
   return c;
 }
@@ -94,8 +110,6 @@ BranchDistance branch_distance(const core::ModelCoefficients& a, const core::Mod
   return out;
 }
 
-}  // namespace
-
 core::ModelCoefficients moved_model(const Context& cx, const VectorXd& beta) {
   // The first-order step may be long along a direction the voltage barely tells apart (c3 against
   // c4 while c2 |w| is small, or the structure against a memory term that draws the same loop)
@@ -121,17 +135,62 @@ core::ModelCoefficients moved_model(const Context& cx, const VectorXd& beta) {
   return cx.m;
 }
 
-Search moved(const Search& sx, const VectorXd& beta) {
-  Search out = sx;
-  out.cx.m = moved_model(sx.cx, beta);
+// The largest distance [deg] between two dynamic models' voltages over the recording's angle
+// history, and of the first's from its own quasi-static curve (its hysteresis and relaxation),
+// at the origin's sensitivity.
+BranchDistance dynamic_distance(const core::DynamicModel& a, const core::DynamicModel& b, const Context& cx) {
+  const double rate = 1.0 / cx.s->dt;
+  const VectorXd va = core::forward_dynamic(a, cx.s->angle, rate), vb = core::forward_dynamic(b, cx.s->angle, rate);
+  BranchDistance out;
+  for (Index i = 0; i < va.size(); ++i) {
+    const double th = cx.s->angle(i);
+    if (!std::isfinite(va(i)) || !std::isfinite(vb(i)) || !std::isfinite(th)) continue;
+    const double slope = std::abs(a.quasi_static_slope(th));
+    if (!(slope > 0)) continue;
+    out.between = std::max(out.between, std::abs(va(i) - vb(i)) / slope);
+    out.own = std::max(out.own, std::abs(va(i) - a.quasi_static_v(th)) / slope);
+  }
   return out;
 }
+
+// The dynamic baseline moved by beta: exact (the model is linear in its coefficients) but held to
+// the same bounds as the paper structure's move: invertible online for every state of its memory
+// (core::dynamic_invertible, which needs the operator weights of one sign), and its voltage over
+// the recording within its own hysteresis and relaxation (at least kMinStructureMoveDeg) of the
+// fitted model's. The stop operators and a memory term, or the Prony terms and a creep term, draw
+// the same curves: a step along their difference moves nothing the voltage sees but the model.
+core::DynamicModel moved_dynamic(const Context& cx, const VectorXd& beta) {
+  const VectorXd b0 = core::dynamic_coefficients(*cx.dyn);
+  const double limit = std::max(kMinStructureMoveDeg, dynamic_distance(*cx.dyn_origin, *cx.dyn_origin, cx).own);
+  double scale = 1;
+  for (int halving = 0; halving <= 8; ++halving, scale /= 2) {
+    const core::DynamicModel m = core::with_dynamic_coefficients(*cx.dyn, b0 + scale * beta.head(b0.size()));
+    if (core::dynamic_invertible(m, 1.0 / cx.s->dt) && dynamic_distance(m, *cx.dyn_origin, cx).between <= limit) return m;
+  }
+  return *cx.dyn;
+}
+
+}  // namespace
+
+Structure moved_structure(const Context& cx, const VectorXd& beta) {
+  if (cx.dyn) return {cx.m, moved_dynamic(cx, beta)};
+  return {moved_model(cx, beta), std::nullopt};
+}
+
+Search moved(const Search& sx, const VectorXd& beta) {
+  Search out = sx;
+  const Structure m = moved_structure(sx.cx, beta);
+  out.cx.m = m.paper;
+  out.cx.dyn = m.dynamic;
+  return out;
+}
+
 
 namespace {
 
 double full_rss(const Search& sx, const State& st) {
   const Design d = build_design(sx, st);
-  return cv::cross_validate({cv::make_grams(d.X, d.y, sx.blocks)}, kBaseCols).full_rss;
+  return cv::cross_validate({cv::make_grams(d.X, d.y, sx.blocks)}, base_cols(sx.cx)).full_rss;
 }
 
 // Coordinate search of one scalar of the state over candidate values, on all data.
@@ -210,14 +269,14 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
   if (def.refine != nullptr) {
     // Refine around the coarse optimum chosen on all data; per fold the grid value is still chosen
     // on the training blocks only, over the coarse and the fine values.
-    const double c0 = cr.grid[cv::cross_validate(per, kBaseCols).full_idx];
+    const double c0 = cr.grid[cv::cross_validate(per, base_cols(sx.cx)).full_idx];
     for (double th : def.refine(c0)) {
       cr.grid.push_back(th);
       per.push_back(grams_at(sx, cur, th));
     }
   }
-  cr.fit = cv::cross_validate(per, kBaseCols);
-  cr.base = sx.cx.m;
+  cr.fit = cv::cross_validate(per, base_cols(sx.cx));
+  cr.base = {sx.cx.m, sx.cx.dyn};
   // Gauss-Newton on the structure: with the effect in the model the baseline's coefficients move
   // (a delay had been partly absorbed by the hysteresis coefficients), further than the
   // first-order columns reach. Rebuilt at the moved coefficients, the candidate is scored again,
@@ -237,7 +296,7 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
       const CurrentFit c2 = fit_state(next, st);
       std::vector<cv::Grams> per2;
       for (double th : grid) per2.push_back(grams_at(next, c2, th));
-      cv::FoldFit f2 = cv::cross_validate(per2, kBaseCols);
+      cv::FoldFit f2 = cv::cross_validate(per2, base_cols(next.cx));
       if (!(f2.cv_rss < 0.99 * f.cv_rss)) {
         if (f2.cv_rss < f.cv_rss) { f = std::move(f2); at = next; }
         break;
@@ -248,7 +307,7 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
     if (f.cv_rss < cr.fit.cv_rss) {
       cr.fit = std::move(f);
       cr.grid = grid;
-      cr.base = at.cx.m;
+      cr.base = {at.cx.m, at.cx.dyn};
     }
   }
   return cr;

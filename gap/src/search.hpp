@@ -1,6 +1,7 @@
 #pragma once
 // The model `pof gap` grows (baseline + accepted effects), its design matrix, and the evaluation of
 // candidate effects against it (docs/gap.md, sections 3-4). Internal to pof_gap.
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -33,28 +34,45 @@ struct Search {
   cv::Blocks blocks;
 };
 
-/// y = v - v0 (the baseline voltage) regressed on X = [baseline gradient | term columns]: the
-/// baseline's coefficients move to first order around the refitted model (core/paper_refit.hpp),
-/// the terms enter linearly.
+/// y = v - v0 (the baseline voltage) regressed on X = [baseline columns | term columns]. The
+/// paper structure's coefficients move to first order around the refitted model (its gradient,
+/// core/paper_refit.hpp); the dynamic model is linear in its coefficients, its columns are its
+/// regressors (core/dynamic_fit.hpp) and a move is exact. The terms enter linearly.
 struct Design {
   Kinematics k;
   Eigen::MatrixXd X;
   Eigen::VectorXd y;
 };
 
-inline constexpr Eigen::Index kBaseCols = core::kRefitParameters;
+/// The number of baseline columns: the paper structure's refit parameters or the dynamic model's
+/// linear coefficients.
+Eigen::Index base_cols(const Context& cx);
+
+/// The kinematics of the reference angle seen through a delay and a belt play, with v0 and the
+/// baseline columns of cx's baseline.
+Kinematics baseline_kinematics(const Context& cx, double delay_s, double backlash_deg);
 
 Design build_design(const Search& sx, const State& st);
 
+/// The baseline structure at some coefficients: the paper's (always there: f5 gives the quiet
+/// angle and the sensitivity) and the dynamic model when it is the baseline (what the compensator
+/// then inverts, docs/calibration.md).
+struct Structure {
+  core::ModelCoefficients paper;
+  std::optional<core::DynamicModel> dynamic;
+};
+
 /// A moved structure's branches may depart from the fitted baseline's by its own hysteresis, and
-/// by at least this [deg] (the paper's table 2 has ~3 deg; see moved_model).
+/// by at least this [deg] (the paper's table 2 has ~3 deg; see moved_model in search.cpp).
 inline constexpr double kMinStructureMoveDeg = 3.0;
 
-/// The baseline's coefficients m moved by the first kBaseCols values of a solution beta.
-core::ModelCoefficients moved_model(const Context& cx, const Eigen::VectorXd& beta);
+/// The baseline's coefficients moved by the first base_cols values of a solution beta, within
+/// bounds (see moved_model in search.cpp).
+Structure moved_structure(const Context& cx, const Eigen::VectorXd& beta);
 
-/// sx with the baseline's coefficients moved by the first kBaseCols values of a solution beta.
+/// sx with the baseline's coefficients moved by the first base_cols values of a solution beta.
 Search moved(const Search& sx, const Eigen::VectorXd& beta);
+
 
 struct CurrentFit {
   Design d;
@@ -80,7 +98,7 @@ struct CandidateResult {
   std::vector<double> grid;
   cv::FoldFit fit;
   int n_params = 0;
-  core::ModelCoefficients base;  // the baseline the fit's columns were built at (see evaluate)
+  Structure base;  // the baseline the fit's columns were built at (see evaluate)
 };
 
 /// Every candidate of the catalogue against the current fit, on `threads` workers.

@@ -52,8 +52,7 @@ json held(const pof::core::HeldOutError& e) {
 
 }  // namespace
 
-json dynamic_report(const pof::core::DynamicFitResult& d, const pof::core::ModelComparison* c) {
-  const auto& m = d.model;
+json dynamic_model_json(const pof::core::DynamicModel& m) {
   json j;
   j["degree"] = m.degree;
   j["angle_centre_deg"] = m.angle_centre_deg;
@@ -67,6 +66,11 @@ json dynamic_report(const pof::core::DynamicFitResult& d, const pof::core::Model
   j["prony_gain_v_per_deg"] = std::vector<double>(m.prony_gain_v_per_deg.begin(), m.prony_gain_v_per_deg.begin() + m.n_prony);
   j["bend_lag_s"] = m.bend_lag_s;
   j["lag_window_s"] = m.lag_window_s;
+  return j;
+}
+
+json dynamic_report(const pof::core::DynamicFitResult& d, const pof::core::ModelComparison* c) {
+  json j = dynamic_model_json(d.model);
   j["train_rmse_deg"] = d.train_rmse_deg;
   j["cv_rmse_deg"] = d.chosen.cv_rmse_deg;
   j["sensitivity_v_per_deg"] = d.sensitivity_v_per_deg;

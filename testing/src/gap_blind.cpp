@@ -169,12 +169,13 @@ Hidden hide(sim::Scenario& s, const std::string& e, std::mt19937_64& rng) {
   return h;
 }
 
-std::vector<Hidden> hide_random(sim::Scenario& s, int count, std::mt19937_64& rng) {
+std::vector<Hidden> hide_random(sim::Scenario& s, int count, std::mt19937_64& rng, const std::vector<std::string>& exclude) {
   std::vector<std::string> ids(core::kEffectIds.begin(), core::kEffectIds.end());
   std::shuffle(ids.begin(), ids.end(), rng);
   std::vector<Hidden> out;
   for (const std::string& id : ids) {
     if (static_cast<int>(out.size()) >= count) break;
+    if (std::find(exclude.begin(), exclude.end(), id) != exclude.end()) continue;
     // creep and viscoelastic_relaxation are one switch of the simulator (sensor.creep): one of them.
     const bool creep_like = id == "creep" || id == "viscoelastic_relaxation";
     if (creep_like && std::any_of(out.begin(), out.end(), [](const Hidden& h) {
@@ -184,6 +185,54 @@ std::vector<Hidden> hide_random(sim::Scenario& s, int count, std::mt19937_64& rn
     out.push_back(hide(s, id, rng));
   }
   return out;
+}
+
+nlohmann::json draw_dynamic_sensor(sim::Scenario& s, std::mt19937_64& rng, std::vector<std::string>& covered) {
+  std::uniform_real_distribution<double> u(0, 1);
+  auto in = [&](double a, double b) { return a + (b - a) * u(rng); };
+  json d;
+  s.sensor.hysteresis.enabled = false;  // no branch steps: the loop below is continuous
+  auto& mh = s.sensor.memory_hysteresis;
+  mh.enabled = true;
+  // Half-height 0.022-0.055 V: 1-2.5 deg at the paper's ~46 deg/V (table 2's loop is ~1.5 %
+  // of 90 deg, about 1.3 deg half-height), either sign.
+  mh.amplitude_v = (u(rng) < 0.5 ? -1.0 : 1.0) * in(0.022, 0.055);
+  mh.rate_sensitivity_s_per_rad = u(rng) < 0.5 ? 0.0 : in(-1.5, 0.5);
+  mh.rate_filter_s = 0.2;
+  if (u(rng) < 0.5) {
+    mh.family = sim::MemoryHysteresisFamily::kBoucWen;
+    mh.width_deg = in(4.0, 20.0);
+    mh.shape = in(1.0, 2.0);
+    mh.beta_fraction = in(0.3, 0.7);
+    d["memory"] = {{"family", "bouc_wen"}, {"amplitude_v", mh.amplitude_v}, {"width_deg", mh.width_deg}};
+  } else {
+    mh.family = sim::MemoryHysteresisFamily::kMaxwellSlip;
+    mh.thresholds_deg = {in(0.5, 2.0), in(3.0, 6.0), in(8.0, 15.0)};
+    mh.weights = {in(0.2, 1.0), in(0.2, 1.0), in(0.2, 1.0)};
+    d["memory"] = {{"family", "maxwell_slip"}, {"amplitude_v", mh.amplitude_v}, {"thresholds_deg", mh.thresholds_deg}};
+  }
+  d["memory"]["rate_sensitivity_s_per_rad"] = mh.rate_sensitivity_s_per_rad;
+  auto& cr = s.sensor.creep;
+  cr.enabled = true;
+  cr.terms = {sim::CreepTerm{in(1.0, 5.0), -in(0.0004, 0.0012)}};
+  if (u(rng) < 0.5) cr.terms.push_back(sim::CreepTerm{in(10.0, 40.0), -in(0.0004, 0.0012)});
+  d["prony"] = json::array();
+  for (const auto& t : cr.terms) d["prony"].push_back({{"tau_s", t.tau_s}, {"gain_v_per_deg", t.gain_v_per_deg}});
+  covered = {"memory_hysteresis", "creep", "viscoelastic_relaxation"};
+  if (u(rng) < 0.5) {
+    s.sensor.viscoelastic_lag.enabled = true;
+    s.sensor.viscoelastic_lag.tau_s = in(0.02, 0.12);
+    d["bend_lag_s"] = s.sensor.viscoelastic_lag.tau_s;
+  }
+  if (u(rng) < 0.5) {
+    auto& sn = s.sensor.static_nonlinearity;
+    sn.enabled = true;
+    sn.bow_v = (u(rng) < 0.5 ? -1.0 : 1.0) * in(0.01, 0.03);
+    sn.s_v = 0;
+    d["bow_v"] = sn.bow_v;
+    covered.emplace_back("static_nonlinearity");
+  }
+  return d;
 }
 
 core::ModelCoefficients draw_sensor(std::mt19937_64& rng, double spread) {
@@ -253,21 +302,31 @@ int Trial::hits() const {
 
 int Trial::false_finds() const {
   int n = 0;
+  // On a sensor of the dynamic model's kind, memory hysteresis or relaxation named on top of the
+  // paper's steps (or beside the dynamic model's own operators) is that sensor's physics: neither
+  // a hit nor a false find.
   for (const auto& f : found)
-    n += std::none_of(hidden.begin(), hidden.end(), [&](const Hidden& h) { return h.effect == f; }) ? 1 : 0;
+    n += std::none_of(hidden.begin(), hidden.end(), [&](const Hidden& h) { return h.effect == f; }) &&
+                 std::find(covered.begin(), covered.end(), f) == covered.end()
+             ? 1
+             : 0;
   return n;
 }
 
 Trial run_trial(std::uint64_t seed, int count, bool short_session, const std::filesystem::path& dir, const Options& opt,
-                double opt_sensor_spread) {
+                double opt_sensor_spread, double dynamic_share) {
   Trial t;
   t.seed = seed;
   std::mt19937_64 rng(seed);
   sim::Scenario s = base_scenario(short_session);
-  // Every recording has a sensor of its own: the paper's structure with its own coefficients.
+  // Every recording has a sensor of its own: the paper's structure with its own coefficients, or
+  // with that f5 a sensor of the dynamic model's kind.
   s.sensor.model = draw_sensor(rng, opt_sensor_spread);
   t.sensor = s.sensor.model;
-  t.hidden = hide_random(s, count, rng);
+  std::mt19937_64 kind_rng(seed ^ 0x9E3779B97F4A7C15ULL);
+  if (std::uniform_real_distribution<double>(0, 1)(kind_rng) < dynamic_share)
+    t.dynamic = draw_dynamic_sensor(s, kind_rng, t.covered);
+  t.hidden = hide_random(s, count, rng, t.covered);
   t.csv = (dir / ("blind_" + std::to_string(seed) + ".csv")).string();
   io::write_csv(t.csv, simulate(s, seed));
   // From here on only the file: nothing of the draw reaches the workflow.

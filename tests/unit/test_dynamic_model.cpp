@@ -196,6 +196,39 @@ TEST(DynamicFit, RecoversAKnownModelFromThePaperProtocol) {
   EXPECT_LT(fit.chosen.cv_rmse_deg, 0.2);
 }
 
+// `pof gap` regresses the voltage on the dynamic model's regressors (docs/gap.md, section 1): their
+// product with the coefficients must be the forward model, scan by scan, with a bend lag and a
+// stretch of unusable reference angles (the operators hold their state there, the row is zero).
+TEST(DynamicFit, RegressorsTimesCoefficientsAreTheForwardModel) {
+  DynamicModel m = known_model();
+  m.bend_lag_s = 0.05;
+  std::vector<double> a;
+  for (const auto& seg : {ramp(10, 80, 20, 200), ramp(80, 30, 35, 200), ramp(30, 60, 10, 200)})
+    a.insert(a.end(), seg.begin(), seg.end());
+  Eigen::VectorXd angle = Eigen::Map<const Eigen::VectorXd>(a.data(), static_cast<Eigen::Index>(a.size()));
+  const Eigen::VectorXd v = pof::core::forward_dynamic(m, angle, 200);
+  const Eigen::MatrixXd X = pof::core::dynamic_regressors(m, angle, 200);
+  const Eigen::VectorXd b = pof::core::dynamic_coefficients(m);
+  ASSERT_EQ(X.cols(), b.size());
+  ASSERT_EQ(b.size(), 4 + 3 + 2);
+  EXPECT_LT((X * b - v).cwiseAbs().maxCoeff(), 1e-12);
+  // Round trip of the coefficients.
+  const DynamicModel back = pof::core::with_dynamic_coefficients(m, 2.0 * b);
+  EXPECT_DOUBLE_EQ(back.weight_v_per_deg[1], 2.0 * m.weight_v_per_deg[1]);
+  EXPECT_DOUBLE_EQ(back.prony_gain_v_per_deg[1], 2.0 * m.prony_gain_v_per_deg[1]);
+  EXPECT_DOUBLE_EQ(back.poly[3], 2.0 * m.poly[3]);
+  // A NaN reference angle gives a zero row; the memory resumes after it.
+  angle(100) = std::nan("");
+  const Eigen::MatrixXd Xn = pof::core::dynamic_regressors(m, angle, 200);
+  EXPECT_EQ(Xn.row(100).cwiseAbs().sum(), 0.0);
+  EXPECT_TRUE(Xn.allFinite());
+  // The invertibility rule fit_dynamic applies: operators of mixed sign are refused.
+  EXPECT_TRUE(pof::core::dynamic_invertible(m, 200));
+  DynamicModel mixed = m;
+  mixed.weight_v_per_deg[0] = -mixed.weight_v_per_deg[0];
+  EXPECT_FALSE(pof::core::dynamic_invertible(mixed, 200));
+}
+
 TEST(BendLag, TheInverseUndoesTheLagOfAnAcceleratingBendAndPassesThroughWithoutOne) {
   constexpr double kRate = 200, kTau = 0.08;
   pof::core::BendLag lag(kTau, kRate);

@@ -90,6 +90,22 @@ DynamicFitResult fit_dynamic(const Eigen::VectorXd& t_s, const Eigen::VectorXd& 
 std::vector<std::optional<DynamicModel>> fold_models(const DynamicFitResult& fit, const Eigen::VectorXd& t_s,
                                                      const Eigen::VectorXd& v_norm, const Eigen::VectorXd& angle_ref_deg,
                                                      const DynamicFitSettings& s = {});
+/// The linear coefficients of a model, in the order of its regressors: the polynomial's degree + 1,
+/// then one weight per stop operator, then one gain per Prony term.
+Eigen::VectorXd dynamic_coefficients(const DynamicModel& m);
+/// m with its linear coefficients replaced by b (the order of dynamic_coefficients).
+DynamicModel with_dynamic_coefficients(DynamicModel m, const Eigen::VectorXd& b);
+/// The regressors of m's structure (thresholds, time constants, rate gain and bend lag fixed) over
+/// a whole angle history at scan rate fs: one row per scan, the columns fit_dynamic regresses the
+/// voltage on, so forward_dynamic = regressors x dynamic_coefficients (a row of zeros where the
+/// angle is not finite; the operators hold their state there). `pof gap`'s design when the dynamic
+/// model is its baseline.
+Eigen::MatrixXd dynamic_regressors(const DynamicModel& m, const Eigen::VectorXd& angle_deg, double scan_rate_hz);
+/// Whether the online inverse exists for every state of m's memory: the quasi-static slope
+/// dominates the opposing operators and the Prony terms' instant slope over the search bracket
+/// (the rule fit_dynamic refuses candidates by).
+bool dynamic_invertible(const DynamicModel& m, double scan_rate_hz);
+
 /// The forward model over a whole angle history at scan rate fs: V for each scan (NaN angles hold
 /// the previous one). For plots and tests.
 Eigen::VectorXd forward_dynamic(const DynamicModel& m, const Eigen::VectorXd& angle_deg, double scan_rate_hz);

@@ -1,14 +1,17 @@
 #pragma once
 // `pof gap`: where do the baseline (the paper's model structure, eqs. 11/12 inverted, f5 in
-// holds, with its coefficients fitted to the recording) and a recording disagree, which physical
+// holds, or the dynamic model, whichever explains the recording better, with its coefficients
+// fitted to the recording) and a recording disagree, which physical
 // effect is missing, and how much of the gap does adding it close. See docs/gap.md for the method and the acceptance rule.
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include "pof/core/dynamic_model.hpp"
 #include "pof/core/model.hpp"
 #include "pof/io/recording.hpp"
 
@@ -49,6 +52,7 @@ struct Result {
   nlohmann::json model;          // improved model: coefficients + accepted terms (for model.toml)
   nlohmann::json recording;      // n, rate, duration, reference level
   nlohmann::json compensated;    // the compensator's angle vs the reference on held-out blocks, before/after
+  std::optional<core::DynamicModel> dynamic_model;  // model.toml's active model when the dynamic baseline was taken
   Series series;
 
   [[nodiscard]] nlohmann::json to_json() const;

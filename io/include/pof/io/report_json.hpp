@@ -16,6 +16,9 @@ namespace pof::io {
 
 nlohmann::json calibration_report(const pof::core::CalibrationResult& r);
 
+/// The dynamic model's parameters (degree, polynomial, operators, rate gain, Prony terms, bend lag).
+nlohmann::json dynamic_model_json(const pof::core::DynamicModel& m);
+
 /// The dynamic model: parameters, every structure cross-validated, and (if given) both models'
 /// held-out errors.
 nlohmann::json dynamic_report(const pof::core::DynamicFitResult& d, const pof::core::ModelComparison* held_out);

@@ -33,8 +33,19 @@ sim::Scenario base_scenario(bool short_session);
 /// noise floor of the base session) and switches it on in `s`.
 Hidden hide(sim::Scenario& s, const std::string& effect, std::mt19937_64& rng);
 
-/// Draws `count` distinct effects at random and hides them.
-std::vector<Hidden> hide_random(sim::Scenario& s, int count, std::mt19937_64& rng);
+/// Draws `count` distinct effects at random, none of `exclude`, and hides them.
+std::vector<Hidden> hide_random(sim::Scenario& s, int count, std::mt19937_64& rng,
+                                const std::vector<std::string>& exclude = {});
+
+/// A sensor whose physics is the dynamic model's instead of the paper's steps (docs/gap.md,
+/// section 6): the paper's f1-f4 off; a continuous hysteresis with memory (Maxwell-slip or Bouc-Wen,
+/// half-height ~1-2.5 deg, its width changing with speed or not); one or two Prony relaxation terms;
+/// half the time a bend lag of the fibre behind the joint and half the time a bowed quasi-static
+/// curve. The simulator's families are not the dynamic model's own (Bouc-Wen is no stop operator,
+/// its speed factor is exponential): a sensor of the dynamic model's kind, not of its equations.
+/// Returns the draw; `covered` receives the effects this physics already is, which are then not
+/// hidden on top (the simulator has one switch for each).
+nlohmann::json draw_dynamic_sensor(sim::Scenario& s, std::mt19937_64& rng, std::vector<std::string>& covered);
 
 /// A sensor of the paper's structure with its own coefficients: c1, c2, c9, c10 and c3-c6 of each
 /// direction each within +-spread of table 2, c7 and c8 through the chain's departure from identity
@@ -48,6 +59,8 @@ io::Recording simulate(const sim::Scenario& s, std::uint64_t seed);
 struct Trial {
   std::uint64_t seed = 0;
   core::ModelCoefficients sensor;   // the sensor's own coefficients (draw_sensor)
+  nlohmann::json dynamic;           // the dynamic sensor's draw (draw_dynamic_sensor), null for a paper-structure one
+  std::vector<std::string> covered;  // the effects the dynamic sensor's own physics is (draw_dynamic_sensor)
   std::vector<Hidden> hidden;
   std::vector<std::string> found;   // accepted effects, in order
   double baseline_gap_deg = 0, final_gap_deg = 0;
@@ -57,14 +70,17 @@ struct Trial {
 
   [[nodiscard]] bool correct() const;        // every hidden effect found, nothing else
   [[nodiscard]] int hits() const;            // hidden effects that were found
-  [[nodiscard]] int false_finds() const;     // found effects that were not hidden
+  [[nodiscard]] int false_finds() const;     // found effects that were neither hidden nor the sensor's own physics (covered)
   [[nodiscard]] double shrink() const { return baseline_gap_deg > 0 ? 1.0 - final_gap_deg / baseline_gap_deg : 0.0; }
 };
 
-/// One blind trial: a sensor (draw_sensor with sensor_spread; 0 = the paper's table 2) and `count`
-/// random effects (0, 1, 2, ...) drawn with `seed`, the recording written to dir/blind_<seed>.csv,
-/// read back and analysed with only the file.
+/// One blind trial: a sensor (draw_sensor with sensor_spread; 0 = the paper's table 2), with
+/// probability dynamic_share one of the dynamic model's kind (draw_dynamic_sensor, on top of the
+/// drawn f5), and `count` random effects (0, 1, 2, ...) drawn with `seed`, the recording written to
+/// dir/blind_<seed>.csv, read back and analysed with only the file. The sensor's kind is drawn
+/// from a stream of its own, so a paper-structure sensor and its effects are the same draw for a
+/// seed whatever the share.
 Trial run_trial(std::uint64_t seed, int count, bool short_session, const std::filesystem::path& dir,
-                const Options& opt = {}, double sensor_spread = 0.3);
+                const Options& opt = {}, double sensor_spread = 0.3, double dynamic_share = 0.0);
 
 }  // namespace pof::gap::blind

@@ -147,6 +147,11 @@ GapCorrector::GapCorrector(const Calibration& cal, double scan_rate_hz) {
   active_ = true;
   paper_ = cal.model;
   reference_level_v_ = cal.reference_level_v;
+  if (std::isfinite(cal.angle_min_deg) && std::isfinite(cal.angle_max_deg) && cal.angle_max_deg > cal.angle_min_deg) {
+    const double margin = 0.1 * (cal.angle_max_deg - cal.angle_min_deg);
+    static_lo_deg_ = cal.angle_min_deg - margin;
+    static_hi_deg_ = cal.angle_max_deg + margin;
+  }
   dt_ = 1.0 / scan_rate_hz;
   int longest = 0;
   auto add_creep = [&](double tau, double c) { creep_.push_back({1.0 - std::exp(-dt_ / tau), c, 0.0}); };
@@ -256,7 +261,11 @@ double GapCorrector::filter(double v) noexcept {
 double GapCorrector::voltage_at(double angle, double reference_v, double velocity_rad_s, Direction d) const noexcept {
   if (!active_) return 0.0;
   double v = 0;
-  const double u = (angle - 45.0) / 45.0;
+  // The polynomial is fitted over the recording's angles only: beyond them it is held at its edge
+  // value. Extrapolated, the quintic's u^5 turned an angle error after a reversal (a memory term
+  // whose elastic slope nearly cancels the model's) into a voltage that pushed the angle further:
+  // a blind recording's paper chain ran to 7900 deg.
+  const double u = (std::clamp(angle, static_lo_deg_, static_hi_deg_) - 45.0) / 45.0;
   const double u2 = u * u;
   v += u2 * (static_[0] + u * (static_[1] + u * (static_[2] + u * static_[3])));
   if (started_) {

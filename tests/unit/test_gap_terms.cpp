@@ -247,6 +247,24 @@ TEST(GapBasis, StaticNonlinearityIsAPolynomialInU) {
   expect_equal_series(predicted(g, h), want, 1e-12);
 }
 
+// Beyond the calibration's range (plus a tenth of its span) the polynomial is held at its edge: an
+// angle error must not meet a quintic's growth (a blind recording's paper chain ran to 7900 deg).
+TEST(GapBasis, StaticNonlinearityIsHeldBeyondTheCalibratedRange) {
+  Calibration cal = base_calibration();
+  cal.angle_min_deg = 0;
+  cal.angle_max_deg = 90;
+  GapModel g;
+  g.terms.push_back(term("static_nonlinearity", 0, {0.02, -0.015, 0.01, 0.008}));
+  cal.gap = g;
+  const GapCorrector c(cal, kFs);
+  const double edge_hi = c.voltage_at(99.0, 1.0, 0.0, Direction::kHold), edge_lo = c.voltage_at(-9.0, 1.0, 0.0, Direction::kHold);
+  EXPECT_DOUBLE_EQ(c.voltage_at(500.0, 1.0, 0.0, Direction::kHold), edge_hi);
+  EXPECT_DOUBLE_EQ(c.voltage_at(-400.0, 1.0, 0.0, Direction::kHold), edge_lo);
+  EXPECT_NE(c.voltage_at(98.0, 1.0, 0.0, Direction::kHold), edge_hi);  // inside the margin it is the polynomial
+  const double u = (99.0 - 45) / 45;
+  EXPECT_NEAR(edge_hi, 0.02 * u * u - 0.015 * u * u * u + 0.01 * std::pow(u, 4) + 0.008 * std::pow(u, 5), 1e-12);
+}
+
 TEST(GapBasis, CreepAndViscoelasticRelaxationAreFirstOrderMemories) {
   const History h = history(80);
   GapModel g;

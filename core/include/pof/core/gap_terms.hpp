@@ -172,6 +172,9 @@ class GapCorrector {
   ModelCoefficients paper_;
   double dt_ = 0.005, reference_level_v_ = 1;
   std::array<double, 4> static_{};  // coefficients of u^2 .. u^5
+  // The angles the static polynomial is evaluated within: the calibration's range plus a tenth of
+  // its span each side, held constant beyond (a quintic extrapolated runs away; see voltage_at).
+  double static_lo_deg_ = -1e9, static_hi_deg_ = 1e9;
   std::vector<Creep> creep_;
   std::vector<Stop> stops_;
   std::vector<RateHysteresis> rate_;

@@ -194,23 +194,49 @@ nlohmann::json draw_dynamic_sensor(sim::Scenario& s, std::mt19937_64& rng, std::
   s.sensor.hysteresis.enabled = false;  // no branch steps: the loop below is continuous
   auto& mh = s.sensor.memory_hysteresis;
   mh.enabled = true;
-  // Half-height 0.022-0.055 V: 1-2.5 deg at the paper's ~46 deg/V (table 2's loop is ~1.5 %
-  // of 90 deg, about 1.3 deg half-height), either sign.
-  mh.amplitude_v = (u(rng) < 0.5 ? -1.0 : 1.0) * in(0.022, 0.055);
   mh.rate_sensitivity_s_per_rad = u(rng) < 0.5 ? 0.0 : in(-1.5, 0.5);
   mh.rate_filter_s = 0.2;
+  // The loop's slope just after a reversal (per volt of amplitude) [1/deg]: what the sensor's
+  // voltage gains or loses against the line's 1/c9 there.
+  double unit_slope = 0;
   if (u(rng) < 0.5) {
     mh.family = sim::MemoryHysteresisFamily::kBoucWen;
     mh.width_deg = in(4.0, 20.0);
     mh.shape = in(1.0, 2.0);
     mh.beta_fraction = in(0.3, 0.7);
-    d["memory"] = {{"family", "bouc_wen"}, {"amplitude_v", mh.amplitude_v}, {"width_deg", mh.width_deg}};
+    // dz/dtheta = A (1 - |z|^n (sgn(z dtheta) beta + gamma)), beta + gamma = 1 (the simulator's
+    // normalisation), A = span / width with span the integral of dz / (1 - ...) from -1 to 0.95;
+    // at a reversal from saturation dz/dtheta = 2 beta A.
+    const double b = mh.beta_fraction, n = mh.shape;
+    double span = 0;
+    constexpr int kSteps = 4000;
+    for (int i = 0; i < kSteps; ++i) {
+      const double z = -1.0 + 1.95 * (i + 0.5) / kSteps;
+      const double g = 1.0 - std::pow(std::abs(z), n) * (z < 0 ? 1.0 - 2.0 * b : 1.0);
+      span += 1.95 / kSteps / g;
+    }
+    unit_slope = 2.0 * b * span / mh.width_deg;
   } else {
     mh.family = sim::MemoryHysteresisFamily::kMaxwellSlip;
     mh.thresholds_deg = {in(0.5, 2.0), in(3.0, 6.0), in(8.0, 15.0)};
     mh.weights = {in(0.2, 1.0), in(0.2, 1.0), in(0.2, 1.0)};
-    d["memory"] = {{"family", "maxwell_slip"}, {"amplitude_v", mh.amplitude_v}, {"thresholds_deg", mh.thresholds_deg}};
+    const double wsum = mh.weights[0] + mh.weights[1] + mh.weights[2];
+    for (std::size_t i = 0; i < 3; ++i) unit_slope += mh.weights[i] / wsum / mh.thresholds_deg[i];
   }
+  // Half-height 0.022-0.055 V (1-2.5 deg at the paper's ~46 deg/V; table 2's loop is ~1.5 % of
+  // 90 deg, about 1.3 deg half-height), either sign, but a usable sensor stays monotone: the
+  // loop's slope after a reversal, at its fastest speed factor, is held to 20-50 % of the line's.
+  // Unbounded, a narrow Bouc-Wen loop made the voltage run backwards after every reversal (no
+  // compensator can invert that; the dynamic model's own fit refuses such a structure).
+  const double line_slope = 1.0 / std::abs(s.sensor.model.c9);
+  const double fastest = std::exp(std::max(0.0, mh.rate_sensitivity_s_per_rad) * 0.5);
+  const double cap = in(0.2, 0.5) * line_slope / (unit_slope * fastest);
+  mh.amplitude_v = (u(rng) < 0.5 ? -1.0 : 1.0) * std::min(in(0.022, 0.055), cap);
+  d["memory"] = {{"family", mh.family == sim::MemoryHysteresisFamily::kBoucWen ? "bouc_wen" : "maxwell_slip"},
+                 {"amplitude_v", mh.amplitude_v},
+                 {"reversal_slope_of_line", std::abs(mh.amplitude_v) * unit_slope / line_slope}};
+  if (mh.family == sim::MemoryHysteresisFamily::kBoucWen) d["memory"]["width_deg"] = mh.width_deg;
+  else d["memory"]["thresholds_deg"] = mh.thresholds_deg;
   d["memory"]["rate_sensitivity_s_per_rad"] = mh.rate_sensitivity_s_per_rad;
   auto& cr = s.sensor.creep;
   cr.enabled = true;
@@ -218,11 +244,16 @@ nlohmann::json draw_dynamic_sensor(sim::Scenario& s, std::mt19937_64& rng, std::
   if (u(rng) < 0.5) cr.terms.push_back(sim::CreepTerm{in(10.0, 40.0), -in(0.0004, 0.0012)});
   d["prony"] = json::array();
   for (const auto& t : cr.terms) d["prony"].push_back({{"tau_s", t.tau_s}, {"gain_v_per_deg", t.gain_v_per_deg}});
-  covered = {"memory_hysteresis", "creep", "viscoelastic_relaxation"};
+  // The dynamic model's quasi-static polynomial is a static nonlinearity: with or without a bow
+  // drawn below, one hidden on top would be the sensor's own curve.
+  covered = {"memory_hysteresis", "creep", "viscoelastic_relaxation", "static_nonlinearity"};
   if (u(rng) < 0.5) {
+    // The fibre's bend behind the joint: the sensor sees the angle late, which is what
+    // `time_delay` means (there is no other lag in the catalogue).
     s.sensor.viscoelastic_lag.enabled = true;
     s.sensor.viscoelastic_lag.tau_s = in(0.02, 0.12);
     d["bend_lag_s"] = s.sensor.viscoelastic_lag.tau_s;
+    covered.emplace_back("time_delay");
   }
   if (u(rng) < 0.5) {
     auto& sn = s.sensor.static_nonlinearity;
@@ -230,7 +261,6 @@ nlohmann::json draw_dynamic_sensor(sim::Scenario& s, std::mt19937_64& rng, std::
     sn.bow_v = (u(rng) < 0.5 ? -1.0 : 1.0) * in(0.01, 0.03);
     sn.s_v = 0;
     d["bow_v"] = sn.bow_v;
-    covered.emplace_back("static_nonlinearity");
   }
   return d;
 }

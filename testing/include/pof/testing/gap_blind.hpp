@@ -43,8 +43,9 @@ std::vector<Hidden> hide_random(sim::Scenario& s, int count, std::mt19937_64& rn
 /// half the time a bend lag of the fibre behind the joint and half the time a bowed quasi-static
 /// curve. The simulator's families are not the dynamic model's own (Bouc-Wen is no stop operator,
 /// its speed factor is exponential): a sensor of the dynamic model's kind, not of its equations.
-/// Returns the draw; `covered` receives the effects this physics already is, which are then not
-/// hidden on top (the simulator has one switch for each).
+/// Returns the draw; `covered` receives the effects this physics already is (memory hysteresis,
+/// relaxation, a curved line, and time_delay for a bend lag: the sensor sees the angle late),
+/// which are then not hidden on top (the simulator has one switch for each).
 nlohmann::json draw_dynamic_sensor(sim::Scenario& s, std::mt19937_64& rng, std::vector<std::string>& covered);
 
 /// A sensor of the paper's structure with its own coefficients: c1, c2, c9, c10 and c3-c6 of each

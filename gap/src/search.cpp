@@ -185,6 +185,25 @@ Search moved(const Search& sx, const VectorXd& beta) {
   return out;
 }
 
+std::string covered_by_baseline(core::Effect e, const Context& cx) {
+  if (!cx.dyn) return {};
+  const core::DynamicModel& d = *cx.dyn;
+  switch (e) {
+    case core::Effect::kMemoryHysteresis:
+      if (d.n_operators > 0) return "held by the dynamic baseline's " + std::to_string(d.n_operators) + " stop operators";
+      break;
+    case core::Effect::kCreep:
+    case core::Effect::kViscoelasticRelaxation:
+      if (d.n_prony > 0) return "held by the dynamic baseline's " + std::to_string(d.n_prony) + " Prony terms";
+      break;
+    case core::Effect::kStaticNonlinearity:
+      if (d.degree > 1) return "held by the dynamic baseline's degree-" + std::to_string(d.degree) + " polynomial";
+      break;
+    default: break;
+  }
+  return {};
+}
+
 
 namespace {
 
@@ -244,6 +263,11 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
   if (st.has(e) && e != core::Effect::kPeriodicInterference) {
     cr.applicable = false;
     cr.note = "already in the model";
+    return cr;
+  }
+  if (const std::string why = covered_by_baseline(e, sx.cx); !why.empty()) {
+    cr.applicable = false;
+    cr.note = why;
     return cr;
   }
   if (def.not_identifiable != nullptr) {

@@ -1,6 +1,7 @@
 // Files of `pof gap` (see io.hpp).
 #include "pof/gap/io.hpp"
 
+#include <cctype>
 #include <cmath>
 #include <ctime>
 #include <cstdio>
@@ -123,7 +124,11 @@ std::string report_md(const Result& r, const std::string& source) {
         o << " (not searched from: " << d.value("not_searched", "") << ")";
       o << ".";
     }
-    if (c.contains("why")) o << " " << c["why"].get<std::string>() << ".";
+    if (c.contains("why")) {
+      std::string why = c["why"].get<std::string>();
+      if (!why.empty()) why[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(why[0])));
+      o << " " << why << ".";
+    }
   }
   o << "\n\n**Baseline residual:** " << r.baseline["where"].get<std::string>() << "\n\n";
   i = 1;

@@ -1,5 +1,6 @@
 # `pof gap` end to end: a simulated session with hidden creep (pof sim, scenario written
-# here) analysed from the CSV file alone; the outputs, the quiet pipe, and the exit codes.
+# here) analysed from the CSV file alone; the outputs, the quiet pipe, and the exit codes; then a
+# fibre of the dynamic model's kind, for which model.toml makes the dynamic baseline active.
 source "$(dirname "$0")/lib.sh"
 
 cat >creep.toml <<'TOML'
@@ -38,6 +39,48 @@ expect_exit 0 "$BIN_DIR/pof" compensate creep.csv --cal report/model.toml --csv 
 sed '/^\[gap\]/,$d' report/model.toml >nogap.toml
 expect_exit 0 "$BIN_DIR/pof" compensate creep.csv --cal nogap.toml --csv compensated_nogap.csv
 "$PY" "$SOURCE_DIR/tests/e2e/gap_cli_check.py" --applied compensated.csv compensated_nogap.csv || fail "the [gap] terms did not help"
+
+# A fibre of the dynamic model's kind (no branch steps: a memory loop and a Prony relaxation;
+# docs/gap.md, section 1): pof gap takes the dynamic baseline, model.toml makes it the active
+# model, and pof compensate runs it, closer to the reference than the paper structure in the
+# same file (--model paper).
+cat >fibre.toml <<'TOML'
+schema_version = 1
+name = "e2e-dynamic-fibre"
+[sensor.hysteresis]
+enabled = false
+[sensor.memory_hysteresis]
+enabled = true
+family = "maxwell_slip"
+amplitude_v = 0.02
+thresholds_deg = [1.5, 5.0, 12.0]
+weights = [1.0, 1.0, 1.0]
+[sensor.creep]
+enabled = true
+terms = [ { tau_s = 3.0, gain_v_per_deg = -0.0008 } ]
+[daq.noise]
+enabled = true
+sensor_v = 0.001
+reference_v = 0.001
+pot_v = 0.001
+[[trajectory]]
+kind = "quasi_static"
+step_deg = 15.0
+descending = true
+[[trajectory]]
+kind = "cycles"
+velocities_rad_s = [0.0898, 0.1726, 0.3415, 0.4304]
+pause_s = 2.0
+TOML
+expect_exit 0 "$BIN_DIR/pof" sim fibre.toml -o fibre.csv --seed 4
+expect_exit 0 "$BIN_DIR/pof" gap fibre.csv --out fibre_report --no-plots
+grep -q '^active_model = "dynamic"' fibre_report/model.toml || fail "model.toml of a dynamic-kind fibre does not make the dynamic model active: $(grep active_model fibre_report/model.toml)"
+grep -q '^\[dynamic\]' fibre_report/model.toml || fail "model.toml has no [dynamic] section"
+grep -q 'Baseline taken: the dynamic model' fibre_report/report.md || fail "report.md does not say which baseline was taken"
+expect_exit 0 "$BIN_DIR/pof" compensate fibre.csv --cal fibre_report/model.toml --csv fibre_dynamic.csv
+grep -q "dynamic model" <<<"$out$err" || fail "pof compensate did not run the dynamic model: $out$err"
+expect_exit 0 "$BIN_DIR/pof" compensate fibre.csv --cal fibre_report/model.toml --model paper --csv fibre_paper.csv
+"$PY" "$SOURCE_DIR/tests/e2e/gap_cli_check.py" --applied fibre_dynamic.csv fibre_paper.csv || fail "the dynamic baseline did not beat the paper structure online"
 
 # Exit codes and messages of the brief.
 expect_exit 2 "$BIN_DIR/pof" gap creep.csv

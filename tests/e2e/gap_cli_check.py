@@ -50,7 +50,7 @@ def rmse(path):
 
 def applied(with_gap, without):
     a, b = rmse(with_gap), rmse(without)
-    check(a < 0.8 * b, f"pof compensate with [gap] RMSE {a:.3f} deg vs {b:.3f} without: not 20 % lower")
+    check(a < 0.8 * b, f"pof compensate RMSE {a:.3f} deg ({with_gap}) vs {b:.3f} ({without}): not 20 % lower")
 
 
 if __name__ == "__main__":

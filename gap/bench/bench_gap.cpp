@@ -56,7 +56,7 @@ struct Tally {
     ++n;
     if (t.hidden.empty()) {
       ++none_trials;
-      none_false += t.found.empty() ? 0 : 1;
+      none_false += t.false_finds() > 0 ? 1 : 0;  // a dynamic-kind sensor's own physics named is no discovery
       return;
     }
     if (t.hidden.size() == 1) { ++one_trials; one_exact += t.correct() ? 1 : 0; }
@@ -127,8 +127,13 @@ void run_blind(int n, std::uint64_t seed0, double dynamic_share) {
     all_trials.add(t);
     by_sensor[sensor].add(t);
     baseline_choice[sensor + " sensor -> " + chosen + " baseline"]++;
+    // A dynamic-kind sensor's own physics named (Trial::covered) is neither a hit nor a wrong name.
+    auto own = [&](const std::string& f) { return std::find(t.covered.begin(), t.covered.end(), f) != t.covered.end(); };
     if (t.hidden.empty()) {
-      confusion["none"][t.found.empty() ? "none" : t.found.front()]++;
+      std::string first = "none";
+      for (const auto& f : t.found)
+        if (!own(f)) { first = f; break; }
+      confusion["none"][first]++;
     } else {
       for (const auto& h : t.hidden) {
         const bool hit = std::count(t.found.begin(), t.found.end(), h.effect) > 0;
@@ -136,7 +141,7 @@ void run_blind(int n, std::uint64_t seed0, double dynamic_share) {
         if (hit) col = h.effect;
         else
           for (const auto& f : t.found)
-            if (std::none_of(t.hidden.begin(), t.hidden.end(), [&](const auto& x) { return x.effect == f; })) { col = f; break; }
+            if (!own(f) && std::none_of(t.hidden.begin(), t.hidden.end(), [&](const auto& x) { return x.effect == f; })) { col = f; break; }
         confusion[h.effect][col]++;
       }
     }
@@ -144,7 +149,10 @@ void run_blind(int n, std::uint64_t seed0, double dynamic_share) {
                      {"final_gap_deg", t.final_gap_deg}, {"analysis_s", t.analysis_s},
                      {"compensated", t.gap["compensated"]}, {"baseline", t.gap["baseline"]["refit_rms_mv"]},
                      {"baseline_choice", t.gap["baseline"].value("choice", nlohmann::json())}};
-    if (!t.dynamic.is_null()) j["dynamic_sensor"] = t.dynamic;
+    if (!t.dynamic.is_null()) {
+      j["dynamic_sensor"] = t.dynamic;
+      j["covered"] = t.covered;
+    }
     for (const auto& h : t.hidden) j["hidden"].push_back({{"effect", h.effect}, {"truth", h.truth}});
     j["steps"] = t.gap["steps"];
     all.push_back(j);

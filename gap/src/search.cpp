@@ -157,8 +157,9 @@ BranchDistance dynamic_distance(const core::DynamicModel& a, const core::Dynamic
 // the same bounds as the paper structure's move: invertible online for every state of its memory
 // (core::dynamic_invertible, which needs the operator weights of one sign), and its voltage over
 // the recording within its own hysteresis and relaxation (at least kMinStructureMoveDeg) of the
-// fitted model's. The stop operators and a memory term, or the Prony terms and a creep term, draw
-// the same curves: a step along their difference moves nothing the voltage sees but the model.
+// fitted model's. Terms that draw the same curves as its parts are no candidates on this baseline
+// (covered_by_baseline): a step along the difference of two such columns moves nothing the voltage
+// sees, and a shortened step leaves the term's share applied alone.
 core::DynamicModel moved_dynamic(const Context& cx, const VectorXd& beta) {
   const VectorXd b0 = core::dynamic_coefficients(*cx.dyn);
   const double limit = std::max(kMinStructureMoveDeg, dynamic_distance(*cx.dyn_origin, *cx.dyn_origin, cx).own);
@@ -203,7 +204,6 @@ std::string covered_by_baseline(core::Effect e, const Context& cx) {
   }
   return {};
 }
-
 
 namespace {
 

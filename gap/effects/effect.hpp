@@ -34,6 +34,7 @@ struct Context {
   // The dynamic model when it is the baseline (docs/gap.md, section 1): its regressors are the
   // structure columns and its voltage v0; m still gives f5 and the sensitivity effects scale by.
   std::optional<core::DynamicModel> dyn, dyn_origin;  // now, and as fitted before any move
+  double move_limit_deg = 0;  // how far a move may take the baseline (structure_move_limit, set with the origin)
 };
 
 enum class Acts : int {

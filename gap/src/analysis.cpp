@@ -91,6 +91,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   sx0.blocks = cv::make_blocks(kp, std::max(2, opt.folds));
   const Kinematics k0 = make_kinematics(s.angle, s.dt, 0.0, base.model);
   sx0.cx.max_speed_rad_s = k0.w.cwiseAbs().maxCoeff();
+  sx0.cx.move_limit_deg = structure_move_limit(sx0.cx);
   const std::vector<Phase> phases = classify_phases(k0, s.dt);
   Steps ctx;
   ctx.s = &s;
@@ -126,6 +127,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   if (base.dynamic) {
     Search sd = sx0;
     sd.cx.dyn = sd.cx.dyn_origin = base.dynamic;
+    sd.cx.move_limit_deg = structure_move_limit(sd.cx);
     Grown dyn = baseline_alone(sd, ctx);
     choice["dynamic"] = {{"heldout_gap_deg", dyn.baseline_gap}};
     // Searched from when its structure alone beats the paper structure alone, or is not worse than

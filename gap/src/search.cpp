@@ -124,13 +124,12 @@ core::ModelCoefficients moved_model(const Context& cx, const VectorXd& beta) {
   //    angle 8.8 deg RMSE against 0.78 for the baseline).
   const std::array<double, core::kRefitParameters> p0 = core::refit_parameters(cx.m);
   const double speed = 1.5 * cx.max_speed_rad_s;
-  const double limit = std::max(kMinStructureMoveDeg, branch_distance(cx.origin, cx.origin, cx, speed).own);
   double scale = 1;
   for (int halving = 0; halving <= 8; ++halving, scale /= 2) {
     std::array<double, core::kRefitParameters> p = p0;
     for (int i = 0; i < core::kRefitParameters; ++i) p[static_cast<std::size_t>(i)] += scale * beta(i);
     const core::ModelCoefficients m = core::with_refit_parameters(cx.m, p);
-    if (core::chain_admissible(m, speed) && branch_distance(m, cx.origin, cx, speed).between <= limit) return m;
+    if (core::chain_admissible(m, speed) && branch_distance(m, cx.origin, cx, speed).between <= cx.move_limit_deg) return m;
   }
   return cx.m;
 }
@@ -162,16 +161,22 @@ BranchDistance dynamic_distance(const core::DynamicModel& a, const core::Dynamic
 // sees, and a shortened step leaves the term's share applied alone.
 core::DynamicModel moved_dynamic(const Context& cx, const VectorXd& beta) {
   const VectorXd b0 = core::dynamic_coefficients(*cx.dyn);
-  const double limit = std::max(kMinStructureMoveDeg, dynamic_distance(*cx.dyn_origin, *cx.dyn_origin, cx).own);
   double scale = 1;
   for (int halving = 0; halving <= 8; ++halving, scale /= 2) {
     const core::DynamicModel m = core::with_dynamic_coefficients(*cx.dyn, b0 + scale * beta.head(b0.size()));
-    if (core::dynamic_invertible(m, 1.0 / cx.s->dt) && dynamic_distance(m, *cx.dyn_origin, cx).between <= limit) return m;
+    if (core::dynamic_invertible(m, 1.0 / cx.s->dt) && dynamic_distance(m, *cx.dyn_origin, cx).between <= cx.move_limit_deg)
+      return m;
   }
   return *cx.dyn;
 }
 
 }  // namespace
+
+double structure_move_limit(const Context& cx) {
+  const double own = cx.dyn_origin ? dynamic_distance(*cx.dyn_origin, *cx.dyn_origin, cx).own
+                                   : branch_distance(cx.origin, cx.origin, cx, 1.5 * cx.max_speed_rad_s).own;
+  return std::max(kMinStructureMoveDeg, own);
+}
 
 Structure moved_structure(const Context& cx, const VectorXd& beta) {
   if (cx.dyn) return {cx.m, moved_dynamic(cx, beta)};

@@ -66,8 +66,14 @@ struct Structure {
 /// by at least this [deg] (the paper's table 2 has ~3 deg; see moved_model in search.cpp).
 inline constexpr double kMinStructureMoveDeg = 3.0;
 
+/// How far a move may take the baseline from its origin [deg]: its own hysteresis (the paper
+/// structure's largest branch offset from f5 up to 1.5x the recording's speeds, or the dynamic
+/// model's largest departure from its quasi-static curve over the recording), at least
+/// kMinStructureMoveDeg. Depends on the origin only: computed once into Context::move_limit_deg.
+double structure_move_limit(const Context& cx);
+
 /// The baseline's coefficients moved by the first base_cols values of a solution beta, within
-/// bounds (see moved_model in search.cpp).
+/// bounds (see moved_model in search.cpp; the limit is cx.move_limit_deg).
 Structure moved_structure(const Context& cx, const Eigen::VectorXd& beta);
 
 /// sx with the baseline's coefficients moved by the first base_cols values of a solution beta.

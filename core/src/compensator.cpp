@@ -1,5 +1,7 @@
 #include "pof/core/compensator.hpp"
 
+#include "pof/core/effects.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -44,8 +46,13 @@ OnlineCompensator::OnlineCompensator(const Calibration& cal, const CompensatorSe
   if (cal.gap && !cal.gap->empty()) {
     if (const auto problems = gap_problems(*cal.gap, s.scan_rate_hz); !problems.empty())
       throw std::invalid_argument("compensator: " + problems.front().describe());
-    terms_chain_.terms = GapCorrector(cal, s.scan_rate_hz);
-    quiet_chain_.terms = terms_chain_.terms;
+    quiet_chain_.terms = GapCorrector(cal, s.scan_rate_hz);
+    // The acceleration is estimated once, on the quiet angle, for both chains (see quiet_chain_).
+    GapModel published = *cal.gap;
+    std::erase_if(published.terms, [](const GapTerm& t) { return effect_of(t.effect) == Effect::kAccelerationDependence; });
+    Calibration without_acceleration = cal;
+    without_acceleration.gap = std::move(published);
+    terms_chain_.terms = GapCorrector(without_acceleration, s.scan_rate_hz);
     terms_ = true;
   }
   guard_.level_v = cal.reference_level_v;
@@ -133,9 +140,7 @@ double OnlineCompensator::angle_of(double v, double reference_v, double w, Direc
   }
   terms_chain_.angle = angle;
   terms_chain_.u = v;
-  // dA/dv of the model here, for the acceleration term (GapCorrector::advance).
-  const double angle_per_volt = terms_chain_.terms.has_acceleration() ? model_slope(angle, w, d) : 0.0;
-  return terms_chain_.terms.advance(angle, reference_v, angle_per_volt);  // delay and backlash undone
+  return terms_chain_.terms.advance(angle, reference_v, 0.0);  // delay and backlash undone (no acceleration term here)
 }
 
 double OnlineCompensator::delay_s() const noexcept { return (n_ - 1) / (2.0 * s_.scan_rate_hz); }
@@ -260,7 +265,7 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
     // (stop operators at a hold after a 2 deg overshoot back) end on the wrong side. So there the
     // terms are the quiet chain's, at the quiet angle, with this scan's velocity and direction.
     // The dynamic model's inverse decides nothing: its own chain, one Newton step to this angle.
-    if (dynamic_ || !std::isfinite(y_quiet)) g = terms_voltage(v, reference_v, w, phase_);
+    if (dynamic_ || !std::isfinite(y_quiet)) g = terms_voltage(v, reference_v, w, phase_) + quiet_chain_.terms.acceleration_voltage();
     else g = quiet_chain_.terms.voltage_at(y_quiet, reference_v, w, phase_);
     if (std::isfinite(y_quiet)) commit_quiet(y_quiet, v - g_quiet, reference_v);
   }

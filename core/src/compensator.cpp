@@ -92,6 +92,7 @@ double OnlineCompensator::quiet_angle(double v, double reference_v, double* g) c
 void OnlineCompensator::commit_quiet(double angle, double u, double reference_v) noexcept {
   quiet_chain_.angle = angle;
   quiet_chain_.u = u;
+  quiet_committed_ = true;
   // f5's slope reconstructs the angle without the acceleration term for its own window.
   quiet_chain_.terms.advance(angle, reference_v, quiet_chain_.terms.has_acceleration() ? -cal_.model.c9 : 0.0);
 }
@@ -140,7 +141,14 @@ double OnlineCompensator::angle_of(double v, double reference_v, double w, Direc
   }
   terms_chain_.angle = angle;
   terms_chain_.u = v;
-  return terms_chain_.terms.advance(angle, reference_v, 0.0);  // delay and backlash undone (no acceleration term here)
+  const double own = terms_chain_.terms.advance(angle, reference_v, 0.0);  // delay and backlash undone
+  if (!quiet_committed_) return own;
+  // The velocity extrapolation's slope and the play's side come from the quiet chain, which ran
+  // the same kinematics on the quiet angle this scan (see quiet_chain_); a negative delay (the
+  // angle |d| ago) is exact on this angle and stays its own.
+  const GapCorrector::Kinematics& q = quiet_chain_.terms.last_kinematics();
+  const double joint = terms_chain_.terms.extrapolates() ? angle + (q.joint - q.angle) : terms_chain_.terms.last_kinematics().joint;
+  return joint + (q.reference - q.joint);
 }
 
 double OnlineCompensator::delay_s() const noexcept { return (n_ - 1) / (2.0 * s_.scan_rate_hz); }
@@ -194,6 +202,7 @@ double OnlineCompensator::short_slope() const noexcept {
 
 CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, double angle_ref_deg) noexcept {
   CompensatedScan out;
+  quiet_committed_ = false;
   if (gap_pending_) {
     out.quality |= quality::kGap;
     gap_pending_ = false;

@@ -228,6 +228,7 @@ GapCorrector::GapCorrector(const Calibration& cal, double scan_rate_hz) {
   }
   hist_.assign(static_cast<std::size_t>(std::max(longest, 1)), 0.0);
   if (source_) ref_.assign(static_cast<std::size_t>(std::max(1L, std::lround(kSourceMeanWindowS * scan_rate_hz))), 0.0);
+  g_delay_s_ = g.delay_s;
   if (g.delay_s > 0) lead_ = LagInverse(g.delay_s, kDelayFitWindowS, scan_rate_hz);
   if (g.delay_s < 0) {
     late_scans_ = -g.delay_s * scan_rate_hz;
@@ -316,7 +317,10 @@ double GapCorrector::estimate_acceleration_voltage() const noexcept {
 }
 
 double GapCorrector::advance(double angle, double reference_v, double angle_per_volt) noexcept {
-  if (!active_) return angle;
+  if (!active_) {
+    kin_ = {angle, angle, angle};
+    return angle;
+  }
   const double open = accel_.empty() || angle_per_volt == 0 ? angle : angle + angle_per_volt * accel_v_;
   for (Creep& c : creep_) c.x = started_ ? c.x + c.alpha * (angle - c.x) : angle;
   const double step = started_ ? angle - last_angle_ : 0.0;
@@ -359,12 +363,13 @@ double GapCorrector::advance(double angle, double reference_v, double angle_per_
   } else {
     joint = lead_.step(angle);
   }
+  kin_ = {angle, joint, joint};
   if (half_play_ > 0) {
     play_ = play_started_ ? play_operator(play_, joint, half_play_) : joint;
     play_started_ = true;
-    return play_;
+    kin_.reference = play_;
   }
-  return joint;
+  return kin_.reference;
 }
 
 void GapCorrector::interrupt() noexcept {

@@ -148,7 +148,8 @@ class OnlineCompensator {
   // the sensor's velocity, hence the direction, is estimated on that angle, which never depends on
   // the branch the paper chain picked; on the paper chain its terms also give the published angle's
   // voltage, whose own angle overshoots at every late direction decision (docs/calibration.md,
-  // "[gap]", steps 2 and 4). `terms_chain_` notches the voltage and undoes the kinematics.
+  // "[gap]", steps 2 and 4). `terms_chain_` notches the voltage and undoes the kinematics, with the
+  // velocity extrapolation's slope and the play's side of the quiet chain's (step 6 there).
   // The acceleration term lives in the quiet chain alone and both take its voltage from there: the
   // published angle goes through the active model's inverse, whose bend-lag inverse (dynamic
   // model, theta_f + tau_b theta_f') differentiates it once more, so an acceleration estimated on
@@ -156,6 +157,7 @@ class OnlineCompensator {
   // recording's hold (tau_b 56 ms, 0.0053 V s^2/rad) rang to 300 deg RMSE. The quiet angle goes
   // through no inverse but f5 (GapCorrector::advance makes it open-loop in the term itself).
   TermsChain terms_chain_, quiet_chain_;
+  bool quiet_committed_ = false;  // the quiet chain has this scan's angle (its kinematics are current)
   // The terms' slope dg/dA is a difference over this step [deg] (their bases are smooth or
   // piecewise linear in A: stop and play operators).
   static constexpr double kTermsSlopeStepDeg = 1e-3;

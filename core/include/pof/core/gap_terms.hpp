@@ -127,6 +127,15 @@ class GapCorrector {
   /// without that one term. 0: angle_deg already is such an angle (no acceleration term applied).
   double advance(double angle_deg, double reference_v, double angle_per_volt) noexcept;
 
+  /// The angles of the last advance(): the one committed, the joint's (delay undone) and the
+  /// reference-equivalent one (play applied; advance()'s return).
+  struct Kinematics {
+    double angle = 0, joint = 0, reference = 0;
+  };
+  [[nodiscard]] const Kinematics& last_kinematics() const noexcept { return kin_; }
+  /// Whether the delay inverse is a velocity extrapolation (delay_s > 0).
+  [[nodiscard]] bool extrapolates() const noexcept { return g_delay_s_ > 0; }
+
   /// The acceleration terms' voltage at this scan [V]: it depends on the committed angles only
   /// (included in voltage_at()).
   [[nodiscard]] double acceleration_voltage() const noexcept;
@@ -204,6 +213,8 @@ class GapCorrector {
   double half_play_ = 0;
   double play_ = 0;
   bool play_started_ = false;
+  double g_delay_s_ = 0;
+  Kinematics kin_;
 };
 
 }  // namespace pof::core

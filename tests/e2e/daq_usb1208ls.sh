@@ -3,14 +3,19 @@
 # mid-stream. The 3 channels are scanned as a queue of 4 (the device refuses 3: the model counts a
 # refused queue as a protocol error), 250 scans/s = 1000 S/s aggregate (continuous limit 1.2 kS/s),
 # single reads at 15 scans/s = 45 reads/s (software-paced limit 50 S/s). Both report layouts.
+# The measured scan rate is the slope of scan index against arrival time, so it reads the virtual
+# device's pacing on a shared machine as much as the daemon: 246.6 against the published 250.67
+# scans/s (-1.6 %) with two benchmark processes on both cores. 3 % still tells a wrong prescale
+# (a factor of 2); the timer divisor (neighbours 0.5 % apart: 6 MHz / 128 / 186..188) is checked
+# through the published rate (vdaq.cpp), and lost scans through the continuous indices.
 source "$(dirname "$0")/daq_lib.sh"
 vdaq --model 1208ls --scenario normal --duration 4 --rate 250 --decimate 1 --block-scans 10 \
-     --expect-variant "record-first"
+     --expect-variant "record-first" --min-rate-ratio 0.97
 summary
 at_most "$(report max_value_error_lsb)" 1.0 || fail "value error above 1 LSB"
 # The layout of wjasper's Python driver and ryan-duve's backend (data from byte 0, index at 101).
 vdaq --model 1208ls --scenario normal --duration 3 --rate 250 --decimate 1 --block-scans 10 \
-     --report-layout data-first --expect-variant "data-first"
+     --report-layout data-first --expect-variant "data-first" --min-rate-ratio 0.97
 summary
 at_most "$(report max_value_error_lsb)" 1.0 || fail "data-first layout: value error above 1 LSB"
 vdaq --model 1208ls --scenario unplug --event-at 1.5 --unplug-for 1 --duration 5 --rate 250 \

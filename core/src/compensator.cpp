@@ -1,12 +1,12 @@
 #include "pof/core/compensator.hpp"
 
-#include "pof/core/effects.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
 #include <string>
+
+#include "pof/core/effects.hpp"
 
 namespace pof::core {
 

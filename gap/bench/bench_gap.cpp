@@ -239,7 +239,17 @@ int main(int argc, char** argv) {
     else if (a == "--out" && i + 1 < argc) g_dir = argv[++i];
     else if (a == "--keep") g_keep = true;
     else if (a == "--dynamic-share" && i + 1 < argc) dynamic_share = std::atof(argv[++i]);
-    else rest.push_back(argv[i]);
+    else if (a == "--help" || a == "-h") {
+      std::cout << "usage: bench_gap [--blind N] [--seed S] [--out DIR] [--keep] [--dynamic-share P] [benchmark flags]\n"
+                   "  --blind N          blind recordings to draw and analyse (default 50; 0: the timing benchmarks only)\n"
+                   "  --seed S           the first recording's seed (default 1; recording i has seed S + i)\n"
+                   "  --out DIR          where blind.json, the CSVs and the 40-min recording go\n"
+                   "  --keep             keep each blind recording's CSV\n"
+                   "  --dynamic-share P  share of sensors of the dynamic model's kind (default 0.5)\n"
+                   "  --benchmark_filter=NONE skips the timing benchmarks; the benchmark library's flags follow:\n\n";
+      rest.push_back(argv[i]);
+      n = 0;
+    } else rest.push_back(argv[i]);
   }
   fs::create_directories(g_dir);
   if (n > 0) run_blind(n, seed, dynamic_share);

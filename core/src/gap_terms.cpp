@@ -228,7 +228,6 @@ GapCorrector::GapCorrector(const Calibration& cal, double scan_rate_hz) {
   }
   hist_.assign(static_cast<std::size_t>(std::max(longest, 1)), 0.0);
   if (source_) ref_.assign(static_cast<std::size_t>(std::max(1L, std::lround(kSourceMeanWindowS * scan_rate_hz))), 0.0);
-  g_delay_s_ = g.delay_s;
   if (g.delay_s > 0) lead_ = LagInverse(g.delay_s, kDelayFitWindowS, scan_rate_hz);
   if (g.delay_s < 0) {
     late_scans_ = -g.delay_s * scan_rate_hz;

@@ -134,7 +134,7 @@ class GapCorrector {
   };
   [[nodiscard]] const Kinematics& last_kinematics() const noexcept { return kin_; }
   /// Whether the delay inverse is a velocity extrapolation (delay_s > 0).
-  [[nodiscard]] bool extrapolates() const noexcept { return g_delay_s_ > 0; }
+  [[nodiscard]] bool extrapolates() const noexcept { return lead_.length() > 0; }
 
   /// The acceleration terms' voltage at this scan [V]: it depends on the committed angles only
   /// (included in voltage_at()).
@@ -213,7 +213,6 @@ class GapCorrector {
   double half_play_ = 0;
   double play_ = 0;
   bool play_started_ = false;
-  double g_delay_s_ = 0;
   Kinematics kin_;
 };
 

@@ -66,6 +66,7 @@ struct Options {
   double scan_rate_hz = 200;  // what the calibration's [gap] terms are checked at (blocks carry their own)
   double velocity_window_s = 0.5;
   double reversal_window_s = pof::core::CompensatorSettings{}.reversal_window_s;
+  bool no_model_steps = false;
   int queue_capacity = 10000;
   double duration_s = 0;
   std::string auth_key_file;
@@ -82,6 +83,7 @@ int run(const Options& o) {
   ps.compensator.scan_rate_hz = o.scan_rate_hz;
   ps.compensator.velocity_window_s = o.velocity_window_s;
   ps.compensator.reversal_window_s = o.reversal_window_s;
+  ps.compensator.model_steps = !o.no_model_steps;
   ps.compensator.velocity_source =
       o.velocity_source == "reference" ? pof::core::VelocitySource::kReference : pof::core::VelocitySource::kSensor;
   std::optional<pof::core::PotentiometerCalibration> pot;
@@ -229,6 +231,8 @@ int main(int argc, char** argv) {
   app.add_option("--reversal-window", o.reversal_window_s,
                  "Short window that detects reversals early [s] (0: direction from the velocity window alone)")
       ->check(CLI::Range(0.0, 10.0))->capture_default_str();
+  app.add_flag("--no-model-steps", o.no_model_steps,
+               "Paper model: do not read the start/stop/reversal steps eqs. (11)/(12) predict as changes of direction");
   app.add_option("--duration", o.duration_s, "Stop after this many seconds (tests, benchmarks); 0 = until SIGTERM")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--queue-capacity", o.queue_capacity, "LCM subscription queue [messages] (transports other than udpm://)")

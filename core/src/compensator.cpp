@@ -36,6 +36,15 @@ OnlineCompensator::OnlineCompensator(const Calibration& cal, const CompensatorSe
     const double m = m_;
     m_sxx_ = m * (m * m - 1) / 12.0;
   }
+  if (s.model_steps && cal.active != ModelKind::kDynamic && s.velocity_source == VelocitySource::kSensor) {
+    if (!(s.step_block_s > 0) || !(s.step_tolerance > 0 && s.step_tolerance < 1) || !(s.step_min_snr > 0) ||
+        !(s.step_min_deg >= 0))
+      throw std::invalid_argument(
+          "compensator: model steps need step_block_s > 0, 0 < step_tolerance < 1, step_min_snr > 0, step_min_deg >= 0");
+    // The block and the 3 blocks before it must fit the window (else off).
+    step_m_ = std::min(std::max(2, static_cast<int>(std::lround(s.step_block_s * s.scan_rate_hz))), n_ / 4);
+    if (step_m_ < 2) step_m_ = 0;
+  }
   if (cal.active == ModelKind::kDynamic) {
     if (!cal.dynamic) throw std::invalid_argument("compensator: the dynamic model is selected but the calibration has none");
     if (const char* why = cal.dynamic->invalid_reason(); *why != '\0')
@@ -66,6 +75,8 @@ void OnlineCompensator::clear_window() noexcept {
   s0_ = s1_ = 0;
   since_refresh_ = 0;
   phase_ = Direction::kHold;
+  step_offset_ = 0;
+  step_hold_ = 0;
 }
 
 void OnlineCompensator::reset() noexcept {
@@ -171,20 +182,104 @@ double OnlineCompensator::push(double y) noexcept {
     s0_ += y - old;
     at(head_) = y;
     head_ = (head_ + 1) % n_;
-    if (++since_refresh_ >= kRefreshScans) {
-      since_refresh_ = 0;
-      s0_ = s1_ = 0;
-      for (int j = 0; j < n_; ++j) {
-        const double v = at((head_ + j) % n_);
-        s0_ += v;
-        s1_ += j * v;
-      }
-    }
+    if (++since_refresh_ >= kRefreshScans) refresh_sums();
   }
+  return push_slope();
+}
+
+double OnlineCompensator::push_slope() const noexcept {
   const double m = count_;
   if (count_ < 2) return std::nan("");
   const double sj = m * (m - 1) / 2, sjj = (m - 1) * m * (2 * m - 1) / 6;
   return (m * s1_ - sj * s0_) / (m * sjj - sj * sj);
+}
+
+void OnlineCompensator::refresh_sums() noexcept {
+  since_refresh_ = 0;
+  s0_ = s1_ = 0;
+  for (int j = 0; j < count_; ++j) {
+    const double v = ring_[static_cast<std::size_t>((head_ + j) % n_)];
+    s0_ += v;
+    s1_ += j * v;
+  }
+}
+
+double& OnlineCompensator::ring_back(int back) noexcept {
+  return ring_[static_cast<std::size_t>((head_ + count_ - 1 - back + n_) % n_)];
+}
+
+double OnlineCompensator::predicted_step(double angle, Direction from, Direction to) const noexcept {
+  // B_d(A) = f5(V_d(A, w_min)) - A: where the f5 angle sits on branch d (0 in a hold). The sensor
+  // changes branch as its speed passes through the lowest speeds, so the branches are taken there.
+  auto offset = [&](Direction d) {
+    if (d == Direction::kHold) return 0.0;
+    return quasi_static_angle(cal_.model, model_voltage(cal_.model, angle, cal_.velocity_min_rad_s, d)) - angle;
+  };
+  return offset(to) - offset(from);
+}
+
+Direction OnlineCompensator::model_step() noexcept {
+  if (step_m_ == 0 || count_ < n_) return phase_;
+  // The f5 angle's white noise sigma from its second difference (variance 6 sigma^2; a movement
+  // adds only its acceleration): a running mean over the first window, then an exponential one
+  // over two windows with each square held below 16 times the estimate, so that a step (two large
+  // second differences) does not inflate it.
+  const double d2 = ring_back(0) - 2 * ring_back(1) + ring_back(2);
+  double q = d2 * d2;
+  if (d2_count_ >= n_) q = std::min(q, 16 * d2_var_);
+  ++d2_count_;
+  d2_var_ += (q - d2_var_) / static_cast<double>(std::min<std::int64_t>(d2_count_, 2 * static_cast<std::int64_t>(n_)));
+  if (d2_count_ < n_ || step_hold_ > n_ - step_m_) return phase_;  // one step per block
+  // The newest block against the straight line through the 3M angles before it: a movement that
+  // goes on as before cancels, and so does one whose speed changes no faster than a knee's within
+  // those 0.1 s (docs/calibration.md, "Model steps").
+  const int m = step_m_, k = 3 * m;
+  double mean = 0, sxy = 0;
+  for (int i = 0; i < k; ++i) mean += ring_back(m + i);
+  mean /= k;
+  const double centre = m + (k - 1) / 2.0;  // the line's centre, in scans back from the newest
+  for (int i = 0; i < k; ++i) sxy += (m + i - centre) * (ring_back(m + i) - mean);
+  const double sxx = k * (static_cast<double>(k) * k - 1) / 12.0;
+  auto past_line = [&](int back) { return ring_back(back) - (mean + sxy / sxx * (back - centre)); };
+  // The noise of a block's mean step: the block mean's and the extrapolated line's, for white
+  // noise of sigma.
+  const double reach = centre - (m - 1) / 2.0;
+  const double noise = std::sqrt(d2_var_ / 6.0 * (1.0 / m + 1.0 / k + reach * reach / sxx));
+  const double angle = mean - sxy / sxx * centre + step_offset_;  // the f5 angle now, without the step
+  // A candidate is a step, not a few noisy scans, when all angles of the block but the oldest lie
+  // more than half of it past the line (a step is one scan old at first: until then the next
+  // scan tries again); their mean is the measured step. The nearest prediction within the
+  // tolerance wins, but a stop (to hold) is kept unless a reversal is nearer by half: where the
+  // two are hard to tell apart their steps differ little, and so do the angles they give, while
+  // knees stop far more often than they turn within 25 ms.
+  Direction best = phase_;
+  double best_miss = std::numeric_limits<double>::infinity(), step = 0;
+  int run = 0;
+  for (const Direction to : {Direction::kHold, Direction::kFlexion, Direction::kExtension}) {
+    if (to == phase_) continue;
+    const double p = predicted_step(angle, phase_, to);
+    if (!std::isfinite(p) || std::abs(p) < std::max(s_.step_min_snr * noise, s_.step_min_deg)) continue;
+    int r = 0;
+    double sum = 0;
+    while (r < m && past_line(r) * p > 0.5 * p * p) sum += past_line(r++);
+    if (r < m - 1) continue;
+    const double measured = sum / r, miss = std::abs(measured - p);
+    if (miss > s_.step_tolerance * std::abs(p)) continue;
+    const bool stop_held = best == Direction::kHold && miss > 0.5 * best_miss;
+    if (miss < best_miss && !stop_held) {
+      best_miss = miss;
+      best = to;
+      step = measured;
+      run = r;
+    }
+  }
+  if (best == phase_) return phase_;
+  // The step's scans are moved back by it, and every later angle by the same offset.
+  for (int i = 0; i < run; ++i) ring_back(i) -= step;
+  step_offset_ += step;
+  refresh_sums();
+  step_hold_ = n_;
+  return best;
 }
 
 double OnlineCompensator::short_slope() const noexcept {
@@ -242,7 +337,11 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
     clear_window();
     return out;
   }
-  const double w = push(y) * s_.scan_rate_hz * kRadPerDeg;
+  if (step_hold_ > 0) --step_hold_;
+  double slope = push(y - step_offset_);
+  const Direction stepped = model_step();
+  if (stepped != phase_) slope = push_slope();  // the window without the step
+  const double w = slope * s_.scan_rate_hz * kRadPerDeg;
   out.velocity_rad_s = w;
   // Direction with a dead band (hold_rad_s < move_rad_s). With the reversal window on, its slope
   // ws (lag ~(M-1)/2fs) flips flexion <-> extension as soon as it clearly sees the opposite sense,
@@ -253,6 +352,10 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
   if (count_ < n_) {
     out.quality |= quality::kSettling;
     phase_ = Direction::kHold;  // a half-filled window is too noisy to decide a direction
+  } else if (stepped != phase_) {
+    phase_ = stepped;  // the step the model predicts for this change of direction
+  } else if (step_hold_ > 0) {
+    // A step decided the direction; the window still holds the angles before it.
   } else if (phase_ == Direction::kHold) {
     if (w > s_.move_rad_s) phase_ = Direction::kFlexion;
     else if (w < -s_.move_rad_s) phase_ = Direction::kExtension;

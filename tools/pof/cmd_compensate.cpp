@@ -26,6 +26,7 @@ struct CompensateOptions {
   std::string model = "file";
   double window_s = 0.5;
   double reversal_window_s = pof::core::CompensatorSettings{}.reversal_window_s;
+  bool no_model_steps = false;
 };
 
 // Table 3's columns, units in the header (degrees, percent of the span, rad/s).
@@ -64,6 +65,7 @@ void run(const CompensateOptions& o) {
   pof::core::CompensatorSettings s;
   s.velocity_window_s = o.window_s;
   s.reversal_window_s = o.reversal_window_s;
+  s.model_steps = !o.no_model_steps;
   s.velocity_source = o.velocity_source == "reference" ? pof::core::VelocitySource::kReference : pof::core::VelocitySource::kSensor;
   const auto r = pof::core::compensate_recording(rec.t_s, rec.sensor_v, rec.reference_v, ref, cal.cal, s, {},
                                                  [&](Eigen::Index i, Eigen::Index n) { progress.fraction(i, n); });
@@ -100,6 +102,8 @@ void add_compensate(CLI::App& app) {
   cmd->add_option("--reversal-window", o->reversal_window_s,
                   "Short window that detects reversals early [s] (0: direction from the velocity window alone)")
       ->check(CLI::Range(0.0, 10.0))->capture_default_str();
+  cmd->add_flag("--no-model-steps", o->no_model_steps,
+                "Paper model: do not read the start/stop/reversal steps eqs. (11)/(12) predict as changes of direction");
   cmd->callback([o] { run(*o); });
 }
 

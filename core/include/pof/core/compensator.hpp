@@ -59,6 +59,20 @@ struct CompensatorSettings {
   // holds and starts are still decided by the long window. 0 = off (direction from the long window).
   double reversal_window_s = 0.0;
   double reversal_rad_s = 0.03;        // the short window's |w| in the opposite sense that flips
+  // Model steps (paper model, sensor velocity source): eqs. (11)/(12) at w -> 0 do not meet f5, so
+  // a sensor that follows them steps at every start, stop and reversal, against the motion; read as
+  // motion, the step turned the direction the wrong way for ~0.1 s (a 2-3 deg error). A step of the
+  // size and sign the calibration predicts for a change of direction, seen in the mean of the
+  // newest step_block_s of f5 angles against the line through the 3 blocks before, switches the
+  // direction at once and is taken out of the velocity window; a sensor without such steps never
+  // matches and runs as with this off (docs/calibration.md, "Model steps").
+  bool model_steps = true;
+  double step_block_s = 0.025;         // block length M / fs (the window must hold 4 blocks)
+  double step_tolerance = 0.4;         // |measured - predicted| <= this x |predicted|
+  double step_min_snr = 6.0;           // |predicted| >= this x the block-against-line noise
+  // ... and >= this [deg]: the line is extrapolated ~0.05 s, over which a knee braking at 3 rad/s^2
+  // departs from it by 0.2 deg (a smaller step changes the angle little when missed).
+  double step_min_deg = 0.2;
   double velocity_tolerance = 0.10;    // relative margin on the calibrated velocity range before flagging
   double angle_margin_deg = 2.0;       // margin on the calibrated angle range before flagging
   double input_limit_v = 10.0;         // |input| at or above this is clipped (USB-6008 +-10 V range)
@@ -100,7 +114,18 @@ class OnlineCompensator {
  private:
   void clear_window() noexcept;
   double push(double y) noexcept;  // returns slope [deg/scan], NaN with < 2 samples
+  double push_slope() const noexcept;  // the window's slope [deg/scan] as it is, NaN with < 2 samples
   double short_slope() const noexcept;  // the reversal window's slope [deg/scan], NaN until it is full
+  double& ring_back(int back) noexcept;  // the window's entry `back` scans before the newest
+  void refresh_sums() noexcept;         // s0_, s1_ rebuilt from the ring
+  // The f5-angle step [deg] the paper model predicts for a change of direction from `from` to `to`
+  // at angle [deg] (both branches at the lowest calibrated speed; f5 in holds).
+  double predicted_step(double angle, Direction from, Direction to) const noexcept;
+  // Model steps (CompensatorSettings::model_steps): tracks the f5 angle's noise, and when the
+  // newest block of the window stepped as predicted for a change of direction returns that
+  // direction (else
+  // phase_), the step taken out of the window.
+  Direction model_step() noexcept;
   // The state of one chain of [gap] terms over one angle: the terms, the angle they were last
   // advanced to and the voltage inverted then.
   struct TermsChain {
@@ -141,6 +166,15 @@ class OnlineCompensator {
   double m_sxx_ = 1;         // sum (j - jbar)^2 over the reversal window
   std::int64_t since_refresh_ = 0;
   Direction phase_ = Direction::kHold;
+  // Model steps: block length [scans] (0 = off), the offset taken out of the angles the window is
+  // fed since the last clear, the mean square of the f5 angle's second difference and how many
+  // scans it has seen, and the scans until the long window may again change a direction that a
+  // step decided (until then it still holds angles from before the step).
+  int step_m_ = 0;
+  double step_offset_ = 0;
+  double d2_var_ = 0;
+  std::int64_t d2_count_ = 0;
+  int step_hold_ = 0;
   bool gap_pending_ = false;
   bool terms_ = false;  // [gap] terms run
   // Two copies of the same terms. `terms_chain_` is advanced with the published fibre angle (the

@@ -65,6 +65,16 @@ void BM_OnlineCompensatorStep(benchmark::State& state) {
 }
 BENCHMARK(BM_OnlineCompensatorStep);
 
+// The same with model steps off (CompensatorSettings::model_steps): what looking for the paper
+// model's start/stop/reversal steps costs per scan.
+void BM_OnlineCompensatorStepNoModelSteps(benchmark::State& state) {
+  pof::core::CompensatorSettings s;
+  s.model_steps = false;
+  pof::core::OnlineCompensator comp(calibration(), s);
+  run_steps(state, comp);
+}
+BENCHMARK(BM_OnlineCompensatorStepNoModelSteps);
+
 // What pof-compensatord does per scan with statistics on: step + table-3 cycle statistics.
 void BM_OnlineCompensatorStepWithStatistics(benchmark::State& state) {
   const auto& g = data();

@@ -220,19 +220,9 @@ double OnlineCompensator::predicted_step(double angle, Direction from, Direction
 
 Direction OnlineCompensator::model_step() noexcept {
   if (step_m_ == 0 || count_ < n_) return phase_;
-  // The f5 angle's white noise sigma from its second difference (variance 6 sigma^2; a movement
-  // adds only its acceleration): a running mean over the first window, then an exponential one
-  // over two windows with each square held below 16 times the estimate, so that a step (two large
-  // second differences) does not inflate it.
-  const double d2 = ring_back(0) - 2 * ring_back(1) + ring_back(2);
-  double q = d2 * d2;
-  if (d2_count_ >= n_) q = std::min(q, 16 * d2_var_);
-  ++d2_count_;
-  d2_var_ += (q - d2_var_) / static_cast<double>(std::min<std::int64_t>(d2_count_, 2 * static_cast<std::int64_t>(n_)));
-  if (d2_count_ < n_ || step_hold_ > n_ - step_m_) return phase_;  // one step per block
-  // The newest block against the straight line through the 3M angles before it: a movement that
-  // goes on as before cancels, and so does one whose speed changes no faster than a knee's within
-  // those 0.1 s (docs/calibration.md, "Model steps").
+  // The newest scans against the straight line through the 3M angles before the newest block of
+  // M: a movement that goes on as before cancels, and so does one whose speed changes no faster
+  // than a knee's within those 0.1 s (docs/calibration.md, "Model steps").
   const int m = step_m_, k = 3 * m;
   double mean = 0, sxy = 0;
   for (int i = 0; i < k; ++i) mean += ring_back(m + i);
@@ -241,44 +231,58 @@ Direction OnlineCompensator::model_step() noexcept {
   for (int i = 0; i < k; ++i) sxy += (m + i - centre) * (ring_back(m + i) - mean);
   const double sxx = k * (static_cast<double>(k) * k - 1) / 12.0;
   auto past_line = [&](int back) { return ring_back(back) - (mean + sxy / sxx * (back - centre)); };
-  // The noise of a block's mean step: the block mean's and the extrapolated line's, for white
-  // noise of sigma.
-  const double reach = centre - (m - 1) / 2.0;
-  const double noise = std::sqrt(d2_var_ / 6.0 * (1.0 / m + 1.0 / k + reach * reach / sxx));
+  // The measured step: the newest M - 1 scans past the line (a step is taken once it is M - 1
+  // scans old; the oldest scan of the block may still be from before it).
+  double measured = 0;
+  for (int i = 0; i < m - 1; ++i) measured += past_line(i);
+  measured /= m - 1;
+  // Its spread without steps, measured on the statistic itself: white noise, a 12-bit converter's
+  // staircase under a slow movement (the line through one flat stair misses the next by up to a
+  // code plus the movement), vibration. A running mean of its square over the first two windows,
+  // then an exponential one over four, each square held below 16 times the estimate so that the
+  // steps themselves barely count.
+  double q = measured * measured;
+  if (stat_count_ >= 2 * n_) q = std::min(q, 16 * stat_var_);
+  ++stat_count_;
+  stat_var_ += (q - stat_var_) / static_cast<double>(std::min<std::int64_t>(stat_count_, 4 * static_cast<std::int64_t>(n_)));
+  if (stat_count_ < 2 * n_ || step_hold_ > n_ - m) return phase_;  // one step per block
+  const double noise = std::sqrt(stat_var_);
   const double angle = mean - sxy / sxx * centre + step_offset_;  // the f5 angle now, without the step
-  // A candidate is a step, not a few noisy scans, when all angles of the block but the oldest lie
-  // more than half of it past the line (a step is one scan old at first: until then the next
-  // scan tries again); their mean is the measured step. The nearest prediction within the
-  // tolerance wins, but a stop (to hold) is kept unless a reversal is nearer by half: where the
-  // two are hard to tell apart their steps differ little, and so do the angles they give, while
-  // knees stop far more often than they turn within 25 ms.
+  // A stop (to hold) is taken when it fits; otherwise the nearest prediction, if it fits. Where a
+  // stop and a reversal both fit, their steps, and so the angles they give, differ little, and a
+  // knee that does turn shows it in the window soon after (step() lets the window name the new
+  // direction then). To fit, the prediction must be within the tolerance, large enough to tell
+  // from the statistic's spread, and a step, not a few noisy scans: each of the M - 1 newest
+  // scans more than half of it past the line. Otherwise the next scan tries again.
+  auto fits = [&](double p) {
+    return std::isfinite(p) && std::abs(p) >= std::max(s_.step_min_snr * noise, s_.step_min_deg) &&
+           std::abs(measured - p) <= s_.step_tolerance * std::abs(p);
+  };
   Direction best = phase_;
-  double best_miss = std::numeric_limits<double>::infinity(), step = 0;
-  int run = 0;
-  for (const Direction to : {Direction::kHold, Direction::kFlexion, Direction::kExtension}) {
-    if (to == phase_) continue;
-    const double p = predicted_step(angle, phase_, to);
-    if (!std::isfinite(p) || std::abs(p) < std::max(s_.step_min_snr * noise, s_.step_min_deg)) continue;
-    int r = 0;
-    double sum = 0;
-    while (r < m && past_line(r) * p > 0.5 * p * p) sum += past_line(r++);
-    if (r < m - 1) continue;
-    const double measured = sum / r, miss = std::abs(measured - p);
-    if (miss > s_.step_tolerance * std::abs(p)) continue;
-    const bool stop_held = best == Direction::kHold && miss > 0.5 * best_miss;
-    if (miss < best_miss && !stop_held) {
-      best_miss = miss;
+  double predicted = 0;
+  if (phase_ != Direction::kHold && fits(predicted_step(angle, phase_, Direction::kHold))) {
+    best = Direction::kHold;
+    predicted = predicted_step(angle, phase_, Direction::kHold);
+  } else {
+    double best_miss = std::numeric_limits<double>::infinity();
+    for (const Direction to : {Direction::kHold, Direction::kFlexion, Direction::kExtension}) {
+      const double p = predicted_step(angle, phase_, to);
+      if (to == phase_ || !std::isfinite(p) || std::abs(measured - p) >= best_miss) continue;
+      best_miss = std::abs(measured - p);
       best = to;
-      step = measured;
-      run = r;
+      predicted = p;
     }
+    if (best == phase_ || !fits(predicted)) return phase_;
   }
-  if (best == phase_) return phase_;
+  int run = 0;
+  while (run < m && past_line(run) * predicted > 0.5 * predicted * predicted) ++run;
+  if (run < m - 1) return phase_;
   // The step's scans are moved back by it, and every later angle by the same offset.
-  for (int i = 0; i < run; ++i) ring_back(i) -= step;
-  step_offset_ += step;
+  for (int i = 0; i < run; ++i) ring_back(i) -= measured;
+  step_offset_ += measured;
   refresh_sums();
   step_hold_ = n_;
+  step_from_ = phase_;
   return best;
 }
 
@@ -355,7 +359,12 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
   } else if (stepped != phase_) {
     phase_ = stepped;  // the step the model predicts for this change of direction
   } else if (step_hold_ > 0) {
-    // A step decided the direction; the window still holds the angles before it.
+    // A step decided the direction; the window still holds angles from before it, so it may only
+    // name a movement that is neither this direction nor the one before the step, and only beyond
+    // reversal_rad_s (a stop taken where the knee turned; a step measured a little off leaves a
+    // slope of a few 0.01 rad/s in the window).
+    if (w > s_.reversal_rad_s && phase_ != Direction::kFlexion && step_from_ != Direction::kFlexion) phase_ = Direction::kFlexion;
+    else if (w < -s_.reversal_rad_s && phase_ != Direction::kExtension && step_from_ != Direction::kExtension) phase_ = Direction::kExtension;
   } else if (phase_ == Direction::kHold) {
     if (w > s_.move_rad_s) phase_ = Direction::kFlexion;
     else if (w < -s_.move_rad_s) phase_ = Direction::kExtension;

@@ -43,6 +43,13 @@ printf '%s' "$out" >stdout.json
 "$PY" "$CHECK" has-overall stdout.json || fail "--json - did not print the JSON alone on stdout"
 grep -q '^overall ' <<<"$err" || fail "--json -: no table-3 summary on stderr"
 
+# --- model steps (docs/calibration.md, "Model steps"), on by default: the generated sensor follows
+# eqs. (11)/(12) and steps at starts, stops and reversals; with --no-model-steps those steps are
+# read as motion again and the paper model's error grows.
+expect_exit 0 "$POF" compensate val.csv --cal cal.toml --model paper --json steps_on.json
+expect_exit 0 "$POF" compensate val.csv --cal cal.toml --model paper --no-model-steps --json steps_off.json
+"$PY" "$CHECK" lower steps_on.json steps_off.json || fail "model steps did not lower the paper model's RMSE"
+
 # --- the model: the file's active one, or either by --model
 expect_exit 0 "$POF" compensate val.csv --cal cal.toml --model dynamic
 grep -q "dynamic model" <<<"$out" || fail "--model dynamic not used: $out"

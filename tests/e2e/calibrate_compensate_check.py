@@ -5,6 +5,7 @@
   calibrate_compensate_check.py calibration REPORT/calibration.json   the figures of the report
   calibrate_compensate_check.py stats STATS.json                      table 3 per cycle and overall
   calibrate_compensate_check.py has-overall FILE                      FILE is JSON with "overall"
+  calibrate_compensate_check.py lower A.json B.json                   A's overall RMSE below B's
 """
 import json
 import sys
@@ -45,11 +46,17 @@ def has_overall(path):
     json.load(open(path))["overall"]
 
 
+def lower(path_a, path_b):
+    a, b = (json.load(open(p))["overall"]["rmse_comp_deg"] for p in (path_a, path_b))
+    print(f"overall RMSE {a:.3f} deg ({path_a}) vs {b:.3f} deg ({path_b})")
+    check(a < b, f"{a} !< {b}")
+
+
 def main():
-    checks = {"calibration": calibration, "stats": stats, "has-overall": has_overall}
-    if len(sys.argv) != 3 or sys.argv[1] not in checks:
+    checks = {"calibration": (calibration, 1), "stats": (stats, 1), "has-overall": (has_overall, 1), "lower": (lower, 2)}
+    if len(sys.argv) < 2 or sys.argv[1] not in checks or len(sys.argv) != 2 + checks[sys.argv[1]][1]:
         sys.exit(__doc__)
-    checks[sys.argv[1]](sys.argv[2])
+    checks[sys.argv[1]][0](*sys.argv[2:])
 
 
 if __name__ == "__main__":

@@ -69,7 +69,7 @@ struct CompensatorSettings {
   bool model_steps = true;
   double step_block_s = 0.025;         // block length M / fs (the window must hold 4 blocks)
   double step_tolerance = 0.4;         // |measured - predicted| <= this x |predicted|
-  double step_min_snr = 6.0;           // |predicted| >= this x the block-against-line noise
+  double step_min_snr = 6.0;           // |predicted| >= this x the step statistic's own spread
   // ... and >= this [deg]: the line is extrapolated ~0.05 s, over which a knee braking at 3 rad/s^2
   // departs from it by 0.2 deg (a smaller step changes the angle little when missed).
   double step_min_deg = 0.2;
@@ -167,14 +167,15 @@ class OnlineCompensator {
   std::int64_t since_refresh_ = 0;
   Direction phase_ = Direction::kHold;
   // Model steps: block length [scans] (0 = off), the offset taken out of the angles the window is
-  // fed since the last clear, the mean square of the f5 angle's second difference and how many
-  // scans it has seen, and the scans until the long window may again change a direction that a
-  // step decided (until then it still holds angles from before the step).
+  // fed since the last clear, the mean square of the step statistic and how many scans it has
+  // seen, the scans until the long window may again change a direction that a step decided
+  // freely (until then it still holds angles from before the step), and the direction before it.
   int step_m_ = 0;
   double step_offset_ = 0;
-  double d2_var_ = 0;
-  std::int64_t d2_count_ = 0;
+  double stat_var_ = 0;
+  std::int64_t stat_count_ = 0;
   int step_hold_ = 0;
+  Direction step_from_ = Direction::kHold;
   bool gap_pending_ = false;
   bool terms_ = false;  // [gap] terms run
   // Two copies of the same terms. `terms_chain_` is advanced with the published fibre angle (the

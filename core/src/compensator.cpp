@@ -44,6 +44,7 @@ OnlineCompensator::OnlineCompensator(const Calibration& cal, const CompensatorSe
     // The block and the 3 blocks before it must fit the window (else off).
     step_m_ = std::min(std::max(2, static_cast<int>(std::lround(s.step_block_s * s.scan_rate_hz))), n_ / 4);
     if (step_m_ < 2) step_m_ = 0;
+    step_scratch_.assign(static_cast<std::size_t>(4 * step_m_), 0.0);
   }
   if (cal.active == ModelKind::kDynamic) {
     if (!cal.dynamic) throw std::invalid_argument("compensator: the dynamic model is selected but the calibration has none");
@@ -205,7 +206,12 @@ void OnlineCompensator::refresh_sums() noexcept {
 }
 
 double& OnlineCompensator::ring_back(int back) noexcept {
-  return ring_[static_cast<std::size_t>((head_ + count_ - 1 - back + n_) % n_)];
+  // head_ + count_ - 1 - back lies in (-n_, 2 n_): one wrap instead of a division (model_step()
+  // reads ~35 entries a scan).
+  int i = head_ + count_ - 1 - back;
+  if (i >= n_) i -= n_;
+  else if (i < 0) i += n_;
+  return ring_[static_cast<std::size_t>(i)];
 }
 
 double OnlineCompensator::predicted_step(double angle, Direction from, Direction to) const noexcept {
@@ -224,13 +230,17 @@ Direction OnlineCompensator::model_step() noexcept {
   // M: a movement that goes on as before cancels, and so does one whose speed changes no faster
   // than a knee's within those 0.1 s (docs/calibration.md, "Model steps").
   const int m = step_m_, k = 3 * m;
+  // The newest 4M angles, newest first, copied out of the ring once (x[back]).
+  double* const x = step_scratch_.data();
+  for (int back = 0, i = (head_ + count_ - 1) % n_; back < m + k; ++back, i = i == 0 ? n_ - 1 : i - 1)
+    x[back] = ring_[static_cast<std::size_t>(i)];
   double mean = 0, sxy = 0;
-  for (int i = 0; i < k; ++i) mean += ring_back(m + i);
+  for (int i = 0; i < k; ++i) mean += x[m + i];
   mean /= k;
   const double centre = m + (k - 1) / 2.0;  // the line's centre, in scans back from the newest
-  for (int i = 0; i < k; ++i) sxy += (m + i - centre) * (ring_back(m + i) - mean);
+  for (int i = 0; i < k; ++i) sxy += (m + i - centre) * (x[m + i] - mean);
   const double sxx = k * (static_cast<double>(k) * k - 1) / 12.0;
-  auto past_line = [&](int back) { return ring_back(back) - (mean + sxy / sxx * (back - centre)); };
+  auto past_line = [&](int back) { return x[back] - (mean + sxy / sxx * (back - centre)); };
   // The measured step: the newest M - 1 scans past the line (a step is taken once it is M - 1
   // scans old; the oldest scan of the block may still be from before it).
   double measured = 0;
@@ -247,6 +257,9 @@ Direction OnlineCompensator::model_step() noexcept {
   stat_var_ += (q - stat_var_) / static_cast<double>(std::min<std::int64_t>(stat_count_, 4 * static_cast<std::int64_t>(n_)));
   if (stat_count_ < 2 * n_ || step_hold_ > n_ - m) return phase_;  // one step per block
   const double noise = std::sqrt(stat_var_);
+  // No prediction can fit a measured step below (1 - tolerance) of the smallest one looked for:
+  // most scans end here, before the model's branches are evaluated.
+  if (std::abs(measured) < (1 - s_.step_tolerance) * std::max(s_.step_min_snr * noise, s_.step_min_deg)) return phase_;
   const double angle = mean - sxy / sxx * centre + step_offset_;  // the f5 angle now, without the step
   // A stop (to hold) is taken when it fits; otherwise the nearest prediction, if it fits. Where a
   // stop and a reversal both fit, their steps, and so the angles they give, differ little, and a

@@ -171,6 +171,7 @@ class OnlineCompensator {
   // seen, the scans until the long window may again change a direction that a step decided
   // freely (until then it still holds angles from before the step), and the direction before it.
   int step_m_ = 0;
+  std::vector<double> step_scratch_;  // the newest 4 blocks, newest first (model_step())
   double step_offset_ = 0;
   double stat_var_ = 0;
   std::int64_t stat_count_ = 0;

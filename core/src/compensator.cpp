@@ -37,14 +37,20 @@ OnlineCompensator::OnlineCompensator(const Calibration& cal, const CompensatorSe
     m_sxx_ = m * (m * m - 1) / 12.0;
   }
   if (s.model_steps && cal.active != ModelKind::kDynamic && s.velocity_source == VelocitySource::kSensor) {
-    if (!(s.step_block_s > 0) || !(s.step_tolerance > 0 && s.step_tolerance < 1) || !(s.step_min_snr > 0) ||
-        !(s.step_min_deg >= 0))
+    if (!(s.step_block_s > 0 && std::isfinite(s.step_block_s)) || !(s.step_tolerance > 0 && s.step_tolerance < 1) ||
+        !(s.step_min_snr > 0 && std::isfinite(s.step_min_snr)) || !(s.step_min_deg >= 0 && std::isfinite(s.step_min_deg)) ||
+        !(s.reversal_rad_s > s.move_rad_s))
       throw std::invalid_argument(
-          "compensator: model steps need step_block_s > 0, 0 < step_tolerance < 1, step_min_snr > 0, step_min_deg >= 0");
-    // The block and the 3 blocks before it must fit the window (else off).
-    step_m_ = std::min(std::max(2, static_cast<int>(std::lround(s.step_block_s * s.scan_rate_hz))), n_ / 4);
-    if (step_m_ < 2) step_m_ = 0;
-    step_scratch_.assign(static_cast<std::size_t>(4 * step_m_), 0.0);
+          "compensator: model steps need a finite step_block_s > 0, 0 < step_tolerance < 1, finite step_min_snr > 0 "
+          "and step_min_deg >= 0, and reversal_rad_s > move_rad_s");
+    // A block of at least 3 scans (of 2, one noisy scan past the line would be a step), and the
+    // block and the 3 before it must fit the window; otherwise model steps are off (a velocity
+    // window under 0.06 s at 200 Hz).
+    const double block = std::max(3.0, std::round(s.step_block_s * s.scan_rate_hz));
+    if (4 * block <= n_) {
+      step_m_ = static_cast<int>(block);
+      step_scratch_.assign(static_cast<std::size_t>(4 * step_m_), 0.0);
+    }
   }
   if (cal.active == ModelKind::kDynamic) {
     if (!cal.dynamic) throw std::invalid_argument("compensator: the dynamic model is selected but the calibration has none");
@@ -206,8 +212,7 @@ void OnlineCompensator::refresh_sums() noexcept {
 }
 
 double& OnlineCompensator::ring_back(int back) noexcept {
-  // head_ + count_ - 1 - back lies in (-n_, 2 n_): one wrap instead of a division (model_step()
-  // reads ~35 entries a scan).
+  // head_ + count_ - 1 - back lies in (-n_, 2 n_): one wrap instead of a division.
   int i = head_ + count_ - 1 - back;
   if (i >= n_) i -= n_;
   else if (i < 0) i += n_;
@@ -250,11 +255,17 @@ Direction OnlineCompensator::model_step() noexcept {
   // staircase under a slow movement (the line through one flat stair misses the next by up to a
   // code plus the movement), vibration. A running mean of its square over the first two windows,
   // then an exponential one over four, each square held below 16 times the estimate so that the
-  // steps themselves barely count.
-  double q = measured * measured;
-  if (stat_count_ >= 2 * n_) q = std::min(q, 16 * stat_var_);
-  ++stat_count_;
-  stat_var_ += (q - stat_var_) / static_cast<double>(std::min<std::int64_t>(stat_count_, 4 * static_cast<std::int64_t>(n_)));
+  // steps themselves barely count; the cap never goes below 16 (step_min_deg / step_min_snr)^2,
+  // under which the 0.2-deg minimum decides anyway, so that an estimate that learnt zero (a
+  // converter that read the same code through a still start) still grows once the knee moves.
+  // It is a property of the sensor and converter: reset() keeps it.
+  const double q = measured * measured;
+  if (std::isfinite(q)) {
+    const double floor = s_.step_min_deg / s_.step_min_snr;
+    ++stat_count_;
+    const double held = stat_count_ > 2 * n_ ? std::min(q, 16 * std::max(stat_var_, floor * floor)) : q;
+    stat_var_ += (held - stat_var_) / static_cast<double>(std::min<std::int64_t>(stat_count_, 4 * static_cast<std::int64_t>(n_)));
+  }
   if (stat_count_ < 2 * n_ || step_hold_ > n_ - m) return phase_;  // one step per block
   const double noise = std::sqrt(stat_var_);
   // No prediction can fit a measured step below (1 - tolerance) of the smallest one looked for:
@@ -295,21 +306,24 @@ Direction OnlineCompensator::model_step() noexcept {
   step_offset_ += measured;
   refresh_sums();
   step_hold_ = n_;
-  step_from_ = phase_;
   return best;
 }
 
-double OnlineCompensator::short_slope() const noexcept {
-  // Direct least squares over the newest m_ scans of the ring: O(m_), m_ = 20 at 0.1 s x 200 Hz.
-  if (m_ == 0 || count_ < m_) return std::nan("");
+double OnlineCompensator::recent_slope(int k) const noexcept {
+  // Direct least squares over the newest k scans of the ring: O(k).
+  if (k < 2 || count_ < k) return std::nan("");
   const int newest = (head_ + count_ - 1) % n_;
-  const double jbar = (m_ - 1) / 2.0;
+  const double jbar = (k - 1) / 2.0;
   double sxy = 0;
-  for (int j = 0; j < m_; ++j) {
-    const int i = (newest - (m_ - 1) + j + n_) % n_;
+  for (int j = 0; j < k; ++j) {
+    const int i = (newest - (k - 1) + j + n_) % n_;
     sxy += (j - jbar) * ring_[static_cast<std::size_t>(i)];
   }
-  return sxy / m_sxx_;
+  return sxy / (k * (static_cast<double>(k) * k - 1) / 12.0);
+}
+
+double OnlineCompensator::short_slope() const noexcept {
+  return m_ == 0 ? std::nan("") : recent_slope(m_);  // m_ = 20 at 0.1 s x 200 Hz
 }
 
 CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, double angle_ref_deg) noexcept {
@@ -372,12 +386,15 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
   } else if (stepped != phase_) {
     phase_ = stepped;  // the step the model predicts for this change of direction
   } else if (step_hold_ > 0) {
-    // A step decided the direction; the window still holds angles from before it, so it may only
-    // name a movement that is neither this direction nor the one before the step, and only beyond
-    // reversal_rad_s (a stop taken where the knee turned; a step measured a little off leaves a
-    // slope of a few 0.01 rad/s in the window).
-    if (w > s_.reversal_rad_s && phase_ != Direction::kFlexion && step_from_ != Direction::kFlexion) phase_ = Direction::kFlexion;
-    else if (w < -s_.reversal_rad_s && phase_ != Direction::kExtension && step_from_ != Direction::kExtension) phase_ = Direction::kExtension;
+    // A step decided the direction; the window still holds angles from before it. From half a
+    // window after it, the slope of the scans since the step alone (noise 0.003 rad/s at 0.1 deg,
+    // 200 Hz) may name a movement beyond reversal_rad_s in either sense: a stop taken where the
+    // knee turned, or moved on with a start step too small to see.
+    if (const int since = n_ - step_hold_; since >= n_ / 2) {
+      const double ws_since = recent_slope(since) * s_.scan_rate_hz * kRadPerDeg;
+      if (ws_since > s_.reversal_rad_s) phase_ = Direction::kFlexion;
+      else if (ws_since < -s_.reversal_rad_s) phase_ = Direction::kExtension;
+    }
   } else if (phase_ == Direction::kHold) {
     if (w > s_.move_rad_s) phase_ = Direction::kFlexion;
     else if (w < -s_.move_rad_s) phase_ = Direction::kExtension;

@@ -67,12 +67,13 @@ struct CompensatorSettings {
   // direction at once and is taken out of the velocity window; a sensor without such steps never
   // matches and runs as with this off (docs/calibration.md, "Model steps").
   bool model_steps = true;
-  double step_block_s = 0.025;         // block length M / fs (the window must hold 4 blocks)
+  double step_block_s = 0.025;         // block length M / fs, >= 3 scans (off unless the window holds 4)
   double step_tolerance = 0.4;         // |measured - predicted| <= this x |predicted|
   double step_min_snr = 6.0;           // |predicted| >= this x the step statistic's own spread
-  // ... and >= this [deg]: the line is extrapolated ~0.05 s, over which a knee braking at 3 rad/s^2
-  // departs from it by 0.2 deg (a smaller step changes the angle little when missed).
-  double step_min_deg = 0.2;
+  // ... and >= this [deg]: a knee braking or turning at 3 rad/s^2 departs from the extrapolated
+  // line by 0.2 deg, and a measured step needs only 60 % of its prediction (a smaller step changes
+  // the angle little when missed).
+  double step_min_deg = 0.4;
   double velocity_tolerance = 0.10;    // relative margin on the calibrated velocity range before flagging
   double angle_margin_deg = 2.0;       // margin on the calibrated angle range before flagging
   double input_limit_v = 10.0;         // |input| at or above this is clipped (USB-6008 +-10 V range)
@@ -116,6 +117,7 @@ class OnlineCompensator {
   double push(double y) noexcept;  // returns slope [deg/scan], NaN with < 2 samples
   double push_slope() const noexcept;  // the window's slope [deg/scan] as it is, NaN with < 2 samples
   double short_slope() const noexcept;  // the reversal window's slope [deg/scan], NaN until it is full
+  double recent_slope(int k) const noexcept;  // least-squares slope of the newest k scans [deg/scan]
   double& ring_back(int back) noexcept;  // the window's entry `back` scans before the newest
   void refresh_sums() noexcept;         // s0_, s1_ rebuilt from the ring
   // The f5-angle step [deg] the paper model predicts for a change of direction from `from` to `to`
@@ -168,15 +170,14 @@ class OnlineCompensator {
   Direction phase_ = Direction::kHold;
   // Model steps: block length [scans] (0 = off), the offset taken out of the angles the window is
   // fed since the last clear, the mean square of the step statistic and how many scans it has
-  // seen, the scans until the long window may again change a direction that a step decided
-  // freely (until then it still holds angles from before the step), and the direction before it.
+  // seen, and the scans until the long window may again change a direction that a step decided
+  // (until then it still holds angles from before the step).
   int step_m_ = 0;
   std::vector<double> step_scratch_;  // the newest 4 blocks, newest first (model_step())
   double step_offset_ = 0;
   double stat_var_ = 0;
   std::int64_t stat_count_ = 0;
   int step_hold_ = 0;
-  Direction step_from_ = Direction::kHold;
   bool gap_pending_ = false;
   bool terms_ = false;  // [gap] terms run
   // Two copies of the same terms. `terms_chain_` is advanced with the published fibre angle (the

@@ -33,8 +33,6 @@ OnlineCompensator::OnlineCompensator(const Calibration& cal, const CompensatorSe
     if (!(s.reversal_window_s <= s.velocity_window_s))
       throw std::invalid_argument("compensator: reversal_window_s must not exceed velocity_window_s");
     m_ = std::clamp(static_cast<int>(std::lround(s.reversal_window_s * s.scan_rate_hz)), 2, n_);
-    const double m = m_;
-    m_sxx_ = m * (m * m - 1) / 12.0;
   }
   if (s.model_steps && cal.active != ModelKind::kDynamic && s.velocity_source == VelocitySource::kSensor) {
     if (!(s.step_block_s > 0 && std::isfinite(s.step_block_s)) || !(s.step_tolerance > 0 && s.step_tolerance < 1) ||
@@ -283,10 +281,9 @@ Direction OnlineCompensator::model_step() noexcept {
            std::abs(measured - p) <= s_.step_tolerance * std::abs(p);
   };
   Direction best = phase_;
-  double predicted = 0;
-  if (phase_ != Direction::kHold && fits(predicted_step(angle, phase_, Direction::kHold))) {
+  double predicted = phase_ != Direction::kHold ? predicted_step(angle, phase_, Direction::kHold) : 0.0;
+  if (phase_ != Direction::kHold && fits(predicted)) {
     best = Direction::kHold;
-    predicted = predicted_step(angle, phase_, Direction::kHold);
   } else {
     double best_miss = std::numeric_limits<double>::infinity();
     for (const Direction to : {Direction::kHold, Direction::kFlexion, Direction::kExtension}) {

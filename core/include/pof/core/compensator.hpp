@@ -165,7 +165,6 @@ class OnlineCompensator {
   int head_ = 0, count_ = 0;
   double s0_ = 0, s1_ = 0;   // sum y_j, sum j*y_j over the window (j = 0 oldest)
   int m_ = 0;                // reversal window [scans], 0 = off (m_ <= n_: it reads the same ring)
-  double m_sxx_ = 1;         // sum (j - jbar)^2 over the reversal window
   std::int64_t since_refresh_ = 0;
   Direction phase_ = Direction::kHold;
   // Model steps: block length [scans] (0 = off), the offset taken out of the angles the window is

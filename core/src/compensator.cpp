@@ -254,8 +254,9 @@ Direction OnlineCompensator::model_step() noexcept {
   // code plus the movement), vibration. A running mean of its square over the first two windows,
   // then an exponential one over four, each square held below 16 times the estimate so that the
   // steps themselves barely count; the cap never goes below 16 (step_min_deg / step_min_snr)^2,
-  // under which the 0.2-deg minimum decides anyway, so that an estimate that learnt zero (a
-  // converter that read the same code through a still start) still grows once the knee moves.
+  // under which the minimum step (step_min_deg) decides anyway, so that an estimate that learnt
+  // zero (a converter that read the same code through a still start) still grows once the knee
+  // moves.
   // It is a property of the sensor and converter: reset() keeps it.
   const double q = measured * measured;
   if (std::isfinite(q)) {

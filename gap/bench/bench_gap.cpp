@@ -47,7 +47,7 @@ double median_of(std::vector<double> x) {
 
 // The targets of docs/gap.md, section 6, over a set of trials.
 struct Tally {
-  std::vector<double> shrink, comp_down, comp_written;  // held-out gap shrink; compensated-angle RMSE reduction
+  std::vector<double> shrink, comp_down, comp_written, comp_nested;  // held-out gap shrink; compensated-angle RMSE reduction
   std::vector<double> comp_steady, transition_share;     // the same outside starts, stops and reversals
   int n = 0, hidden_total = 0, hits = 0, none_trials = 0, none_false = 0, extra = 0;
   int one_trials = 0, one_exact = 0, two_trials = 0, two_both = 0;
@@ -71,6 +71,7 @@ struct Tally {
     // model.toml holds the baseline when the found model did not beat it: no change then.
     const double written = c.value("model_toml", std::string()) == "found model" ? c.value("rmse_written_deg", before) : before;
     comp_written.push_back(before > 0 ? 1.0 - written / before : 0.0);
+    if (c.contains("model_toml_nested")) comp_nested.push_back(c["model_toml_nested"].value("reduction_pct", 0.0) / 100.0);
     if (c.contains("steady")) {
       comp_steady.push_back(c["steady"].value("reduction_pct", 0.0) / 100.0);
       transition_share.push_back(c["steady"].value("transition_share_of_squared_error_before", 0.0));
@@ -94,6 +95,8 @@ struct Tally {
                 "effect hidden: %.1f %% (n = %zu)\n", 100 * median_of(comp_down), comp_down.size());
     std::printf("the same with what model.toml holds (harmful terms left out, chosen on the same blocks: optimistic): "
                 "%.1f %%\n", 100 * median_of(comp_written));
+    std::printf("the same with what model.toml holds, each block's choice made on the other blocks (nested: unbiased): "
+                "%.1f %% (n = %zu)\n", 100 * median_of(comp_nested), comp_nested.size());
     std::printf("the same outside the 0.5 s after each start, stop and reversal (the step model's own branch errors): "
                 "%.1f %% (n = %zu); those 0.5 s hold a median %.0f %% of the baseline's squared error\n",
                 100 * median_of(comp_steady), comp_steady.size(), 100 * median_of(transition_share));

@@ -156,6 +156,10 @@ std::string report_md(const Result& r, const std::string& source) {
     if (!c["left_out_of_model"].empty())
       o << "\nWith the effects model.toml holds: RMSE " << c["rmse_written_deg"].get<double>()
         << " deg (chosen on these blocks, so optimistic).\n";
+    if (c.contains("model_toml_nested"))
+      o << "\nWhat model.toml gives, each block scored with the choice (effects kept, or the baseline) made on the "
+           "other blocks alone: RMSE " << c["model_toml_nested"]["rmse_deg"].get<double>() << " deg ("
+        << c["model_toml_nested"]["reduction_pct"].get<double>() << " % lower than the baseline).\n";
     if (c.value("model_toml", "") != "found model")
       o << "\n**model.toml holds the baseline**: with the found model the compensator's held-out angle was not "
            "closer to the reference than with the baseline alone.\n";

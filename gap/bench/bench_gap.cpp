@@ -152,6 +152,10 @@ void run_blind(int n, std::uint64_t seed0, double dynamic_share) {
                      {"final_gap_deg", t.final_gap_deg}, {"analysis_s", t.analysis_s},
                      {"compensated", t.gap["compensated"]}, {"baseline", t.gap["baseline"]["refit_rms_mv"]},
                      {"baseline_choice", t.gap["baseline"].value("choice", nlohmann::json())}};
+    if (t.gap["baseline"].contains("dynamic")) {
+      j["baseline_dynamic"] = t.gap["baseline"]["dynamic"];
+      j["baseline_dynamic"].erase("model");
+    }
     if (!t.dynamic.is_null()) {
       j["dynamic_sensor"] = t.dynamic;
       j["covered"] = t.covered;

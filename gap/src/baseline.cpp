@@ -1,7 +1,9 @@
 // The baseline structure fitted to the recording (see baseline.hpp).
 #include "baseline.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "pof/core/calibration.hpp"
@@ -56,6 +58,12 @@ Baseline fit_baseline(const io::Recording& rec, const Signals& s, const Kinemati
                     {"prony_terms", m.n_prony},
                     {"rate_gain_s_per_rad", m.rate_gain_s_per_rad},
                     {"bend_lag_s", m.bend_lag_s}};
+    // The best structure without a bend lag: how much the lag itself explains (a lag and a delay
+    // of the angle look alike at these speeds; analysis.cpp names a large one).
+    double lag_free = std::numeric_limits<double>::infinity();
+    for (const core::DynamicCandidate& c : dyn.candidates)
+      if (c.admissible && c.bend_lag_s == 0 && std::isfinite(c.cv_rmse_deg)) lag_free = std::min(lag_free, c.cv_rmse_deg);
+    if (std::isfinite(lag_free)) d["dynamic"]["lag_free_heldout_rmse_deg"] = lag_free;
   } catch (const core::DynamicFitError& e) {
     d["dynamic"] = {{"error", e.what()}};
   }

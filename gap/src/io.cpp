@@ -131,6 +131,9 @@ std::string report_md(const Result& r, const std::string& source) {
     }
   }
   o << "\n\n**Baseline residual:** " << r.baseline["where"].get<std::string>() << "\n\n";
+  for (const Step& s : r.in_baseline)
+    o << "**In the baseline: " << s.effect << "**: " << s.where << "; its held-out error " << s.evidence["reduction_pct"].get<double>()
+      << " % below the best structure without it.\n\n";
   i = 1;
   for (const Step& s : r.steps) {
     o << "## Step " << i++ << ": " << s.effect << "\n\n- where: " << s.where << "\n- held-out gap "

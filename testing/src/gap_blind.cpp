@@ -363,6 +363,7 @@ Trial run_trial(std::uint64_t seed, int count, bool short_session, const std::fi
   const auto t0 = std::chrono::steady_clock::now();
   const Result r = analyse(io::read_csv(t.csv), opt);
   t.analysis_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  for (const auto& st : r.in_baseline) t.found.push_back(st.effect);  // what the baseline itself names, then the search
   for (const auto& st : r.steps) t.found.push_back(st.effect);
   t.baseline_gap_deg = r.baseline_gap_deg;
   t.final_gap_deg = r.final_gap_deg;

@@ -77,6 +77,7 @@ void add_gap(CLI::App& app) {
       if (!make_plots(a->out, why)) spdlog::warn("plots not written: {}", why);
     }
     std::cout << "baseline gap " << r.baseline_gap_deg << " deg";
+    for (const auto& s : r.in_baseline) std::cout << " (in the baseline: " << s.effect << ")";
     for (const auto& s : r.steps) std::cout << " -> " << s.effect << " " << s.gap_deg << " deg";
     std::cout << (r.unexplained ? " (structure remains unexplained)" : "") << "\n"
               << "report: " << (fs::path(a->out) / "gap.json").string() << "\n";

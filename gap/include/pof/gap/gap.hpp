@@ -44,6 +44,10 @@ struct Series {
 
 struct Result {
   double baseline_gap_deg = 0;
+  /// Effects of the catalogue the chosen baseline structure carries itself, found by its own
+  /// cross-validation rather than by the search (docs/gap.md, section 1, "What the baseline
+  /// names"): the dynamic model's bend lag is a `time_delay`. gap_deg is the baseline's held-out gap.
+  std::vector<Step> in_baseline;
   std::vector<Step> steps;
   double final_gap_deg = 0;
   bool unexplained = false;

@@ -95,7 +95,7 @@ struct Tally {
                 "effect hidden: %.1f %% (n = %zu)\n", 100 * median_of(comp_down), comp_down.size());
     std::printf("the same with what model.toml holds (harmful terms left out, chosen on the same blocks: optimistic): "
                 "%.1f %%\n", 100 * median_of(comp_written));
-    std::printf("the same with what model.toml holds, each block's choice made on the other blocks (nested: unbiased): "
+    std::printf("the same with what model.toml holds, each block's choice made on the other blocks (nested): "
                 "%.1f %% (n = %zu)\n", 100 * median_of(comp_nested), comp_nested.size());
     std::printf("the same outside the 0.5 s after each start, stop and reversal (the step model's own branch errors): "
                 "%.1f %% (n = %zu); those 0.5 s hold a median %.0f %% of the baseline's squared error\n",
@@ -161,6 +161,7 @@ void run_blind(int n, std::uint64_t seed0, double dynamic_share) {
       j["covered"] = t.covered;
     }
     for (const auto& h : t.hidden) j["hidden"].push_back({{"effect", h.effect}, {"truth", h.truth}});
+    j["in_baseline"] = t.gap["in_baseline"];
     j["steps"] = t.gap["steps"];
     all.push_back(j);
   }

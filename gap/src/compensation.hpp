@@ -27,7 +27,9 @@ struct Applied {
 /// angle: RMSE before and after, per fold and overall. Terms the compensator cannot apply online
 /// (drift) are left out of `after` and named in "not_applied". Then each effect is left out in
 /// turn; those whose online application makes the held-out angle worse are returned in `written`
-/// as not to be written to model.toml, and listed in "left_out_of_model".
+/// as not to be written to model.toml, and listed in "left_out_of_model"; "model_toml_nested"
+/// makes that choice (and model.toml's fallback to the baseline) for each block from the other
+/// blocks alone and scores it on that block.
 ///
 /// The same RMSEs are also reported without the scans of `transition` ("steady"): the paper
 /// model's inverse decides flexion, extension or hold from a velocity estimate that needs its

@@ -55,6 +55,9 @@ def main() -> int:
     t, a, w = s["t_s"], s["angle_deg"], s["w_rad_s"]
     rb, rf = s["resid_baseline_deg"], s["resid_final_deg"]
     effects = " + ".join(st["effect"] for st in g["steps"]) or "nothing added"
+    # What the baseline names itself (docs/gap.md, section 1): already in the "before" model.
+    in_base = " + ".join(st["effect"] for st in g.get("in_baseline", []))
+    base_label = f"baseline ({in_base} in it)" if in_base else "baseline"
     after = f"after: {effects}"
     src = Path(g.get("source", "")).name
     dt = np.median(np.diff(t)) if len(t) > 1 else 1.0
@@ -117,7 +120,7 @@ def main() -> int:
     fig.savefig(d / "loops.png", dpi=90)
     plt.close(fig)
 
-    labels = ["baseline"] + [st["effect"] for st in g["steps"]]
+    labels = [base_label] + [st["effect"] for st in g["steps"]]
     gaps = [g["baseline_gap_deg"]] + [st["gap_deg"] for st in g["steps"]]
     fig, ax = plt.subplots(figsize=(max(5, 1.6 * len(labels)), 4))
     ax.bar(range(len(gaps)), gaps, color=["tab:gray"] + ["tab:green"] * (len(gaps) - 1))

@@ -193,12 +193,12 @@ nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, cons
   if (st.backlash_deg > 0) add_without("backlash", [](Applied& a, std::size_t) { a.backlash = false; }, 0);
   for (std::size_t t = 0; t < st.terms.size(); ++t)
     add_without(std::string(core::to_string(st.terms[t].effect)), [](Applied& a, std::size_t i) { a.terms[i] = false; }, t);
-  // The effects kept when the choice may see the blocks other than `skip` (none skipped: all).
+  // The effects kept when the choice may see the blocks other than `skip` (blocks.size(): all).
   auto choose = [&](std::size_t skip) {
     Applied keep = all;
-    const double with = skip < sx.blocks.size() ? with_all.rmse_without_block(skip) : with_all.rmse_deg;
+    const double with = with_all.rmse_without_block(skip);
     for (const Without& w : without)
-      if ((skip < sx.blocks.size() ? w.h.rmse_without_block(skip) : w.h.rmse_deg) < 0.98 * with) w.clear(keep, w.term);
+      if (w.h.rmse_without_block(skip) < 0.98 * with) w.clear(keep, w.term);
     return keep;
   };
   auto same = [](const Applied& a, const Applied& b) { return a.delay == b.delay && a.backlash == b.backlash && a.terms == b.terms; };

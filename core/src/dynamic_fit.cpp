@@ -340,14 +340,20 @@ DynamicFitResult fit_dynamic(const VectorXd& t, const VectorXd& v, const VectorX
       if (c.admissible && std::isfinite(c.cv_rmse_v) && (b == nullptr || c.cv_rmse_v < b->cv_rmse_v)) b = &c;
     return b;
   };
+  // The rate gain scales the operators only (phi(w) S_i): with none it is no structure of its own,
+  // so it is scored once, at 0, and never wins a tie at a grid edge.
   auto try_structure = [&](int deg, int ops, int k, double kappa, double lag = 0.0) {
+    if (ops == 0) kappa = 0.0;
     for (const DynamicCandidate& c : res.candidates)  // each structure is scored once
       if (c.degree == deg && c.n_operators == ops && c.n_prony == k && c.rate_gain_s_per_rad == kappa && c.bend_lag_s == lag) return;
     res.candidates.push_back(cross_validate(structure_of(pr, s, deg, ops, k, kappa, lag), pr, v, ang, sensitivity));
   };
-  // Staged search: the polynomial with a middle structure, then operators x Prony terms, then the
-  // rate gain, then the Prony terms and operators once more with that gain; then the bend lag
-  // jointly with the rate gain, and if a lag is found, the Prony terms and operators behind it.
+  // The polynomial's degree with a middle structure, then coordinate descent over the rest to a
+  // fixed point: the operator x Prony counts at the current rate gain and lag, then the bend lag
+  // jointly with the rate gain (both widen the loop with speed) at the current counts, refined to
+  // ~5 % around the best; again until a round leaves the best structure unchanged. One pass is not
+  // enough: a large lag makes every structure with operators non-invertible at tau_b = 0 (the
+  // narrowest operator takes the lag's loop), so counts chosen before the lag is found are wrong.
   const int mid_ops = s.operator_counts[s.operator_counts.size() / 2];
   const int mid_k = s.prony_counts[s.prony_counts.size() / 2];
   for (int deg : s.degrees) {
@@ -357,36 +363,32 @@ DynamicFitResult fit_dynamic(const VectorXd& t, const VectorXd& v, const VectorX
   const DynamicCandidate* b = best_of(res.candidates);
   if (b == nullptr) throw DynamicFitError("dynamic fit: no quasi-static polynomial gives an invertible model on this recording");
   const int deg = b->degree;
-  for (int ops : s.operator_counts)
-    for (int k : s.prony_counts) try_structure(deg, ops, k, 0.0);
-  b = best_of(res.candidates);
-  const int ops = b->n_operators;
-  int k = b->n_prony;
-  for (double kappa : s.rate_gains_s_per_rad) try_structure(deg, ops, k, kappa);
-  b = best_of(res.candidates);
-  const double kappa = b->rate_gain_s_per_rad;
-  for (int kk : s.prony_counts) try_structure(deg, ops, kk, kappa);
-  for (int oo : s.operator_counts) try_structure(deg, oo, k, kappa);
-  b = best_of(res.candidates);
-  // The bend lag and the rate gain both widen the loop with speed, so they are searched together.
-  const DynamicCandidate before_lag = *b;
-  for (double lag : s.bend_lags_s)
-    for (double kp : s.rate_gains_s_per_rad) try_structure(deg, before_lag.n_operators, before_lag.n_prony, kp, lag);
-  b = best_of(res.candidates);
-  if (b->bend_lag_s > 0) {
-    // Refine between the grid's neighbours (it doubles), then the rest of the structure behind it.
-    const DynamicCandidate g = *b;
-    for (double f : {0.71, 0.84, 1.19, 1.41})
-      for (double kp : s.rate_gains_s_per_rad) try_structure(deg, g.n_operators, g.n_prony, kp, g.bend_lag_s * f);
+  auto same = [](const DynamicCandidate& x, const DynamicCandidate& y) {
+    return x.n_operators == y.n_operators && x.n_prony == y.n_prony && x.rate_gain_s_per_rad == y.rate_gain_s_per_rad &&
+           x.bend_lag_s == y.bend_lag_s;
+  };
+  for (int round = 0; round < s.max_search_rounds; ++round) {
+    const DynamicCandidate start = *b;
+    for (int ops : s.operator_counts)
+      for (int k : s.prony_counts) try_structure(deg, ops, k, start.rate_gain_s_per_rad, start.bend_lag_s);
     b = best_of(res.candidates);
-    const DynamicCandidate h = *b;  // and once more at half that step: the lag to ~5 %
-    for (double f : {0.92, 1.09}) try_structure(deg, h.n_operators, h.n_prony, h.rate_gain_s_per_rad, h.bend_lag_s * f);
+    const DynamicCandidate counts = *b;
+    for (double kp : s.rate_gains_s_per_rad) {
+      try_structure(deg, counts.n_operators, counts.n_prony, kp, 0.0);
+      for (double lag : s.bend_lags_s) try_structure(deg, counts.n_operators, counts.n_prony, kp, lag);
+    }
     b = best_of(res.candidates);
-    const double lag = b->bend_lag_s, kappa2 = b->rate_gain_s_per_rad;
-    const int ops2 = b->n_operators, k2 = b->n_prony;
-    for (int kk : s.prony_counts) try_structure(deg, ops2, kk, kappa2, lag);
-    for (int oo : s.operator_counts) try_structure(deg, oo, k2, kappa2, lag);
-    b = best_of(res.candidates);
+    if (b->bend_lag_s > 0) {
+      // Between the grid's neighbours (it doubles), then once more at half that step.
+      const DynamicCandidate g = *b;
+      for (double f : {0.71, 0.84, 1.19, 1.41})
+        for (double kp : s.rate_gains_s_per_rad) try_structure(deg, g.n_operators, g.n_prony, kp, g.bend_lag_s * f);
+      b = best_of(res.candidates);
+      const DynamicCandidate h = *b;
+      for (double f : {0.92, 1.09}) try_structure(deg, h.n_operators, h.n_prony, h.rate_gain_s_per_rad, h.bend_lag_s * f);
+      b = best_of(res.candidates);
+    }
+    if (same(*b, start)) break;
   }
   res.chosen = *b;
 

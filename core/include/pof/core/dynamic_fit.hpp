@@ -40,6 +40,7 @@ struct DynamicFitSettings {
   std::vector<double> bend_lags_s{0.02, 0.04, 0.08, 0.16, 0.32};
   double lag_window_s = 0.12;  // the lag inverse's window (dynamic_model.hpp, LagInverse)
   int folds = 5;
+  int max_search_rounds = 4;  // rounds of the coordinate descent over the structure (fit_dynamic)
   double fit_rate_hz = 50;              // rows of the normal equations are decimated to about this
   SegmentationSettings segmentation;
   double min_hold_s = 3.0;              // a hold at least this long counts for the "needs holds" check

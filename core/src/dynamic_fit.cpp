@@ -371,6 +371,12 @@ DynamicFitResult fit_dynamic(const VectorXd& t, const VectorXd& v, const VectorX
     const DynamicCandidate start = *b;
     for (int ops : s.operator_counts)
       for (int k : s.prony_counts) try_structure(deg, ops, k, start.rate_gain_s_per_rad, start.bend_lag_s);
+    // Without operators the structure has no rate gain to offer them (it is pinned to 0), and
+    // operators may be invertible only with one (a loop that narrows or widens with speed): the
+    // operator counts are then also tried at every rate gain, the next round settles the rest.
+    if (start.n_operators == 0)
+      for (double kp : s.rate_gains_s_per_rad)
+        for (int ops : s.operator_counts) try_structure(deg, ops, start.n_prony, kp, start.bend_lag_s);
     b = best_of(res.candidates);
     const DynamicCandidate counts = *b;
     for (double kp : s.rate_gains_s_per_rad) {

@@ -340,20 +340,32 @@ DynamicFitResult fit_dynamic(const VectorXd& t, const VectorXd& v, const VectorX
       if (c.admissible && std::isfinite(c.cv_rmse_v) && (b == nullptr || c.cv_rmse_v < b->cv_rmse_v)) b = &c;
     return b;
   };
+  auto same = [](const DynamicCandidate& x, const DynamicCandidate& y) {
+    return x.degree == y.degree && x.n_operators == y.n_operators && x.n_prony == y.n_prony &&
+           x.rate_gain_s_per_rad == y.rate_gain_s_per_rad && x.bend_lag_s == y.bend_lag_s;
+  };
   // The rate gain scales the operators only (phi(w) S_i): with none it is no structure of its own,
   // so it is scored once, at 0, and never wins a tie at a grid edge.
   auto try_structure = [&](int deg, int ops, int k, double kappa, double lag = 0.0) {
     if (ops == 0) kappa = 0.0;
+    DynamicCandidate key;
+    key.degree = deg;
+    key.n_operators = ops;
+    key.n_prony = k;
+    key.rate_gain_s_per_rad = kappa;
+    key.bend_lag_s = lag;
     for (const DynamicCandidate& c : res.candidates)  // each structure is scored once
-      if (c.degree == deg && c.n_operators == ops && c.n_prony == k && c.rate_gain_s_per_rad == kappa && c.bend_lag_s == lag) return;
+      if (same(c, key)) return;
     res.candidates.push_back(cross_validate(structure_of(pr, s, deg, ops, k, kappa, lag), pr, v, ang, sensitivity));
   };
   // The polynomial's degree with a middle structure, then coordinate descent over the rest to a
   // fixed point: the operator x Prony counts at the current rate gain and lag, then the bend lag
   // jointly with the rate gain (both widen the loop with speed) at the current counts, refined to
-  // ~5 % around the best; again until a round leaves the best structure unchanged. One pass is not
-  // enough: a large lag makes every structure with operators non-invertible at tau_b = 0 (the
-  // narrowest operator takes the lag's loop), so counts chosen before the lag is found are wrong.
+  // ~5 % around the best; again until a round leaves the best structure unchanged (at most
+  // max_search_rounds; docs/calibration.md, "The dynamic model"). One pass is not enough: a large
+  // lag makes every structure with operators non-invertible at tau_b = 0 (the narrowest operator
+  // takes the lag's loop), so counts chosen before the lag is found are wrong. `b` points into
+  // res.candidates, which every try_structure may grow: it is read again after each batch.
   const int mid_ops = s.operator_counts[s.operator_counts.size() / 2];
   const int mid_k = s.prony_counts[s.prony_counts.size() / 2];
   for (int deg : s.degrees) {
@@ -363,17 +375,14 @@ DynamicFitResult fit_dynamic(const VectorXd& t, const VectorXd& v, const VectorX
   const DynamicCandidate* b = best_of(res.candidates);
   if (b == nullptr) throw DynamicFitError("dynamic fit: no quasi-static polynomial gives an invertible model on this recording");
   const int deg = b->degree;
-  auto same = [](const DynamicCandidate& x, const DynamicCandidate& y) {
-    return x.n_operators == y.n_operators && x.n_prony == y.n_prony && x.rate_gain_s_per_rad == y.rate_gain_s_per_rad &&
-           x.bend_lag_s == y.bend_lag_s;
-  };
   for (int round = 0; round < s.max_search_rounds; ++round) {
     const DynamicCandidate start = *b;
     for (int ops : s.operator_counts)
       for (int k : s.prony_counts) try_structure(deg, ops, k, start.rate_gain_s_per_rad, start.bend_lag_s);
     // Without operators the structure has no rate gain to offer them (it is pinned to 0), and
     // operators may be invertible only with one (a loop that narrows or widens with speed): the
-    // operator counts are then also tried at every rate gain, the next round settles the rest.
+    // operator counts are then also tried at every rate gain (at its Prony count and lag); the
+    // next round, if any is left, settles the rest.
     if (start.n_operators == 0)
       for (double kp : s.rate_gains_s_per_rad)
         for (int ops : s.operator_counts) try_structure(deg, ops, start.n_prony, kp, start.bend_lag_s);
@@ -385,7 +394,7 @@ DynamicFitResult fit_dynamic(const VectorXd& t, const VectorXd& v, const VectorX
     }
     b = best_of(res.candidates);
     if (b->bend_lag_s > 0) {
-      // Between the grid's neighbours (it doubles), then once more at half that step.
+      // Around the best lag at about a quarter of the grid's doubling, then at half that step.
       const DynamicCandidate g = *b;
       for (double f : {0.71, 0.84, 1.19, 1.41})
         for (double kp : s.rate_gains_s_per_rad) try_structure(deg, g.n_operators, g.n_prony, kp, g.bend_lag_s * f);

@@ -2,9 +2,11 @@
 // random magnitudes, per seed), a CSV file written by the harness, `pof gap`'s analysis of that file
 // alone, and only then the comparison. Short sessions (~5 min of data) keep each case to seconds;
 // the statistics over >= 100 recordings are bench_gap's (BENCHMARKS.md). The two tests of the
-// bend lag named in the baseline run the full session of one benchmark recording.
+// bend lag named in the baseline run the full session of one benchmark recording. The last test
+// runs core::fit_dynamic (the dynamic baseline's fit) alone on the short session.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <string>
@@ -94,14 +96,14 @@ TEST(GapBlind, DynamicBaselineNamesNoLateAngleWhereThereIsNone) {
   std::filesystem::remove(t.csv);
 }
 
-
-// The dynamic fit (core::fit_dynamic) on the blind session, a sensor like blind seed 261's: three
+// The dynamic fit (core::fit_dynamic) on the short blind session, a sensor like blind seed 261's: three
 // Maxwell-slip elements (the narrowest 0.95 deg), one Prony term, and the bend 64 ms behind the
 // joint. Without the lag every structure with operators is non-invertible (the narrowest operator
 // takes the lag's loop), so a search that settles the operator and Prony counts before the lag
-// keeps what was invertible without it: one pass gave the rate gain at the grid's edge (-4 s/rad),
-// a lag of 0.080 s and a held-out error of 0.151 deg here; the coordinate descent to a fixed point
-// gives -0.5 s/rad, 0.067 s and 0.079 deg.
+// keeps what was invertible without it: the one staged pass of commit 1ea3656 gave the rate gain
+// at the grid's edge (-4 s/rad, the fibre has none), a lag of 0.080 s and a held-out error of
+// 0.151 deg here, failing the first three checks; the coordinate descent to a fixed point gives
+// -0.5 s/rad, 0.067 s and 0.079 deg.
 TEST(DynamicFitOnTheSession, ALargeBendLagIsFoundBeforeTheCountsAreSettled) {
   pof::sim::Scenario s = pof::gap::blind::base_scenario(true);
   s.sensor.hysteresis.enabled = false;  // the paper's steps off: the loop is the slip elements'
@@ -118,13 +120,12 @@ TEST(DynamicFitOnTheSession, ALargeBendLagIsFoundBeforeTheCountsAreSettled) {
   s.sensor.viscoelastic_lag.tau_s = 0.064;
   const pof::io::Recording rec = pof::gap::blind::simulate(s, 261);
   const Eigen::VectorXd v = rec.sensor_v.array() * (4.0 / rec.reference_v.array());
-  const pof::core::DynamicFitSettings settings;
-  const pof::core::DynamicFitResult fit = pof::core::fit_dynamic(rec.t_s, v, rec.angle_ref_deg, settings);
+  const pof::core::DynamicFitResult fit = pof::core::fit_dynamic(rec.t_s, v, rec.angle_ref_deg);
   const pof::core::DynamicCandidate& c = fit.chosen;
   SCOPED_TRACE(std::to_string(c.n_operators) + " operators, " + std::to_string(c.n_prony) + " Prony terms, kappa " +
                std::to_string(c.rate_gain_s_per_rad) + " s/rad, lag " + std::to_string(c.bend_lag_s) + " s, CV " +
                std::to_string(c.cv_rmse_deg) + " deg");
-  EXPECT_GT(c.rate_gain_s_per_rad, settings.rate_gains_s_per_rad.front());
+  EXPECT_LE(std::abs(c.rate_gain_s_per_rad), 1.0);
   EXPECT_NEAR(c.bend_lag_s, 0.064, 0.1 * 0.064);
   EXPECT_LT(c.cv_rmse_deg, 0.12);
   EXPECT_GT(c.n_operators, 0);

@@ -36,11 +36,12 @@ struct DynamicFitSettings {
   double max_threshold_fraction = 0.4;  // largest threshold as a fraction of the angle span
   double min_tau_s = 0.5, max_tau_s = 60;  // Prony time constants spread log-uniformly in here
   double speed_filter_s = 0.1;
-  // Bend lags tau_b tried [s] once the rest of the structure is chosen (0 is the structure as it is).
+  // Bend lags tau_b tried [s] in every round of fit_dynamic's search, besides 0 (no lag), then
+  // refined around the best; refined lags may leave this range.
   std::vector<double> bend_lags_s{0.02, 0.04, 0.08, 0.16, 0.32};
   double lag_window_s = 0.12;  // the lag inverse's window (dynamic_model.hpp, LagInverse)
   int folds = 5;
-  int max_search_rounds = 4;  // rounds of the coordinate descent over the structure (fit_dynamic)
+  int max_search_rounds = 4;  // rounds (>= 1) of the coordinate descent over the structure (fit_dynamic)
   double fit_rate_hz = 50;              // rows of the normal equations are decimated to about this
   SegmentationSettings segmentation;
   double min_hold_s = 3.0;              // a hold at least this long counts for the "needs holds" check

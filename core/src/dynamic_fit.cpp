@@ -348,12 +348,7 @@ DynamicFitResult fit_dynamic(const VectorXd& t, const VectorXd& v, const VectorX
   // so it is scored once, at 0, and never wins a tie at a grid edge.
   auto try_structure = [&](int deg, int ops, int k, double kappa, double lag = 0.0) {
     if (ops == 0) kappa = 0.0;
-    DynamicCandidate key;
-    key.degree = deg;
-    key.n_operators = ops;
-    key.n_prony = k;
-    key.rate_gain_s_per_rad = kappa;
-    key.bend_lag_s = lag;
+    const DynamicCandidate key{.degree = deg, .n_operators = ops, .n_prony = k, .rate_gain_s_per_rad = kappa, .bend_lag_s = lag};
     for (const DynamicCandidate& c : res.candidates)  // each structure is scored once
       if (same(c, key)) return;
     res.candidates.push_back(cross_validate(structure_of(pr, s, deg, ops, k, kappa, lag), pr, v, ang, sensitivity));

@@ -1,6 +1,8 @@
 // Normalisation and kinematics for `pof gap` (see signals.hpp).
 #include "pof/gap/signals.hpp"
 
+#include <Eigen/Cholesky>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -144,33 +146,139 @@ void compute_factors(Kinematics& k, const core::ModelCoefficients& m) {
   }
 }
 
-void apply_backlash(Kinematics& k, double width_deg, double dt, const core::ModelCoefficients& m) {
-  // Belt play of width b (play operator): the potentiometer follows the joint only once the dead
-  // band is taken up. While moving, the joint leads the reference by b/2 in the direction of motion
-  // and keeps that lead through the following hold; at a reversal the reference stands still while
-  // the joint crosses the band (b / speed seconds), which the reference calls a hold. Offline we see
-  // the reversal coming, so those scans get the joint's motion back: moving at the speed of the
-  // following movement, from ref + s_old b/2 to ref + s_new b/2.
+namespace {
+
+// Velocity, acceleration and the hold gate of k.angle. Two differentiators: +-50 ms for the
+// velocity (timing of starts/stops within ~50 ms: the model jumps by up to ~1 deg between f5 and
+// eq. 11/12 at the 0.01 rad/s threshold), gated by a quiet +-125 ms one so potentiometer noise in
+// holds does not flicker into "moving".
+void differentiate(Kinematics& k, double dt) {
+  auto half_of = [dt](double s) { return std::max<Index>(1, static_cast<Index>(std::lround(s / dt))); };
+  constexpr double kRad = std::numbers::pi / 180.0;
   const Index n = k.angle.size();
-  constexpr double kDeg = 180.0 / std::numbers::pi;
+  k.w = local_slope(k.angle, dt, half_of(0.05)) * kRad;
+  const VectorXd w_quiet = local_slope(k.angle, dt, half_of(0.125)) * kRad;
+  k.acc = local_slope(k.w, dt, half_of(0.05));
+  k.quiet_hold.resize(static_cast<std::size_t>(n));
+  for (Index i = 0; i < n; ++i) k.quiet_hold[static_cast<std::size_t>(i)] = std::abs(w_quiet(i)) < 0.5 * kHoldSpeedRadS;
+}
+
+}  // namespace
+
+void apply_backlash(Kinematics& k, double width_deg, double dt, const core::ModelCoefficients& m) {
+  // Belt play of width b (the play operator of half-width b/2, core/dynamic_model.hpp): while the
+  // joint moves, the potentiometer follows it b/2 behind, so the joint is ref + s b/2 with s the
+  // direction of the last movement, kept through holds. At a reversal the joint turns at the
+  // reference's extreme phi_p and crosses the band while the reference stands; the reference
+  // leaves phi_p once the joint is b past its turning point, and from then on moves with the
+  // joint. Offline the whole reversal is in view, so the crossing is rebuilt backwards from the
+  // reference's departure (docs/gap.md, section 3): the departure gives the time t_r at which the
+  // joint had crossed and its speed v1 then, the approach gives the shape of the turn, and the
+  // joint's travel over the crossing has that shape, starts at speed 0 and covers b by t_r.
+  // A crossing at the mean speed of the departure's first 0.3 s (the earlier rule) was half as
+  // long as a gait's turn and left 0.3 deg errors at every one, which a -9 ms time_delay then
+  // took up. A flip of the velocity's sign with no departure of the reference (potentiometer noise
+  // in a long hold) is not a reversal: the joint keeps its side of the band.
+  const Index n = k.angle.size();
+  const double half = width_deg / 2;
   const VectorXd ref = k.angle;
-  for (Index i = 0; i < n; ++i) k.angle(i) = ref(i) + k.s_last(i) * width_deg / 2;
+  for (Index i = 0; i < n; ++i) k.angle(i) = ref(i) + k.s_last(i) * half;
+  // Above the smoothed potentiometer's noise: "the reference has left its plateau".
+  constexpr double kPlateauDeg = 0.05;
+  const auto span = std::max<Index>(3, static_cast<Index>(std::lround(0.15 / dt)));
+  auto t_of = [dt](Index i) { return static_cast<double>(i) * dt; };
   for (Index i1 = 1; i1 < n; ++i1) {
     const double s_new = k.s_move(i1), s_old = k.s_last(i1 - 1);
     if (s_new == 0 || k.s_move(i1 - 1) == s_new || s_old != -s_new) continue;
-    const Index span = std::min<Index>(n - i1, std::max<Index>(1, static_cast<Index>(0.3 / dt)));
-    double v = 0;
-    for (Index j = i1; j < i1 + span; ++j) v += std::abs(k.w(j));
-    v = v / static_cast<double>(span) * kDeg;  // deg/s
-    if (!(v > 0)) continue;
-    const auto n_db = static_cast<Index>(std::lround(width_deg / v / dt));
-    for (Index j = i1 - 1; j >= std::max<Index>(0, i1 - n_db) && k.s_move(j) == 0; --j) {
-      const double travelled_back = static_cast<double>(i1 - j) * dt * v;  // deg still to cross at j
-      k.angle(j) = ref(j) + s_new * width_deg / 2 - s_new * travelled_back;
-      k.w(j) = s_new * v / kDeg;
-      k.quiet_hold[static_cast<std::size_t>(j)] = false;
+    Index ia = i1 - 1;  // the old movement's last scan
+    while (ia > 0 && k.s_move(ia) == 0) --ia;
+    Index i_back = i1;  // where the old direction comes back, if it does
+    while (i_back < n && k.s_move(i_back) != s_old) ++i_back;
+    // The plateau: the reference's extreme around the turn, levelled over the scans near it.
+    const Index w_end = std::min(i_back, i1 + span);
+    double extreme = s_old * ref(ia);
+    for (Index i = ia; i < w_end; ++i) extreme = std::max(extreme, s_old * ref(i));
+    std::vector<double> level;
+    for (Index i = ia; i < w_end; ++i)
+      if (extreme - s_old * ref(i) < kPlateauDeg) level.push_back(ref(i));
+    std::nth_element(level.begin(), level.begin() + static_cast<std::ptrdiff_t>(level.size() / 2), level.end());
+    const double phi_p = level[level.size() / 2];
+    Index i_stop = std::max<Index>(0, ia - span);
+    while (i_stop < i1 && std::abs(ref(i_stop) - phi_p) >= kPlateauDeg) ++i_stop;
+    // The departure: the reference clearly away (4x the plateau's width), then back to where it
+    // left the plateau, so one noisy scan past the plateau's edge is not taken for it.
+    Index i_first = i_stop;
+    while (i_first < i_back && s_new * (ref(i_first) - phi_p) <= 4 * kPlateauDeg) ++i_first;
+    while (i_first > i_stop && s_new * (ref(i_first - 1) - phi_p) > kPlateauDeg) --i_first;
+    if (i_first >= i_back || i_first + 3 > n) {
+      // No departure before the old direction resumes: noise, not a reversal.
+      for (Index i = i1; i < i_back; ++i) k.angle(i) = ref(i) + s_old * half;
+      continue;
+    }
+    // The departure: a least-squares quadratic D = d0 + v tau + a tau^2 / 2 through it gives the
+    // time t_r at which the joint had crossed and its speed v1 then. It spans the departure's
+    // first 2b (at least 0.3 deg, well clear of the noise; between 0.05 and 1 s), so a slow one
+    // is seen over a distance and not over a fixed time in which it hardly moves.
+    Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d aty = Eigen::Vector3d::Zero();
+    Index fit_end = std::min(n, i_first + std::max<Index>(3, static_cast<Index>(std::lround(0.05 / dt))));
+    const Index fit_max = std::min(n, i_first + static_cast<Index>(std::lround(1.0 / dt)));
+    while (fit_end < fit_max && s_new * (ref(fit_end) - phi_p) < std::max(2 * width_deg, 0.3)) ++fit_end;
+    for (Index i = i_first; i < fit_end; ++i) {
+      const double tau = t_of(i) - t_of(i_first);
+      const Eigen::Vector3d row(1.0, tau, 0.5 * tau * tau);
+      ata += row * row.transpose();
+      aty += row * (s_new * (ref(i) - phi_p));
+    }
+    const Eigen::Vector3d q = ata.ldlt().solve(aty);
+    const double a1 = std::max(0.0, q(2));
+    const double tau_r = q(1) > 0 ? std::clamp(-q(0) / q(1), -t_of(i_first - i_stop), 0.0) : 0.0;
+    double v1 = q(1) + a1 * tau_r;
+    if (!(v1 > 0)) v1 = (s_new * (ref(fit_end - 1) - phi_p)) / std::max(dt, t_of(fit_end - 1) - t_of(i_first));
+    if (!(v1 > 0)) continue;
+    // The crossing lasts T = r b / v1, with r read off the approach, mirrored: the reference shows
+    // how the joint came into its turn, and over its last b it took r b / v_b (v_b its speed b
+    // before the turn): r = 1 for a stop from cruising speed, 2 for a constant deceleration (a
+    // gait's turn), up to 3 for a gentler one. Measured between b and b/4 before the plateau, clear
+    // of its noise, where a stop from cruising speed takes 0.75 b / v_b and a constant
+    // deceleration b / v_b. A turn that leaves unlike it came in (a hold ended by a gait's cosine
+    // after a ramp at constant speed) is off by up to the play's half-width for a few scans.
+    double r = 2;
+    {
+      Index iq = i_stop;
+      while (iq > ia - 5 * span && iq > 0 && s_old * (phi_p - ref(iq)) < width_deg / 4) --iq;
+      Index ib = iq;
+      while (ib > ia - 5 * span && ib > 0 && s_old * (phi_p - ref(ib)) < width_deg) --ib;
+      const double v_b = std::abs(k.w(ib)) * 180.0 / std::numbers::pi;
+      if (ib > 0 && ib > ia - 5 * span && s_old * (phi_p - ref(ib)) >= width_deg && v_b > 0) {
+        const double rho = (t_of(iq) - t_of(ib)) * v_b / width_deg;
+        r = std::clamp(1 + 4 * (rho - 0.75), 1.0, 3.0);
+      }
+    }
+    const double t_r = t_of(i_first) + tau_r;
+    // The joint cannot turn before the reference stopped.
+    const double T = std::min(r * width_deg / v1, t_r - t_of(i_stop));
+    if (!(T > 0)) continue;
+    const double t0 = t_r - T;
+    // The joint's travel from its turn, D / (v1 T) at s = (t - t0) / T, from 0 at speed 0 to r^-1
+    // at speed v1: for r <= 2 a constant acceleration over the share beta of T, then cruising; for
+    // r > 2 a speed quadratic in s, v1 (alpha s + (1 - alpha) s^2).
+    const double beta = 2 * (1 - 1 / std::min(r, 2.0)), alpha = 6 / std::max(r, 2.0) - 2;
+    auto travel = [&](double x) {
+      if (r > 2) return x * x * (alpha / 2 + (1 - alpha) * x / 3);
+      return x < beta ? x * x / (2 * beta) : x - beta / 2;
+    };
+    const double scale = width_deg / travel(1.0);  // exactly b at t_r, also when T was cut short
+    const double theta_turn = phi_p + s_old * half;
+    for (Index i = std::min(i_stop, i1); i < std::max(i_first, i1); ++i) {
+      const double t = t_of(i);
+      if (t < t0) k.angle(i) = ref(i) + s_old * half;
+      else if (t < t_r) k.angle(i) = theta_turn + s_new * scale * travel((t - t0) / T);
+      else k.angle(i) = ref(i) + s_new * half;
     }
   }
+  // The joint's own velocity, acceleration and holds: it moves while the reference stands.
+  differentiate(k, dt);
   compute_factors(k, m);
 }
 
@@ -190,16 +298,7 @@ Kinematics make_kinematics(const VectorXd& angle, double dt, double delay_s, con
       k.angle(i) = (1 - f) * angle(i0) + f * angle(i1);
     }
   }
-  // Two differentiators: +-50 ms for the velocity (timing of starts/stops within ~50 ms: the model
-  // jumps by up to ~1 deg between f5 and eq. 11/12 at the 0.01 rad/s threshold), gated by a quiet
-  // +-125 ms one so potentiometer noise in holds does not flicker into "moving".
-  auto half_of = [dt](double s) { return std::max<Index>(1, static_cast<Index>(std::lround(s / dt))); };
-  constexpr double kRad = std::numbers::pi / 180.0;
-  k.w = local_slope(k.angle, dt, half_of(0.05)) * kRad;
-  const VectorXd w_quiet = local_slope(k.angle, dt, half_of(0.125)) * kRad;
-  k.acc = local_slope(k.w, dt, half_of(0.05));
-  k.quiet_hold.resize(static_cast<std::size_t>(n));
-  for (Index i = 0; i < n; ++i) k.quiet_hold[static_cast<std::size_t>(i)] = std::abs(w_quiet(i)) < 0.5 * kHoldSpeedRadS;
+  differentiate(k, dt);
   compute_factors(k, m);
   return k;
 }

@@ -125,7 +125,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   sx0.cx.angle_min_deg = s.angle.minCoeff();
   sx0.cx.angle_max_deg = s.angle.maxCoeff();
   sx0.cx.duration_s = s.t(s.n - 1) + s.dt;
-  sx0.blocks = cv::make_blocks(kp, std::max(2, opt.folds));
+  sx0.blocks = cv::make_blocks(kp, std::max(2, opt.folds), s.dt, opt.block_s);
   const Kinematics k0 = make_kinematics(s.angle, s.dt, 0.0, base.model);
   sx0.cx.max_speed_rad_s = k0.w.cwiseAbs().maxCoeff();
   sx0.cx.move_limit_deg = structure_move_limit(sx0.cx);
@@ -141,9 +141,13 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   Result res;
   res.recording = {{"scans", s.n}, {"rate_hz", 1.0 / s.dt}, {"duration_s", sx0.cx.duration_s},
                    {"reference_level_v", s.reference_level_v}, {"folds", sx0.blocks.size()}};
-  json bounds = json::array();
-  for (std::size_t i = 0; i < sx0.blocks.size(); ++i) bounds.push_back(s.t(sx0.blocks.start[i]));
-  res.recording["fold_start_s"] = bounds;
+  json folds = json::array();  // per fold, its blocks as [first, last] scan times
+  for (const auto& fold : sx0.blocks.folds) {
+    json spans = json::array();
+    for (const cv::Span& sp : fold) spans.push_back({s.t(sp.start), s.t(sp.start + sp.len - 1)});
+    folds.push_back(spans);
+  }
+  res.recording["fold_blocks_s"] = folds;
 
   // The paper structure first; then the second baseline, the dynamic model fitted to the recording
   // (docs/gap.md, section 1). Two explanations are compared by their final held-out gap with every

@@ -53,11 +53,12 @@ VectorXd compensate(const io::Recording& rec, const core::Calibration& cal, doub
   return out;
 }
 
-double rms_of(const VectorXd& a, const VectorXd& ref, Index start, Index len) {
+double rms_of(const VectorXd& a, const VectorXd& ref, const std::vector<cv::Span>& fold) {
   double ss = 0;
   Index n = 0;
-  for (Index i = start; i < start + len; ++i)
-    if (std::isfinite(a(i))) { ss += (a(i) - ref(i)) * (a(i) - ref(i)); ++n; }
+  for (const cv::Span& sp : fold)
+    for (Index i = sp.start; i < sp.start + sp.len; ++i)
+      if (std::isfinite(a(i))) { ss += (a(i) - ref(i)) * (a(i) - ref(i)); ++n; }
   return n > 0 ? std::sqrt(ss / static_cast<double>(n)) : std::numeric_limits<double>::quiet_NaN();
 }
 
@@ -87,11 +88,12 @@ void score_blocks(HeldOut& h, const VectorXd& a, const VectorXd& ref, const cv::
   h.ss.assign(blocks.size(), 0.0);
   h.count.assign(blocks.size(), 0);
   for (std::size_t f = 0; f < blocks.size(); ++f)
-    for (Index i = blocks.start[f]; i < blocks.start[f] + blocks.len[f]; ++i)
-      if (std::isfinite(a(i))) {
-        h.ss[f] += (a(i) - ref(i)) * (a(i) - ref(i));
-        ++h.count[f];
-      }
+    for (const cv::Span& sp : blocks.folds[f])
+      for (Index i = sp.start; i < sp.start + sp.len; ++i)
+        if (std::isfinite(a(i))) {
+          h.ss[f] += (a(i) - ref(i)) * (a(i) - ref(i));
+          ++h.count[f];
+        }
 }
 
 // The compensator's angle with the state's terms (those `use` keeps), fold by fold with the model
@@ -119,9 +121,9 @@ HeldOut held_out(const io::Recording& rec, const Search& sx, const State& st,
     g.terms = std::move(kept);
     if (!g.empty()) cal.gap = std::move(g);
     const VectorXd af = compensate(rec, cal, rate);
-    const Index b = sx.blocks.start[f], l = sx.blocks.len[f];
-    h.angle.segment(b, l) = af.segment(b, l);
-    h.folds.push_back({{"rmse_before_deg", rms_of(a0, rec.angle_ref_deg, b, l)}, {"rmse_after_deg", rms_of(af, rec.angle_ref_deg, b, l)}});
+    const std::vector<cv::Span>& fold = sx.blocks.folds[f];
+    for (const cv::Span& sp : fold) h.angle.segment(sp.start, sp.len) = af.segment(sp.start, sp.len);
+    h.folds.push_back({{"rmse_before_deg", rms_of(a0, rec.angle_ref_deg, fold)}, {"rmse_after_deg", rms_of(af, rec.angle_ref_deg, fold)}});
   }
   // Every figure averages the squared error over the scans with an angle (the compensator gives
   // none while the reference fibre's light is lost), the baseline's too.

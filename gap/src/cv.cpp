@@ -34,13 +34,16 @@ double lag1(const VectorXd& r) {
 
 // K contiguous blocks. Each boundary is moved to the nearest hold scan so no movement (and so no
 // cycle) is cut in two: the folds are time blocks of whole cycles, never random samples (docs/gap.md).
-Blocks make_blocks(const Kinematics& k, int folds) {
+Blocks make_blocks(const Kinematics& k, int folds, double dt, double block_s) {
   const Index n = k.w.size();
   const auto nf = static_cast<Index>(folds);
+  const double duration = static_cast<double>(n) * dt;
+  const Index per_fold = block_s > 0 ? std::max<Index>(1, std::lround(duration / (static_cast<double>(nf) * block_s))) : 1;
+  const Index nb = nf * per_fold;
   std::vector<Index> cut{0};
-  for (Index f = 1; f < nf; ++f) {
-    const Index target = f * n / nf;
-    const Index reach = n / (2 * nf);
+  for (Index f = 1; f < nb; ++f) {
+    const Index target = f * n / nb;
+    const Index reach = n / (2 * nb);
     Index best = target;
     for (Index d = 0; d <= reach; ++d) {
       if (target + d < n && k.s_move(target + d) == 0) { best = target + d; break; }
@@ -50,10 +53,9 @@ Blocks make_blocks(const Kinematics& k, int folds) {
   }
   cut.push_back(n);
   Blocks b;
-  for (std::size_t i = 0; i + 1 < cut.size(); ++i) {
-    b.start.push_back(cut[i]);
-    b.len.push_back(cut[i + 1] - cut[i]);
-  }
+  b.folds.resize(static_cast<std::size_t>(std::min<Index>(nf, static_cast<Index>(cut.size()) - 1)));
+  for (std::size_t i = 0; i + 1 < cut.size(); ++i)
+    b.folds[i % b.folds.size()].push_back({cut[i], cut[i + 1] - cut[i]});
   return b;
 }
 
@@ -61,13 +63,19 @@ Blocks make_blocks(const Kinematics& k, int folds) {
 Grams make_grams(const MatrixXd& X, const VectorXd& y, const Blocks& b) {
   Grams gr;
   for (std::size_t i = 0; i < b.size(); ++i) {
-    const auto Xb = X.middleRows(b.start[i], b.len[i]);
-    const auto yb = y.segment(b.start[i], b.len[i]);
     MatrixXd G = MatrixXd::Zero(X.cols(), X.cols());
-    G.selfadjointView<Eigen::Lower>().rankUpdate(Xb.transpose());
+    VectorXd g = VectorXd::Zero(X.cols());
+    double yy = 0;
+    for (const Span& sp : b.folds[i]) {
+      const auto Xb = X.middleRows(sp.start, sp.len);
+      const auto yb = y.segment(sp.start, sp.len);
+      G.selfadjointView<Eigen::Lower>().rankUpdate(Xb.transpose());
+      g += Xb.transpose() * yb;
+      yy += yb.squaredNorm();
+    }
     gr.G.push_back(G.selfadjointView<Eigen::Lower>());
-    gr.g.push_back(Xb.transpose() * yb);
-    gr.yy.push_back(yb.squaredNorm());
+    gr.g.push_back(std::move(g));
+    gr.yy.push_back(yy);
   }
   return gr;
 }
@@ -77,17 +85,22 @@ Grams extend_grams(const Grams& base, const MatrixXd& X0, const MatrixXd& C, con
   Grams gr;
   const Index k0 = X0.cols(), c = C.cols();
   for (std::size_t i = 0; i < b.size(); ++i) {
-    const auto X0b = X0.middleRows(b.start[i], b.len[i]);
-    const auto Cb = C.middleRows(b.start[i], b.len[i]);
-    const auto yb = y.segment(b.start[i], b.len[i]);
     MatrixXd G(k0 + c, k0 + c);
     G.topLeftCorner(k0, k0) = base.G[i];
-    G.topRightCorner(k0, c) = X0b.transpose() * Cb;
-    G.bottomLeftCorner(c, k0) = G.topRightCorner(k0, c).transpose();
-    G.bottomRightCorner(c, c) = Cb.transpose() * Cb;
+    G.topRightCorner(k0, c).setZero();
+    G.bottomRightCorner(c, c).setZero();
     VectorXd g(k0 + c);
     g.head(k0) = base.g[i];
-    g.tail(c) = Cb.transpose() * yb;
+    g.tail(c).setZero();
+    for (const Span& sp : b.folds[i]) {
+      const auto X0b = X0.middleRows(sp.start, sp.len);
+      const auto Cb = C.middleRows(sp.start, sp.len);
+      const auto yb = y.segment(sp.start, sp.len);
+      G.topRightCorner(k0, c) += X0b.transpose() * Cb;
+      G.bottomRightCorner(c, c) += Cb.transpose() * Cb;
+      g.tail(c) += Cb.transpose() * yb;
+    }
+    G.bottomLeftCorner(c, k0) = G.topRightCorner(k0, c).transpose();
     gr.G.push_back(std::move(G));
     gr.g.push_back(std::move(g));
     gr.yy.push_back(base.yy[i]);

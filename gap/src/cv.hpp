@@ -10,14 +10,23 @@
 
 namespace pof::gap::cv {
 
-struct Blocks {
-  std::vector<Eigen::Index> start, len;
-  [[nodiscard]] std::size_t size() const { return start.size(); }
+/// Scans [start, start + len).
+struct Span {
+  Eigen::Index start = 0, len = 0;
 };
 
-/// K contiguous blocks whose boundaries are moved to the nearest hold scan, so no movement (and so
-/// no cycle) is cut in two: the folds are time blocks of whole cycles, never random samples.
-Blocks make_blocks(const Kinematics& k, int folds);
+/// The folds: each is a set of contiguous time blocks (spans) held out together.
+struct Blocks {
+  std::vector<std::vector<Span>> folds;
+  [[nodiscard]] std::size_t size() const { return folds.size(); }
+};
+
+/// `folds` x m contiguous blocks whose boundaries are moved to the nearest hold scan, so no
+/// movement (and so no cycle) is cut in two, dealt to the folds in turn: block j goes to fold
+/// j mod `folds`. m = round(duration / (folds x block_s)), at least 1 (m = 1: each fold one block).
+/// Time blocks of whole cycles, never random samples; dealt out so that every fold's training
+/// blocks hold every kind of movement the session has (docs/gap.md, section 4).
+Blocks make_blocks(const Kinematics& k, int folds, double dt, double block_s);
 
 /// Per-block normal equations X'X, X'y and y'y.
 struct Grams {

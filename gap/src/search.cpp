@@ -123,7 +123,8 @@ Design build_design(const Search& sx, const State& st) {
 VectorXd heldout_residual(const Design& d, const cv::Blocks& b, const std::vector<VectorXd>& beta) {
   VectorXd r(d.y.size());
   for (std::size_t i = 0; i < b.size(); ++i)
-    r.segment(b.start[i], b.len[i]) = d.y.segment(b.start[i], b.len[i]) - d.X.middleRows(b.start[i], b.len[i]) * beta[i];
+    for (const cv::Span& sp : b.folds[i])
+      r.segment(sp.start, sp.len) = d.y.segment(sp.start, sp.len) - d.X.middleRows(sp.start, sp.len) * beta[i];
   return r;
 }
 

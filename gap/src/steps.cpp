@@ -92,8 +92,8 @@ Assessment assess(const Search& sx, const State& st, const CandidateResult& w, I
   for (std::size_t f = 0; f < sx.blocks.size(); ++f) {
     const double th = w.grid.empty() ? 0.0 : w.grid[w.fit.theta_idx[f]];
     const Design d2 = build_design(at, st.with(w.effect, th));
-    const Index b = sx.blocks.start[f], l = sx.blocks.len[f];
-    a.after.segment(b, l) = d2.y.segment(b, l) - d2.X.middleRows(b, l) * w.fit.beta[f];
+    for (const cv::Span& sp : sx.blocks.folds[f])
+      a.after.segment(sp.start, sp.len) = d2.y.segment(sp.start, sp.len) - d2.X.middleRows(sp.start, sp.len) * w.fit.beta[f];
     const VectorXd bf = w.fit.beta[f];
     fold_params.push_back(def.physical(th, bf.tail(bf.size() - k0cols), at.cx));
   }
@@ -252,6 +252,22 @@ void grow(Grown& g, const Steps& ctx) {
                     {"phase_rms_after_deg", phase_rms(to_deg(chosen->after), phases)},
                     {"explained_localisation", loc.detail},
                     {"candidates", scores}};
+    // One relaxation spectrum, named once: a term of the simpler effect beside the one that
+    // generalises it (creep beside viscoelastic_relaxation, in either order) is one more time
+    // constant of the general one, and the step that added it is named so ("term" keeps what it
+    // added). Two names would claim two mechanisms where the catalogue tells them apart only by
+    // the number of time constants (docs/gap.md, section 4, "Nested effects").
+    for (const Term& t : st.terms)
+      if (effect_def(t.effect).generalises == w.effect) {
+        stp.evidence["term"] = wid;
+        stp.effect = std::string(core::to_string(t.effect));
+      }
+    if (def.generalises && st.has(*def.generalises))
+      for (Step& earlier : g.steps)
+        if (earlier.effect == core::to_string(*def.generalises)) {
+          earlier.evidence["term"] = earlier.effect;
+          earlier.effect = wid;
+        }
     g.steps.push_back(stp);
     const double th_full = w.grid.empty() ? 0.0 : w.grid[w.fit.full_idx];
     st = st.with(w.effect, th_full);

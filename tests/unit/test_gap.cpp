@@ -207,6 +207,39 @@ TEST(GapSignals, BacklashGivesTheJointBackThroughItsTurns) {
   EXPECT_LT(worst_turn, 0.2) << "at " << static_cast<double>(worst_at) * kDt << " s";
 }
 
+// The folds' blocks are dealt out in turn over the whole session, so every fold's training blocks
+// hold every kind of movement it has; block_s = 0 gives one contiguous block per fold.
+TEST(GapFolds, BlocksAreDealtOutInTurnAndTileTheRecording) {
+  pof::gap::SynthConfig cfg;
+  cfg.short_protocol = true;
+  cfg.extra_seconds = 60;
+  const auto rec = pof::gap::synthesise(cfg, 3);
+  const double duration = rec.t_s(rec.size() - 1) - rec.t_s(0);
+  for (const double block_s : {0.0, 20.0}) {
+    pof::gap::Options opt;
+    opt.block_s = block_s;
+    opt.max_steps = 0;
+    const auto r = pof::gap::analyse(rec, opt);
+    const auto& folds = r.recording.at("fold_blocks_s");
+    ASSERT_EQ(folds.size(), 5u);
+    std::vector<std::pair<double, double>> blocks;  // in the order they were dealt
+    for (std::size_t j = 0;; ++j) {
+      const auto& fold = folds[j % 5];
+      if (j / 5 >= fold.size()) break;
+      blocks.emplace_back(fold[j / 5][0].get<double>(), fold[j / 5][1].get<double>());
+    }
+    std::size_t total = 0;
+    for (const auto& f : folds) total += f.size();
+    ASSERT_EQ(blocks.size(), total) << "blocks not dealt in turn";
+    const auto expected = block_s > 0 ? static_cast<std::size_t>(std::lround(duration / (5 * block_s))) : 1u;
+    EXPECT_EQ(folds[0].size(), expected);
+    EXPECT_NEAR(blocks.front().first, 0.0, 1e-9);
+    EXPECT_NEAR(blocks.back().second, duration, 0.01);
+    for (std::size_t j = 1; j < blocks.size(); ++j)
+      EXPECT_NEAR(blocks[j].first, blocks[j - 1].second + 0.005, 1e-6) << "block " << j << " does not follow its predecessor";
+  }
+}
+
 TEST(GapSignals, ShortRecordingIsADataError) {
   pof::io::Recording rec;
   rec.source = "tiny.csv";

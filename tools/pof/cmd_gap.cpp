@@ -45,13 +45,16 @@ void add_gap(CLI::App& app) {
   struct Args {
     std::string input, out;
     int folds = 5, max_steps = 4;
-    double min_reduction_pct = 5;
+    double min_reduction_pct = 5, block_s = gap::Options{}.block_s;
     bool no_plots = false;
   };
   auto a = std::make_shared<Args>();
   cmd->add_option("recording", a->input, "Recording: CSV t_s,sensor_v,reference_v,angle_ref_deg, or an LCM log of POF_RAW blocks")->required();
   cmd->add_option("--out,-o", a->out, "Output directory (gap.json, model.toml, report.md, PNG plots)")->required();
   cmd->add_option("--folds", a->folds, "Time-blocked cross-validation folds")->check(CLI::Range(2, 20))->capture_default_str();
+  cmd->add_option("--block-seconds", a->block_s,
+                  "Length of the folds' time blocks, dealt to the folds in turn [s]; 0: one contiguous block per fold")
+      ->check(CLI::Range(0.0, 3600.0))->capture_default_str();
   cmd->add_option("--max-steps", a->max_steps, "Most effects to add")->check(CLI::Range(0, 9))->capture_default_str();
   cmd->add_option("--min-reduction", a->min_reduction_pct, "Acceptance: least held-out RMS reduction [%]")
       ->check(CLI::Range(0.0, 100.0))->capture_default_str();
@@ -64,6 +67,7 @@ void add_gap(CLI::App& app) {
     const bool tty = isatty(STDERR_FILENO) != 0;  // progress on a terminal only, quiet in pipes
     gap::Options opt;
     opt.folds = a->folds;
+    opt.block_s = a->block_s;
     opt.max_steps = a->max_steps;
     opt.min_reduction = a->min_reduction_pct / 100.0;
     if (tty) opt.progress = [](const std::string& m) { std::cerr << "pof gap: " << m << std::endl; };

@@ -20,6 +20,7 @@ namespace pof::gap {
 
 struct Options {
   int folds = 5;                 // time-blocked folds (boundaries moved into holds: whole cycles)
+  double block_s = 25;           // each fold's blocks about this long, dealt out in turn (0: one block per fold)
   double min_reduction = 0.05;   // accept only if held-out RMS drops by >= 5 % ...
   double min_delta_bic = 10.0;   // ... AND held-out BIC (effective n) improves by > 10
   int max_steps = 4;

@@ -112,7 +112,9 @@ TEST(GapBlind, DynamicBaselineNamesNoLateAngleWhereThereIsNone) {
 // creep then adds the third. One spectrum, one name: the step that added creep's term is named
 // viscoelastic_relaxation, and its evidence keeps the term it added.
 TEST(GapBlind, ARelaxationSpectrumIsNamedOnce) {
-  const auto t = pof::gap::blind::run_trial(213, 1, false, workdir(), {}, 0.3, 0.5);
+  pof::gap::Options two_steps;  // the relaxation, then creep's term: the two steps the rule is about
+  two_steps.max_steps = 2;
+  const auto t = pof::gap::blind::run_trial(213, 1, false, workdir(), two_steps, 0.3, 0.5);
   SCOPED_TRACE("steps " + t.gap.at("steps").dump().substr(0, 1500));
   ASSERT_EQ(t.hidden.size(), 1U);
   ASSERT_EQ(t.hidden[0].effect, "viscoelastic_relaxation");

@@ -32,8 +32,9 @@ double lag1(const VectorXd& r) {
 }
 }  // namespace
 
-// K contiguous blocks. Each boundary is moved to the nearest hold scan so no movement (and so no
-// cycle) is cut in two: the folds are time blocks of whole cycles, never random samples (docs/gap.md).
+// K x m contiguous blocks dealt to the folds in turn (cv.hpp). Each boundary is moved to the nearest
+// hold scan so no movement (and so no cycle) is cut in two: the folds are time blocks of whole
+// cycles, never random samples (docs/gap.md, section 4).
 Blocks make_blocks(const Kinematics& k, int folds, double dt, double block_s) {
   const Index n = k.w.size();
   const auto nf = static_cast<Index>(folds);

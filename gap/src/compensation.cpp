@@ -53,12 +53,20 @@ VectorXd compensate(const io::Recording& rec, const core::Calibration& cal, doub
   return out;
 }
 
-double rms_of(const VectorXd& a, const VectorXd& ref, const std::vector<cv::Span>& fold) {
-  double ss = 0;
-  Index n = 0;
+// The sum of squares of the angle a against the reference over a fold's scans with an angle, and
+// how many scans that is.
+void squared_error(const VectorXd& a, const VectorXd& ref, const std::vector<cv::Span>& fold, double& ss, Index& n) {
+  ss = 0;
+  n = 0;
   for (const cv::Span& sp : fold)
     for (Index i = sp.start; i < sp.start + sp.len; ++i)
       if (std::isfinite(a(i))) { ss += (a(i) - ref(i)) * (a(i) - ref(i)); ++n; }
+}
+
+double rms_of(const VectorXd& a, const VectorXd& ref, const std::vector<cv::Span>& fold) {
+  double ss = 0;
+  Index n = 0;
+  squared_error(a, ref, fold, ss, n);
   return n > 0 ? std::sqrt(ss / static_cast<double>(n)) : std::numeric_limits<double>::quiet_NaN();
 }
 
@@ -87,13 +95,7 @@ struct HeldOut {
 void score_blocks(HeldOut& h, const VectorXd& a, const VectorXd& ref, const cv::Blocks& blocks) {
   h.ss.assign(blocks.size(), 0.0);
   h.count.assign(blocks.size(), 0);
-  for (std::size_t f = 0; f < blocks.size(); ++f)
-    for (const cv::Span& sp : blocks.folds[f])
-      for (Index i = sp.start; i < sp.start + sp.len; ++i)
-        if (std::isfinite(a(i))) {
-          h.ss[f] += (a(i) - ref(i)) * (a(i) - ref(i));
-          ++h.count[f];
-        }
+  for (std::size_t f = 0; f < blocks.size(); ++f) squared_error(a, ref, blocks.folds[f], h.ss[f], h.count[f]);
 }
 
 // The compensator's angle with the state's terms (those `use` keeps), fold by fold with the model

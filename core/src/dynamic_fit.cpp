@@ -452,7 +452,8 @@ DynamicModel with_dynamic_coefficients(DynamicModel m, const VectorXd& b) {
 }
 
 MatrixXd dynamic_regressors(const DynamicModel& m, const VectorXd& angle, double rate_hz) {
-  const Design d = build_design(m, VectorXd::Zero(angle.size()), angle, rate_hz, 1);
+  Design d = build_design(m, VectorXd::Zero(angle.size()), angle, rate_hz, 1);
+  if (d.X.rows() == angle.size()) return std::move(d.X);  // every reference usable: one row per scan
   MatrixXd out = MatrixXd::Zero(angle.size(), d.X.cols());
   for (std::size_t r = 0; r < d.scan.size(); ++r) out.row(d.scan[r]) = d.X.row(static_cast<Index>(r));
   return out;

@@ -111,22 +111,21 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   auto say = [&](const std::string& m) { if (opt.progress) opt.progress(m); };
   const Signals s = make_signals(rec);
   const std::string src = rec.source.empty() ? std::string("recording") : rec.source;
-  const Kinematics kp = make_kinematics(s.angle, s.dt, 0.0, core::paper_coefficients());
-  const Index moving = (kp.s_move.array() != 0).count();
+  const Kinematics k0 = make_kinematics(s.angle, s.dt, 0.0);
+  const Index moving = (k0.s_move.array() != 0).count();
   if (moving < s.n / 20 || moving > s.n - s.n / 20)
     throw pof::DataError(src + ": `pof gap` needs both holds and movements (the calibration protocol); " +
                          std::to_string(moving) + " of " + std::to_string(s.n) + " scans move");
 
   say("baseline: fitting the paper's model structure to the recording (calibration, then every coefficient)");
-  const Baseline base = fit_baseline(rec, s, kp);
+  const Baseline base = fit_baseline(rec, s, k0);
   Search sx0;
   sx0.cx.s = &s;
   sx0.cx.m = sx0.cx.origin = base.model;
   sx0.cx.angle_min_deg = s.angle.minCoeff();
   sx0.cx.angle_max_deg = s.angle.maxCoeff();
   sx0.cx.duration_s = s.t(s.n - 1) + s.dt;
-  sx0.blocks = cv::make_blocks(kp, std::max(2, opt.folds), s.dt, opt.block_s);
-  const Kinematics k0 = make_kinematics(s.angle, s.dt, 0.0, base.model);
+  sx0.blocks = cv::make_blocks(k0, std::max(2, opt.folds), s.dt, opt.block_s);
   sx0.cx.max_speed_rad_s = k0.w.cwiseAbs().maxCoeff();
   sx0.cx.move_limit_deg = structure_move_limit(sx0.cx);
   const std::vector<Phase> phases = classify_phases(k0, s.dt);

@@ -43,15 +43,13 @@ std::vector<int> active_operators(const core::DynamicModel& fitted) {
 
 // The dynamic structure's columns (base_cols) out of core::dynamic_regressors' (polynomial, stop
 // operators, Prony) and a move of them applied to the full coefficient vector.
-MatrixXd dynamic_structure_columns(const core::DynamicModel& fitted, const MatrixXd& all) {
+void write_dynamic_structure_columns(const core::DynamicModel& fitted, const MatrixXd& all, Eigen::Ref<MatrixXd> out) {
   const Index poly = fitted.degree + 1, ops = fitted.n_operators, prony = fitted.n_prony;
   const std::vector<int> active = active_operators(fitted);
   const auto na = static_cast<Index>(active.size());
-  MatrixXd out(all.rows(), poly + na + prony);
   out.leftCols(poly) = all.leftCols(poly);
   for (Index i = 0; i < na; ++i) out.col(poly + i) = all.col(poly + active[static_cast<std::size_t>(i)]);
   out.rightCols(prony) = all.middleCols(poly + ops, prony);
-  return out;
 }
 
 VectorXd dynamic_moved_by(const core::DynamicModel& fitted, VectorXd b, const VectorXd& step) {
@@ -87,14 +85,8 @@ Index base_cols(const Context& cx) {
 }
 
 Kinematics baseline_kinematics(const Context& cx, double delay_s, double backlash_deg) {
-  Kinematics k = make_kinematics(cx.s->angle, cx.s->dt, delay_s, cx.m);
-  if (backlash_deg > 0) apply_backlash(k, backlash_deg, cx.s->dt, cx.m);
-  if (cx.dyn) {
-    // The dynamic model runs its memory over the angle the sensor sees (delayed, behind the play).
-    const MatrixXd all = core::dynamic_regressors(*cx.dyn, k.angle, 1.0 / cx.s->dt);
-    k.v0 = all * core::dynamic_coefficients(*cx.dyn);
-    k.gradient = dynamic_structure_columns(*cx.dyn_origin, all);
-  }
+  Kinematics k = make_kinematics(cx.s->angle, cx.s->dt, delay_s);
+  if (backlash_deg > 0) apply_backlash(k, backlash_deg, cx.s->dt);
   return k;
 }
 
@@ -110,13 +102,21 @@ Design build_design(const Search& sx, const State& st) {
     total += cols.back().cols();
   }
   d.X.resize(cx.s->n, total);
-  d.X.leftCols(nb) = d.k.gradient;
+  // The baseline simulator's voltage at these kinematics and, in the first columns, its gradient in
+  // the structure's coefficients.
+  if (cx.dyn) {
+    // The dynamic model runs its memory over the angle the sensor sees (delayed, behind the play).
+    const MatrixXd all = core::dynamic_regressors(*cx.dyn, d.k.angle, 1.0 / cx.s->dt);
+    d.y = cx.s->v - all * core::dynamic_coefficients(*cx.dyn);
+    write_dynamic_structure_columns(*cx.dyn_origin, all, d.X.leftCols(nb));
+  } else {
+    d.y = cx.s->v - paper_voltage(d.k, cx.m, d.X.leftCols(nb));
+  }
   Index c = nb;
   for (const MatrixXd& C : cols) {
     d.X.middleCols(c, C.cols()) = C;
     c += C.cols();
   }
-  d.y = cx.s->v - d.k.v0;
   return d;
 }
 

@@ -11,11 +11,10 @@
 
 #include "pof/base/errors.hpp"
 
-
-
 namespace pof::gap {
 
 using Eigen::Index;
+using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
 namespace {
@@ -141,29 +140,6 @@ VectorXd local_slope(const VectorXd& x, double dt, Index half) {
   return out;
 }
 
-void compute_factors(Kinematics& k, const core::ModelCoefficients& m) {
-  const Index n = k.angle.size();
-  k.s_move.resize(n);
-  k.s_last.resize(n);
-  k.dir.resize(static_cast<std::size_t>(n));
-  k.v0.resize(n);
-  k.gradient.resize(n, core::kRefitParameters);
-  std::array<double, core::kRefitParameters> g{};
-  double last = 0;
-  for (Index i = 0; i < n; ++i) {
-    const double w = k.w(i), aw = std::abs(w);
-    const bool hold = aw < kHoldSpeedRadS || k.quiet_hold[static_cast<std::size_t>(i)];
-    const core::Direction d = hold ? core::Direction::kHold : (w > 0 ? core::Direction::kFlexion : core::Direction::kExtension);
-    k.dir[static_cast<std::size_t>(i)] = d;
-    const double sm = d == core::Direction::kHold ? 0.0 : (d == core::Direction::kFlexion ? 1.0 : -1.0);
-    k.s_move(i) = sm;
-    if (sm != 0) last = sm;
-    k.s_last(i) = last;
-    k.v0(i) = core::model_voltage_gradient(m, k.angle(i), aw, d, g.data());
-    for (int j = 0; j < core::kRefitParameters; ++j) k.gradient(i, j) = g[static_cast<std::size_t>(j)];
-  }
-}
-
 namespace {
 
 // Velocity, acceleration and the hold gate of k.angle. Two differentiators: +-50 ms for the
@@ -181,9 +157,40 @@ void differentiate(Kinematics& k, double dt) {
   for (Index i = 0; i < n; ++i) k.quiet_hold[static_cast<std::size_t>(i)] = std::abs(w_quiet(i)) < 0.5 * kHoldSpeedRadS;
 }
 
+// The direction of movement at each scan (a hold below kHoldSpeedRadS or where the quiet
+// differentiator says so) and the last movement's, kept through holds.
+void compute_directions(Kinematics& k) {
+  const Index n = k.angle.size();
+  k.s_move.resize(n);
+  k.s_last.resize(n);
+  k.dir.resize(static_cast<std::size_t>(n));
+  double last = 0;
+  for (Index i = 0; i < n; ++i) {
+    const double w = k.w(i);
+    const bool hold = std::abs(w) < kHoldSpeedRadS || k.quiet_hold[static_cast<std::size_t>(i)];
+    const core::Direction d = hold ? core::Direction::kHold : (w > 0 ? core::Direction::kFlexion : core::Direction::kExtension);
+    k.dir[static_cast<std::size_t>(i)] = d;
+    const double sm = d == core::Direction::kHold ? 0.0 : (d == core::Direction::kFlexion ? 1.0 : -1.0);
+    k.s_move(i) = sm;
+    if (sm != 0) last = sm;
+    k.s_last(i) = last;
+  }
+}
+
 }  // namespace
 
-void apply_backlash(Kinematics& k, double width_deg, double dt, const core::ModelCoefficients& m) {
+VectorXd paper_voltage(const Kinematics& k, const core::ModelCoefficients& m, Eigen::Ref<MatrixXd> gradient) {
+  const Index n = k.angle.size();
+  VectorXd v(n);
+  std::array<double, core::kRefitParameters> g{};
+  for (Index i = 0; i < n; ++i) {
+    v(i) = core::model_voltage_gradient(m, k.angle(i), std::abs(k.w(i)), k.dir[static_cast<std::size_t>(i)], g.data());
+    for (int j = 0; j < core::kRefitParameters; ++j) gradient(i, j) = g[static_cast<std::size_t>(j)];
+  }
+  return v;
+}
+
+void apply_backlash(Kinematics& k, double width_deg, double dt) {
   // Belt play of width b (the play operator of half-width b/2, core/dynamic_model.hpp): while the
   // joint moves, the potentiometer follows it b/2 behind, so the joint is ref + s b/2 with s the
   // direction of the last movement, kept through holds. At a reversal the joint turns at the
@@ -297,10 +304,10 @@ void apply_backlash(Kinematics& k, double width_deg, double dt, const core::Mode
   }
   // The joint's own velocity, acceleration and holds: it moves while the reference stands.
   differentiate(k, dt);
-  compute_factors(k, m);
+  compute_directions(k);
 }
 
-Kinematics make_kinematics(const VectorXd& angle, double dt, double delay_s, const core::ModelCoefficients& m) {
+Kinematics make_kinematics(const VectorXd& angle, double dt, double delay_s) {
   const Index n = angle.size();
   Kinematics k;
   if (delay_s == 0.0) {
@@ -317,7 +324,7 @@ Kinematics make_kinematics(const VectorXd& angle, double dt, double delay_s, con
     }
   }
   differentiate(k, dt);
-  compute_factors(k, m);
+  compute_directions(k);
   return k;
 }
 

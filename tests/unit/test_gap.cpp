@@ -187,9 +187,8 @@ TEST(GapSignals, BacklashGivesTheJointBackThroughItsTurns) {
     rec.angle_ref_deg(i) = y + noise(rng);
   }
   const auto s = pof::gap::make_signals(rec);
-  const auto m = pof::core::paper_coefficients();
-  auto k = pof::gap::make_kinematics(s.angle, s.dt, 0.0, m);
-  pof::gap::apply_backlash(k, kPlay, s.dt, m);
+  auto k = pof::gap::make_kinematics(s.angle, s.dt, 0.0);
+  pof::gap::apply_backlash(k, kPlay, s.dt);
   // From the first movement on (before it the side of the band is unknown).
   double sq = 0, worst_turn = 0;
   Eigen::Index counted = 0, worst_at = 0;

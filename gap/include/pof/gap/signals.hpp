@@ -32,7 +32,10 @@ struct Signals {
 /// non-positive reference (naming the source and the row).
 Signals make_signals(const io::Recording& rec);
 
-/// Kinematics of an angle trace and the baseline simulator factors at each scan.
+/// Kinematics of an angle trace: what the baseline simulator and the effects' columns read at
+/// each scan. The simulator's voltage and its gradient are the search's (search.cpp,
+/// build_design): on the dynamic baseline they come from the model's own regressors, so a paper
+/// gradient computed here would be thrown away for every candidate's design.
 struct Kinematics {
   Eigen::VectorXd angle;   // [deg] (the reference, possibly shifted by a candidate time delay)
   Eigen::VectorXd w;       // signed angular velocity [rad/s] (+ = flexion, angle increasing)
@@ -41,26 +44,24 @@ struct Kinematics {
   Eigen::VectorXd s_last;  // direction of the most recent movement, kept through holds (0 before any)
   std::vector<core::Direction> dir;
   std::vector<bool> quiet_hold;  // the +-125 ms velocity says "hold" (gates the short one)
-  // The baseline simulator (the paper's structure, eqs. 11/12 inverted moving, f5 holding) at the
-  // model it was built for: its voltage and its gradient in the refitted coefficients
-  // (core/paper_refit.hpp), so a fit can move every coefficient to first order (docs/gap.md, section 1).
-  Eigen::VectorXd v0;
-  Eigen::MatrixXd gradient;  // n x core::kRefitParameters
 };
 
 /// Kinematics of `angle` (sampled every dt) delayed by delay_s: the angle seen at scan i is the
 /// reference at t_i - delay_s (linear interpolation, clamped at the ends). Velocity is the slope of
 /// a local linear fit over +-50 ms, gated by a +-125 ms fit (robust to potentiometer noise).
-Kinematics make_kinematics(const Eigen::VectorXd& angle, double dt, double delay_s,
-                           const core::ModelCoefficients& m);
-
-/// Recomputes s_move, s_last, dir and the baseline factors from angle and w.
-void compute_factors(Kinematics& k, const core::ModelCoefficients& m);
+Kinematics make_kinematics(const Eigen::VectorXd& angle, double dt, double delay_s);
 
 /// The joint angle behind a reference seen through belt backlash of width_deg (see signals.cpp):
 /// shifts the angle by +-width/2 after each movement and restores the joint's motion while the
-/// reference stands in the dead band before a reversal; then recomputes the factors.
-void apply_backlash(Kinematics& k, double width_deg, double dt, const core::ModelCoefficients& m);
+/// reference stands in the dead band before a reversal; then the joint's velocity and directions.
+void apply_backlash(Kinematics& k, double width_deg, double dt);
+
+/// The paper structure's voltage at every scan of k (eqs. 11/12 moving, f5 holding) at the
+/// coefficients m, and its gradient in the refitted coefficients (core/paper_refit.hpp) written to
+/// `gradient` (n x core::kRefitParameters), so a fit can move every coefficient to first order
+/// (docs/gap.md, section 1).
+Eigen::VectorXd paper_voltage(const Kinematics& k, const core::ModelCoefficients& m,
+                              Eigen::Ref<Eigen::MatrixXd> gradient);
 
 /// Slope of a centred local linear fit of x over 2*half+1 samples, divided by dt.
 Eigen::VectorXd local_slope(const Eigen::VectorXd& x, double dt, Eigen::Index half);

@@ -25,6 +25,7 @@
 #include <benchmark/benchmark.h>
 
 #include "pof/testing/gap_blind.hpp"
+#include "pof/gap/gap.hpp"
 #include "pof/gap/io.hpp"
 #include "pof/io/atomic_file.hpp"
 #include "pof/io/csv_writer.hpp"
@@ -259,6 +260,7 @@ int main(int argc, char** argv) {
       n = 0;
     } else rest.push_back(argv[i]);
   }
+  pof::gap::keep_freed_memory_for_reuse();  // as `pof gap` does
   fs::create_directories(g_dir);
   if (n > 0) run_blind(n, seed, dynamic_share);
   int rc = static_cast<int>(rest.size());

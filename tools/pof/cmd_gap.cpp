@@ -65,6 +65,7 @@ void add_gap(CLI::App& app) {
     for (const char* f : {"gap.json", "model.toml", "series.csv", "report.md"}) outputs.push_back({"--out", fs::path(a->out) / f});
     io::refuse_output_over_input({{"recording", a->input}}, outputs);
     const bool tty = isatty(STDERR_FILENO) != 0;  // progress on a terminal only, quiet in pipes
+    gap::keep_freed_memory_for_reuse();
     gap::Options opt;
     opt.folds = a->folds;
     opt.block_s = a->block_s;

@@ -67,4 +67,11 @@ struct Result {
 /// analysed (too short, no movement, no holds, non-constant rate), naming the source.
 Result analyse(const io::Recording& rec, const Options& opt = {});
 
+/// For a process that runs analyse() as a batch job (`pof gap`, bench_gap), called before any
+/// thread starts: freed memory stays in the process's one heap for the next allocation. The search
+/// builds and frees a design of ~50-100 MB for every value of a kinematic candidate's grid (a few
+/// hundred per step on 40 min); glibc serves each from fresh mmap pages the kernel zeroes on first
+/// touch, a quarter of the run's time (gap/src/batch_memory.cpp has the figures). Not for a daemon.
+void keep_freed_memory_for_reuse();
+
 }  // namespace pof::gap

@@ -308,6 +308,22 @@ void refit_thetas(const Search& sx, State& st, const VectorXd& resid) {
   }
 }
 
+void refit_rate_gain(Search& sx, const State& st) {
+  if (!sx.cx.dyn) return;
+  const double rate = 1.0 / sx.cx.s->dt;
+  const double current = sx.cx.dyn->rate_gain_s_per_rad;
+  double best = full_rss(sx, st), best_gain = current;
+  for (double g : core::DynamicFitSettings{}.rate_gains_s_per_rad) {
+    if (g == current) continue;
+    Search at = sx;
+    at.cx.dyn->rate_gain_s_per_rad = g;
+    if (!core::dynamic_invertible(*at.cx.dyn, rate)) continue;  // as fit_dynamic refuses it
+    const double r = full_rss(at, st);
+    if (r < best) { best = r; best_gain = g; }
+  }
+  sx.cx.dyn->rate_gain_s_per_rad = best_gain;
+}
+
 namespace {
 
 CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, const CurrentFit& cur) {

@@ -105,6 +105,12 @@ Eigen::VectorXd heldout_residual(const Design& d, const cv::Blocks& b, const std
 /// residual [V], for grids that look at it.
 void refit_thetas(const Search& sx, State& st, const Eigen::VectorXd& resid);
 
+/// On the dynamic baseline: re-chooses the model's rate gain kappa (core::fit_dynamic's grid) on
+/// all data with the accepted terms in. Fitted without them, kappa imitates what they explain (a
+/// gain of 1 s/rad took part of a fibre's acceleration dependence); once the term holds that, the
+/// stale kappa leaves a speed-proportional residual for the next candidate to take.
+void refit_rate_gain(Search& sx, const State& st);
+
 struct CandidateResult {
   core::Effect effect;
   bool applicable = true;

@@ -273,6 +273,7 @@ void grow(Grown& g, const Steps& ctx) {
     st = st.with(w.effect, th_full);
     sx.cx.m = w.base.paper;
     sx.cx.dyn = w.base.dynamic;
+    refit_rate_gain(sx, st);
     if (st.size() > 1) refit_thetas(sx, st, chosen->after);
     // The next ranking compares candidates with the state refitted the same way they are (accepted
     // nonlinear parameters fixed); the reported gaps stay the strict per-fold ones.

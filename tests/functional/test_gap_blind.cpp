@@ -134,6 +134,25 @@ TEST(GapBlind, ARelaxationSpectrumIsNamedOnce) {
   std::filesystem::remove(t.csv);
 }
 
+// Blind seed 262 of the benchmark (a full session, a sensor of the dynamic model's kind with no rate
+// dependence of its own): an acceleration dependence hidden. The dynamic fit, made without an
+// acceleration term, takes a rate gain for part of it; once the term is accepted the gain is
+// chosen again with the term in (search.cpp, refit_rate_gain). With the stale gain the search
+// named a 3 ms time_delay next (25 %) for the speed-proportional residual the gain left.
+TEST(GapBlind, AnAccelerationTermBringsNoDelayOnTheDynamicBaseline) {
+  pof::gap::Options two_steps;  // the acceleration, then the step that named the delay
+  two_steps.max_steps = 2;
+  const auto t = pof::gap::blind::run_trial(262, 1, false, workdir(), two_steps, 0.3, 0.5);
+  SCOPED_TRACE("steps " + t.gap.at("steps").dump().substr(0, 1500));
+  ASSERT_EQ(t.hidden.size(), 1U);
+  ASSERT_EQ(t.hidden[0].effect, "acceleration_dependence");
+  ASSERT_EQ(t.gap.at("baseline").at("choice").at("chosen").get<std::string>(), "dynamic");
+  EXPECT_EQ(t.hits(), 1);
+  EXPECT_EQ(t.false_finds(), 0);
+  for (const auto& st : t.gap.at("steps")) EXPECT_NE(st.at("effect").get<std::string>(), "time_delay");
+  std::filesystem::remove(t.csv);
+}
+
 // The dynamic fit (core::fit_dynamic) on the short blind session, a sensor like blind seed 261's: three
 // Maxwell-slip elements (the narrowest 0.95 deg), one Prony term, and the bend 64 ms behind the
 // joint. Without the lag every structure with operators is non-invertible (the narrowest operator

@@ -39,7 +39,7 @@ namespace {
 
 fs::path g_dir = fs::temp_directory_path() / "pof_bench_gap";
 std::string g_long_csv;
-bool g_keep = false;  // --keep: leave the blind CSV files in DIR
+bool g_keep = false;  // --keep: leave the blind CSV files and the 40-min recording in DIR
 
 double median_of(std::vector<double> x) {
   std::sort(x.begin(), x.end());

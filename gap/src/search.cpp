@@ -47,6 +47,7 @@ void write_dynamic_structure_columns(const core::DynamicModel& fitted, const Mat
   const Index poly = fitted.degree + 1, ops = fitted.n_operators, prony = fitted.n_prony;
   const std::vector<int> active = active_operators(fitted);
   const auto na = static_cast<Index>(active.size());
+  eigen_assert(out.rows() == all.rows() && out.cols() == poly + na + prony);
   out.leftCols(poly) = all.leftCols(poly);
   for (Index i = 0; i < na; ++i) out.col(poly + i) = all.col(poly + active[static_cast<std::size_t>(i)]);
   out.rightCols(prony) = all.middleCols(poly + ops, prony);
@@ -309,17 +310,34 @@ void refit_thetas(const Search& sx, State& st, const VectorXd& resid) {
 }
 
 void refit_rate_gain(Search& sx, const State& st) {
-  if (!sx.cx.dyn) return;
-  const double rate = 1.0 / sx.cx.s->dt;
-  const double current = sx.cx.dyn->rate_gain_s_per_rad;
-  double best = full_rss(sx, st), best_gain = current;
-  for (double g : core::DynamicFitSettings{}.rate_gains_s_per_rad) {
-    if (g == current) continue;
+  // phi(w) multiplies the stop operators only: without one the gain changes nothing.
+  if (!sx.cx.dyn || active_operators(*sx.cx.dyn_origin).empty()) return;
+  const Index nb = base_cols(sx.cx);
+  // The all-data fit at gain g (the structure's coefficients free) and whether the structure can
+  // make that move: invertible online and within the move bound, moved_dynamic's conditions
+  // without its shortening of the step, so a gain is not scored by a move it will not make.
+  struct Score {
+    double rss = 0;
+    bool feasible = false;
+  };
+  auto score = [&](double g) {
     Search at = sx;
     at.cx.dyn->rate_gain_s_per_rad = g;
-    if (!core::dynamic_invertible(*at.cx.dyn, rate)) continue;  // as fit_dynamic refuses it
-    const double r = full_rss(at, st);
-    if (r < best) { best = r; best_gain = g; }
+    const Design d = build_design(at, st);
+    const cv::FoldFit f = cv::cross_validate({cv::make_grams(d.X, d.y, at.blocks)}, nb);
+    const core::DynamicModel m = core::with_dynamic_coefficients(
+        *at.cx.dyn, dynamic_moved_by(*at.cx.dyn_origin, core::dynamic_coefficients(*at.cx.dyn), f.beta_full.head(nb)));
+    const bool feasible = core::dynamic_invertible(m, 1.0 / at.cx.s->dt) &&
+                          dynamic_distance(m, *at.cx.dyn_origin, at.cx).between <= at.cx.move_limit_deg;
+    return Score{f.full_rss, feasible};
+  };
+  // The gain in place stays unless a feasible one fits better.
+  const double current = sx.cx.dyn->rate_gain_s_per_rad;
+  double best = score(current).rss, best_gain = current;
+  for (double g : core::DynamicFitSettings{}.rate_gains_s_per_rad) {
+    if (g == current) continue;
+    const Score sc = score(g);
+    if (sc.feasible && sc.rss < best) { best = sc.rss; best_gain = g; }
   }
   sx.cx.dyn->rate_gain_s_per_rad = best_gain;
 }

@@ -48,10 +48,11 @@ struct Design {
 /// linear coefficients.
 Eigen::Index base_cols(const Context& cx);
 
-/// The kinematics of the reference angle seen through a delay and a belt play, with v0 and the
-/// baseline columns of cx's baseline.
+/// The kinematics of the reference angle seen through a delay and a belt play.
 Kinematics baseline_kinematics(const Context& cx, double delay_s, double backlash_deg);
 
+/// The design of state st: y = v - the baseline simulator's voltage at st's kinematics, X = the
+/// simulator's gradient in the structure's coefficients (base_cols), then each term's columns.
 Design build_design(const Search& sx, const State& st);
 
 /// The baseline structure at some coefficients: the paper's (always there: f5 gives the quiet

@@ -181,6 +181,7 @@ void compute_directions(Kinematics& k) {
 
 VectorXd paper_voltage(const Kinematics& k, const core::ModelCoefficients& m, Eigen::Ref<MatrixXd> gradient) {
   const Index n = k.angle.size();
+  eigen_assert(gradient.rows() == n && gradient.cols() == core::kRefitParameters);
   VectorXd v(n);
   std::array<double, core::kRefitParameters> g{};
   for (Index i = 0; i < n; ++i) {

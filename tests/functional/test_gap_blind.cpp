@@ -1,9 +1,10 @@
 // The blind test of `pof gap` (docs/gap.md) on the physics simulator: a hidden draw (none, one or two effects with
 // random magnitudes, per seed), a CSV file written by the harness, `pof gap`'s analysis of that file
 // alone, and only then the comparison. Short sessions (~5 min of data) keep each case to seconds;
-// the statistics over >= 100 recordings are bench_gap's (BENCHMARKS.md). The two tests of the
-// bend lag named in the baseline run the full session of one benchmark recording. The last test
-// runs core::fit_dynamic (the dynamic baseline's fit) alone on the short session.
+// the statistics over >= 100 recordings are bench_gap's (BENCHMARKS.md). The tests of one
+// benchmark recording (the bend lag named in the baseline, a relaxation spectrum named once, an
+// acceleration term without a delay beside it) run its full session. The last test runs
+// core::fit_dynamic (the dynamic baseline's fit) alone on the short session.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -137,8 +138,8 @@ TEST(GapBlind, ARelaxationSpectrumIsNamedOnce) {
 // Blind seed 262 of the benchmark (a full session, a sensor of the dynamic model's kind with no rate
 // dependence of its own): an acceleration dependence hidden. The dynamic fit, made without an
 // acceleration term, takes a rate gain for part of it; once the term is accepted the gain is
-// chosen again with the term in (search.cpp, refit_rate_gain). With the stale gain the search
-// named a 3 ms time_delay next (25 %) for the speed-proportional residual the gain left.
+// chosen again with the term in (search.cpp, refit_rate_gain: 0.5 -> 0 s/rad here). With the
+// stale gain the search named a time_delay next for the speed-proportional residual it left.
 TEST(GapBlind, AnAccelerationTermBringsNoDelayOnTheDynamicBaseline) {
   pof::gap::Options two_steps;  // the acceleration, then the step that named the delay
   two_steps.max_steps = 2;

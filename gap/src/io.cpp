@@ -139,7 +139,14 @@ std::string report_md(const Result& r, const std::string& source) {
     o << "## Step " << i++ << ": " << s.effect << "\n\n- where: " << s.where << "\n- held-out gap "
       << s.evidence["heldout_gap_before_deg"].get<double>() << " -> " << s.gap_deg << " deg ("
       << s.evidence["reduction_pct"].get<double>() << " %), delta BIC " << s.evidence["delta_bic"].get<double>()
-      << ", runner-up " << s.evidence["runner_up"].get<std::string>() << "\n\n";
+      << ", runner-up " << s.evidence["runner_up"].get<std::string>() << "\n";
+    if (s.evidence.contains("dynamic_rate_gain_s_per_rad")) {
+      const json& g = s.evidence["dynamic_rate_gain_s_per_rad"];
+      const double before = g["before"].get<double>(), after = g["after"].get<double>();
+      if (after != before)
+        o << "- the dynamic model's rate gain, chosen again with this effect in: " << before << " -> " << after << " s/rad\n";
+    }
+    o << "\n";
   }
   if (r.compensated.contains("error"))
     o << "## The angle the compensator outputs\n\n" << r.compensated["error"].get<std::string>()

@@ -151,6 +151,10 @@ TEST(GapBlind, AnAccelerationTermBringsNoDelayOnTheDynamicBaseline) {
   EXPECT_EQ(t.hits(), 1);
   EXPECT_EQ(t.false_finds(), 0);
   for (const auto& st : t.gap.at("steps")) EXPECT_NE(st.at("effect").get<std::string>(), "time_delay");
+  // The gain the fit had taken for the acceleration goes to the fibre's own, none.
+  const auto& gain = t.gap.at("steps").at(0).at("evidence").at("dynamic_rate_gain_s_per_rad");
+  EXPECT_GT(gain.at("before").get<double>(), 0.0);
+  EXPECT_EQ(gain.at("after").get<double>(), 0.0);
   std::filesystem::remove(t.csv);
 }
 

@@ -212,13 +212,18 @@ BranchDistance dynamic_distance(const core::DynamicModel& a, const core::Dynamic
 // fitted model's. Terms that draw the same curves as its parts are no candidates on this baseline
 // (covered_by_baseline): a step along the difference of two such columns moves nothing the voltage
 // sees, and a shortened step leaves the term's share applied alone.
+core::DynamicModel dynamic_moved_fully(const Context& cx, const VectorXd& beta) {
+  return core::with_dynamic_coefficients(
+      *cx.dyn, dynamic_moved_by(*cx.dyn_origin, core::dynamic_coefficients(*cx.dyn), beta.head(base_cols(cx))));
+}
+bool dynamic_move_allowed(const core::DynamicModel& m, const Context& cx) {
+  return core::dynamic_invertible(m, 1.0 / cx.s->dt) && dynamic_distance(m, *cx.dyn_origin, cx).between <= cx.move_limit_deg;
+}
 core::DynamicModel moved_dynamic(const Context& cx, const VectorXd& beta) {
-  const VectorXd b0 = core::dynamic_coefficients(*cx.dyn);
   double scale = 1;
   for (int halving = 0; halving <= 8; ++halving, scale /= 2) {
-    const core::DynamicModel m = core::with_dynamic_coefficients(*cx.dyn, dynamic_moved_by(*cx.dyn_origin, b0, scale * beta.head(base_cols(cx))));
-    if (core::dynamic_invertible(m, 1.0 / cx.s->dt) && dynamic_distance(m, *cx.dyn_origin, cx).between <= cx.move_limit_deg)
-      return m;
+    const core::DynamicModel m = dynamic_moved_fully(cx, scale * beta);
+    if (dynamic_move_allowed(m, cx)) return m;
   }
   return *cx.dyn;
 }
@@ -325,11 +330,7 @@ void refit_rate_gain(Search& sx, const State& st) {
     at.cx.dyn->rate_gain_s_per_rad = g;
     const Design d = build_design(at, st);
     const cv::FoldFit f = cv::cross_validate({cv::make_grams(d.X, d.y, at.blocks)}, nb);
-    const core::DynamicModel m = core::with_dynamic_coefficients(
-        *at.cx.dyn, dynamic_moved_by(*at.cx.dyn_origin, core::dynamic_coefficients(*at.cx.dyn), f.beta_full.head(nb)));
-    const bool feasible = core::dynamic_invertible(m, 1.0 / at.cx.s->dt) &&
-                          dynamic_distance(m, *at.cx.dyn_origin, at.cx).between <= at.cx.move_limit_deg;
-    return Score{f.full_rss, feasible};
+    return Score{f.full_rss, dynamic_move_allowed(dynamic_moved_fully(at.cx, f.beta_full), at.cx)};
   };
   // The gain in place stays unless a feasible one fits better.
   const double current = sx.cx.dyn->rate_gain_s_per_rad;

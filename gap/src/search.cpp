@@ -270,10 +270,13 @@ std::string covered_by_baseline(core::Effect e, const Context& cx) {
 
 namespace {
 
-double full_rss(const Search& sx, const State& st) {
+// The fit of state st on all data (its full_rss and beta_full; the state's grid is one value).
+cv::FoldFit all_data_fit(const Search& sx, const State& st) {
   const Design d = build_design(sx, st);
-  return cv::cross_validate({cv::make_grams(d.X, d.y, sx.blocks)}, base_cols(sx.cx)).full_rss;
+  return cv::cross_validate({cv::make_grams(d.X, d.y, sx.blocks)}, base_cols(sx.cx));
 }
+
+double full_rss(const Search& sx, const State& st) { return all_data_fit(sx, st).full_rss; }
 
 // Coordinate search of one scalar of the state over candidate values, on all data.
 template <class Set>
@@ -317,7 +320,6 @@ void refit_thetas(const Search& sx, State& st, const VectorXd& resid) {
 void refit_rate_gain(Search& sx, const State& st) {
   // phi(w) multiplies the stop operators only: without one the gain changes nothing.
   if (!sx.cx.dyn || active_operators(*sx.cx.dyn_origin).empty()) return;
-  const Index nb = base_cols(sx.cx);
   // The all-data fit at gain g (the structure's coefficients free) and whether the structure can
   // make that move: invertible online and within the move bound, moved_dynamic's conditions
   // without its shortening of the step, so a gain is not scored by a move it will not make.
@@ -328,8 +330,7 @@ void refit_rate_gain(Search& sx, const State& st) {
   auto score = [&](double g) {
     Search at = sx;
     at.cx.dyn->rate_gain_s_per_rad = g;
-    const Design d = build_design(at, st);
-    const cv::FoldFit f = cv::cross_validate({cv::make_grams(d.X, d.y, at.blocks)}, nb);
+    const cv::FoldFit f = all_data_fit(at, st);
     return Score{f.full_rss, dynamic_move_allowed(dynamic_moved_fully(at.cx, f.beta_full), at.cx)};
   };
   // The gain in place stays unless a feasible one fits better.

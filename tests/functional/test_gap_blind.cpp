@@ -57,25 +57,16 @@ void check(std::uint64_t seed, int count, double dynamic_share = 0.0, const pof:
 }  // namespace
 
 TEST(GapBlind, NothingHidden) { check(1001, 0); }
-// One contiguous block per fold (`pof gap --block-seconds 0`), the folds' layout up to 2026-11-27:
-// with the default's dealt-out blocks, seed 1002's acceleration is named and then a 4 ms
-// time_delay (16 %) beside it, and seed 1007's rate-dependent hysteresis gets an acceleration term
-// beside it (22 %): the acceleration term's known companions (docs/gap.md, "Limitations").
-namespace {
-pof::gap::Options contiguous_folds() {
-  pof::gap::Options o;
-  o.block_s = 0;
-  return o;
-}
-}  // namespace
-TEST(GapBlind, OneEffectA) { check(1002, 1, 0.0, contiguous_folds()); }
+TEST(GapBlind, OneEffectA) { check(1002, 1); }
 TEST(GapBlind, OneEffectB) { check(1003, 1); }
 TEST(GapBlind, OneEffectC) { check(1004, 1); }
 TEST(GapBlind, TwoEffects) { check(1005, 2); }
 // Sensors of the dynamic model's kind (draw_dynamic_sensor): memory hysteresis, Prony relaxation,
 // maybe a bend lag and a bowed curve, instead of the paper's steps.
 TEST(GapBlind, DynamicSensorNothingHidden) { check(1006, 0, 1.0); }
-TEST(GapBlind, DynamicSensorOneEffect) { check(1007, 1, 1.0, contiguous_folds()); }
+// Seed 1007's fibre lags the joint by 58 ms: beside its rate-dependent hysteresis an acceleration
+// term is named, the lag's second order (covered by the harness: testing/src/gap_blind.cpp).
+TEST(GapBlind, DynamicSensorOneEffect) { check(1007, 1, 1.0); }
 
 // A delay of the angle on a fibre of the dynamic model's kind without a bend lag of its own: the
 // dynamic fit takes the delay as its bend lag (the two look alike at these speeds) and fits it to

@@ -63,7 +63,11 @@ void apply_backlash(Kinematics& k, double width_deg, double dt);
 Eigen::VectorXd paper_voltage(const Kinematics& k, const core::ModelCoefficients& m,
                               Eigen::Ref<Eigen::MatrixXd> gradient);
 
-/// Slope of a centred local linear fit of x over 2*half+1 samples, divided by dt.
+/// Mean of x over the centred window of 2*half+1 samples, shortened at the ends to what exists.
+Eigen::VectorXd moving_mean(const Eigen::VectorXd& x, Eigen::Index half);
+
+/// Slope of a local linear fit of x over 2*half+1 samples, divided by dt: centred where the window
+/// fits, and within half of either end the first (last) full window's slope.
 Eigen::VectorXd local_slope(const Eigen::VectorXd& x, double dt, Eigen::Index half);
 
 }  // namespace pof::gap

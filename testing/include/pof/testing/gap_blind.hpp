@@ -45,7 +45,8 @@ std::vector<Hidden> hide_random(sim::Scenario& s, int count, std::mt19937_64& rn
 /// its speed factor is exponential): a sensor of the dynamic model's kind, not of its equations.
 /// Returns the draw; `covered` receives the effects this physics already is (memory hysteresis,
 /// relaxation, a curved line, and time_delay for a bend lag: the sensor sees the angle late),
-/// which are then not hidden on top (the simulator has one switch for each).
+/// which are then not hidden on top (the simulator has one switch for each). run_trial adds, after
+/// the draw, acceleration_dependence for a bend lag (the lag's second order).
 nlohmann::json draw_dynamic_sensor(sim::Scenario& s, std::mt19937_64& rng, std::vector<std::string>& covered);
 
 /// A sensor of the paper's structure with its own coefficients: c1, c2, c9, c10 and c3-c6 of each

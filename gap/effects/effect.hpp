@@ -71,6 +71,14 @@ struct EffectDef {
   /// Why fitted parameters (with their "_se") are not physical, or "" (e.g. a relaxation spectrum
   /// with gains of both signs). An inadmissible fit is not named; the next candidate is tried.
   std::string (*inadmissible)(const nlohmann::json& parameters) = nullptr;
+  /// For an effect whose columns are slow random signals (the reference's level), > 0: it is only
+  /// named if it also explains, on held-out blocks, the residual's part faster than this [s] (the
+  /// residual and its columns less their centred mean over this span). Two slowly wandering
+  /// series correlate by chance, far beyond what their sample size suggests (Granger and Newbold
+  /// 1974, "Spurious regressions in econometrics", J. Econometrics 2: 111-120), and a slow
+  /// leftover (a relaxation's tail, a drift) is one; a coupling is there at every time scale the
+  /// source's power changes on (docs/gap.md, section 4, "Slow random columns").
+  double fast_part_s = 0;
   /// The simpler effect this one generalises (viscoelastic_relaxation: creep), if any. The general
   /// one is only named when it beats the simpler one by the acceptance rule itself (docs/gap.md,
   /// section 4), as if it were a further step on top of it.

@@ -31,6 +31,7 @@ extern const EffectDef kSourcePowerCoupling{
     .columns = columns,
     .physical = [](double, const Eigen::VectorXd& b, const Context&) { return nlohmann::json{{"gamma", b(0)}, {"offset_v", b(1)}}; },
     .not_identifiable = not_identifiable,
+    .fast_part_s = 40,  // the simulator's and a lab LED's wander: minutes; its steps and flicker: faster
 };
 
 }  // namespace pof::gap

@@ -308,12 +308,16 @@ void grow(Grown& g, const Steps& ctx) {
     st = st.with(w.effect, th_full);
     sx.cx.m = w.base.paper;
     sx.cx.dyn = w.base.dynamic;
+    bool gain_moved = false;
     if (sx.cx.dyn) {
       const double before = sx.cx.dyn->rate_gain_s_per_rad;
       refit_rate_gain(sx, st);
+      gain_moved = sx.cx.dyn->rate_gain_s_per_rad != before;
       g.steps.back().evidence["dynamic_rate_gain_s_per_rad"] = {{"before", before}, {"after", sx.cx.dyn->rate_gain_s_per_rad}};
     }
-    if (st.size() > 1) refit_thetas(sx, st, chosen->after);
+    // A term's theta was chosen beside the others and the rate gain as they stood: re-chosen when
+    // either has changed.
+    if (st.size() > 1 || gain_moved) refit_thetas(sx, st, chosen->after);
     // The next ranking compares candidates with the state refitted the same way they are (accepted
     // nonlinear parameters fixed); the reported gaps stay the strict per-fold ones.
     cur = relinearise(sx, st);

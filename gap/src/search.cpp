@@ -270,6 +270,20 @@ std::string covered_by_baseline(core::Effect e, const Context& cx) {
 
 namespace {
 
+// def.refine around best, kept inside the coarse grid's range: a refinement fills in between grid
+// values and never leaves the range the grid searches (creep's tau >= 1 s, a rate-dependent
+// hysteresis's velocity scale >= 0.02 rad/s, above the velocity estimate's noise; docs/gap.md,
+// section 3). Refined around a refined value, rate-dependent hysteresis walked to 0.014 rad/s: a
+// switch at every start and stop.
+std::vector<double> refined_within(const EffectDef& def, double best, const std::vector<double>& grid) {
+  std::vector<double> out;
+  if (def.refine == nullptr || grid.empty()) return out;
+  const auto [lo, hi] = std::minmax_element(grid.begin(), grid.end());
+  for (double x : def.refine(best))
+    if (x >= *lo && x <= *hi) out.push_back(x);
+  return out;
+}
+
 // The fit of state st on all data (its full_rss and beta_full; the state's grid is one value).
 cv::FoldFit all_data_fit(const Search& sx, const State& st) {
   const Design d = build_design(sx, st);
@@ -311,8 +325,7 @@ void refit_thetas(const Search& sx, State& st, const VectorXd& resid) {
     const EffectDef& def = effect_def(st.terms[i].effect);
     if (!def.refit_theta) continue;
     std::vector<double> values = def.grid(sx.cx, resid);
-    if (def.refine != nullptr)
-      for (double x : def.refine(st.terms[i].theta)) values.push_back(x);
+    for (double x : refined_within(def, st.terms[i].theta, std::vector<double>(values))) values.push_back(x);
     coordinate(sx, st, values, st.terms[i].theta, [i](State& s, double x) { s.terms[i].theta = x; });
   }
 }
@@ -383,11 +396,12 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
   };
   std::vector<cv::Grams> per;
   for (double th : cr.grid) per.push_back(grams_at(sx, cur, th));
+  const std::vector<double> coarse = cr.grid;
   if (def.refine != nullptr) {
     // Refine around the coarse optimum chosen on all data; per fold the grid value is still chosen
     // on the training blocks only, over the coarse and the fine values.
     const double c0 = cr.grid[cv::cross_validate(per, base_cols(sx.cx)).full_idx];
-    for (double th : def.refine(c0)) {
+    for (double th : refined_within(def, c0, coarse)) {
       cr.grid.push_back(th);
       per.push_back(grams_at(sx, cur, th));
     }
@@ -403,7 +417,7 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
     const double best = cr.grid[cr.fit.full_idx];
     std::vector<double> grid{best};
     if (def.refine != nullptr)
-      for (double th : def.refine(best)) grid.push_back(th);
+      for (double th : refined_within(def, best, coarse)) grid.push_back(th);
     else
       grid = cr.grid;
     Search at = sx;

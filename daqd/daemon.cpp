@@ -360,6 +360,18 @@ void Daemon::publisher_main() {
       if (next_status < now) next_status = now;
     }
     if (publisher_stop_.load() && queue_.front() == nullptr) {
+      // stop() joined the acquisition thread before raising publisher_stop_, but its last state
+      // ("stopped on request") may have come after this round's swap above: read it again, or the
+      // final status carries the state before it (seen as a missing "stopped on request").
+      std::deque<std::pair<State, std::string>> last;
+      {
+        std::lock_guard lock(state_mu_);
+        last.swap(state_events_);
+        state = state_;
+        text = state_text_;
+      }
+      for (const auto& [st, why] : last)
+        if (st != state || why != text) publish_status(st, why);
       notifier.stopping("stopping");
       publish_status(state, text);  // final state (stopping) with the final counters
       break;

@@ -299,6 +299,18 @@ void Daemon::publisher_main() {
     if (pub.publish(status_channel, s) != 0) refused(status_channel, status_refused);
   };
 
+  // The state changes since the last call (into `events`) and the state now, under its lock.
+  std::deque<std::pair<State, std::string>> events;
+  State state{};
+  std::string text;
+  auto take_state = [&] {
+    std::lock_guard lock(state_mu_);
+    events.clear();
+    events.swap(state_events_);
+    state = state_;
+    text = state_text_;
+  };
+
   const auto period = std::chrono::duration<double>(cfg_.status_period_s);
   auto next_status = std::chrono::steady_clock::now();
   // systemd (Type=notify, WatchdogSec): ready once publishing (a disconnected device is a state we
@@ -342,15 +354,7 @@ void Daemon::publisher_main() {
       }
       counters_.blocks.fetch_add(1, std::memory_order_relaxed);
     }
-    std::deque<std::pair<State, std::string>> events;
-    State state;
-    std::string text;
-    {
-      std::lock_guard lock(state_mu_);
-      events.swap(state_events_);
-      state = state_;
-      text = state_text_;
-    }
+    take_state();
     for (const auto& [st, why] : events) publish_status(st, why);
     errors.tick(now_utime());
     const auto now = std::chrono::steady_clock::now();
@@ -363,14 +367,8 @@ void Daemon::publisher_main() {
       // stop() joined the acquisition thread before raising publisher_stop_, but its last state
       // ("stopped on request") may have come after this round's swap above: read it again, or the
       // final status carries the state before it (seen as a missing "stopped on request").
-      std::deque<std::pair<State, std::string>> last;
-      {
-        std::lock_guard lock(state_mu_);
-        last.swap(state_events_);
-        state = state_;
-        text = state_text_;
-      }
-      for (const auto& [st, why] : last)
+      take_state();
+      for (const auto& [st, why] : events)
         if (st != state || why != text) publish_status(st, why);
       notifier.stopping("stopping");
       publish_status(state, text);  // final state (stopping) with the final counters

@@ -325,7 +325,8 @@ void refit_thetas(const Search& sx, State& st, const VectorXd& resid) {
     const EffectDef& def = effect_def(st.terms[i].effect);
     if (!def.refit_theta) continue;
     std::vector<double> values = def.grid(sx.cx, resid);
-    for (double x : refined_within(def, st.terms[i].theta, std::vector<double>(values))) values.push_back(x);
+    const std::vector<double> fine = refined_within(def, st.terms[i].theta, values);
+    values.insert(values.end(), fine.begin(), fine.end());
     coordinate(sx, st, values, st.terms[i].theta, [i](State& s, double x) { s.terms[i].theta = x; });
   }
 }

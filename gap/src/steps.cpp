@@ -132,9 +132,10 @@ Assessment assess(const Search& sx, const State& st, const CandidateResult& w, I
     }
   }
   if (a.significant && def.fast_part_s > 0) {
+    // The candidate's own columns at its all-data theta, on the kinematics of the state it joins.
     const double th_full = w.grid.empty() ? 0.0 : w.grid[w.fit.full_idx];
-    const Design d2 = build_design(at, st.with(w.effect, th_full));
-    const double red = fast_part_reduction(d2.X.rightCols(def.linear), before, def.fast_part_s, sx);
+    const MatrixXd C = def.columns(th_full, at.cx, baseline_kinematics(at.cx, st.delay_s, st.backlash_deg));
+    const double red = fast_part_reduction(C, before, def.fast_part_s, sx);
     a.fast_part_reduction = red;
     const std::string said = "the residual's part faster than " + fmt(def.fast_part_s, 0) + " s: held-out reduction " +
                              fmt(100 * red, 2) + " %";

@@ -118,18 +118,48 @@ double OnlineCompensator::terms_voltage(const TermsChain& c, double v, double re
   const double guess = std::isfinite(c.angle) ? c.angle : quasi_static_angle(cal_.model, v);
   const double g0 = c.terms.voltage_at(guess, reference_v, w, d);
   if (!std::isfinite(c.angle) || !std::isfinite(c.u)) return g0;
-  // One Newton step on A = model^-1(v - g(A)) from the previous angle A0 (docs/calibration.md,
-  // "[gap]", step 2). Evaluated at A0 alone, g closes a loop whose error e_k = -s g' e_k-1 (s the
-  // model's dA/dv, g' the terms' dg/dA) oscillates and grows once |s g'| > 1: a strong memory
-  // hysteresis near a reversal read 9 deg RMSE on a blind recording. With the step, A - A0 is the
-  // model's change s (v - g0 - u_prev) divided by 1 + s g'; the combined voltage must stay
-  // monotone in A (1 + s g' > 0, as the dynamic model's inverse requires of its own terms), and
-  // where the terms would nearly cancel the model's slope the divisor is held at kMinTermsDivisor.
-  const double gp = (c.terms.voltage_at(guess + kTermsSlopeStepDeg, reference_v, w, d) - g0) / kTermsSlopeStepDeg;
-  const double sg = slope * gp;
-  if (!std::isfinite(sg) || sg == 0) return g0;
-  const double moved = slope * (v - g0 - c.u) / std::max(1.0 + sg, kMinTermsDivisor);
-  return g0 + gp * moved;
+  // This scan's A solves A = model^-1(v - g(A)) (docs/calibration.md, "[gap]", step 2), the
+  // model linearised at the previous angle A0 (slope s = dA/dv), the terms exact:
+  //   F(A) = A - A0 - s (v - g(A) - u_prev) = 0,   F' = 1 + s g'.
+  // Evaluated at A0 alone, g closes a loop whose error e_k = -s g' e_k-1 oscillates and grows once
+  // |s g'| > 1: a strong memory hysteresis near a reversal read 9 deg RMSE on a blind recording.
+  // One Newton step is not enough either: stop and play operators make g piecewise linear with a
+  // kink at A0 itself (elastic on one side, sliding on the other), and a slope from the wrong side
+  // overshoots; a term that flattened the line to a third swung the angle by +-5 deg from scan to
+  // scan through a hold. So the search steps by Newton with the slope of the side it moves to
+  // until F changes sign, then closes the bracket by regula falsi (Illinois). The combined
+  // voltage must stay monotone in A (F' > 0, as the dynamic model's inverse requires of its own
+  // terms); where the terms would nearly cancel the model's slope the step's divisor is held at
+  // kMinTermsDivisor, and without a sign change the search keeps its last angle.
+  double gval = g0;
+  auto F = [&](double a) {
+    gval = c.terms.voltage_at(a, reference_v, w, d);
+    return a - guess - slope * (v - gval - c.u);
+  };
+  double a = guess, fa = F(a), ga = gval;
+  if (!std::isfinite(fa)) return g0;
+  double b = a, fb = fa, gb = ga;
+  bool bracketed = false;
+  for (int it = 0; it < kTermsSearchSteps && fb != 0; ++it) {
+    const double dir = fb > 0 ? -1.0 : 1.0;
+    const double g1 = c.terms.voltage_at(b + dir * kTermsSlopeStepDeg, reference_v, w, d);
+    const double dfdA = 1.0 + slope * (g1 - gb) / (dir * kTermsSlopeStepDeg);
+    const double next = b - fb / std::max(std::isfinite(dfdA) ? dfdA : 1.0, kMinTermsDivisor);
+    const double fn = F(next);
+    if (!std::isfinite(fn)) return gb;
+    if ((fn > 0) != (fb > 0)) { a = b; fa = fb; ga = gb; b = next; fb = fn; gb = gval; bracketed = true; break; }
+    b = next; fb = fn; gb = gval;
+  }
+  if (!bracketed) return gb;
+  int side = 0;
+  for (int it = 0; it < kTermsSearchSteps && std::abs(b - a) > kTermsTolDeg; ++it) {
+    const double m = (a * fb - b * fa) / (fb - fa);
+    const double fm = F(m);
+    if (fm == 0) return gval;
+    if ((fm > 0) == (fb > 0)) { b = m; fb = fm; gb = gval; if (side == -1) fa /= 2; side = -1; }
+    else { a = m; fa = fm; ga = gval; if (side == 1) fb /= 2; side = 1; }
+  }
+  return std::abs(fa) < std::abs(fb) ? ga : gb;
 }
 
 double OnlineCompensator::model_slope(double angle, double w, Direction d) const noexcept {

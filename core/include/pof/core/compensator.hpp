@@ -199,6 +199,11 @@ class OnlineCompensator {
   static constexpr double kTermsSlopeStepDeg = 1e-3;
   // 1 + s g' below this (the terms cancelling most of the model's slope) is held here.
   static constexpr double kMinTermsDivisor = 0.25;
+  // The solve for this scan's angle (terms_voltage): at most this many Newton steps to a bracket,
+  // and as many regula falsi steps within it, down to kTermsTolDeg. Piecewise linear terms close
+  // in a few; the bound keeps a scan's work fixed.
+  static constexpr int kTermsSearchSteps = 12;
+  static constexpr double kTermsTolDeg = 1e-6;
 };
 
 }  // namespace pof::core

@@ -233,10 +233,11 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   // ---- the loop closed: the compensator's angle with and without the found model --------------
   VectorXd comp_before, comp_after;
   Applied written;
+  const AppliedFit applied = applied_fit(fin, st, cur);
   say("compensating the held-out blocks with the baseline and with the found model");
   try {
     const std::vector<bool> transition = transition_scans(k0, s.dt, core::CompensatorSettings{}.velocity_window_s);
-    res.compensated = compensated_rmse(rec, fin, baseline_model, st, cur, transition, &written, &comp_before, &comp_after);
+    res.compensated = compensated_rmse(rec, fin, baseline_model, st, applied, transition, &written, &comp_before, &comp_after);
   } catch (const std::exception& e) {
     // The compensator refused a model (std::invalid_argument from its constructor): the analysis
     // stands, model.toml holds the baseline, and the report says why.
@@ -260,9 +261,8 @@ Result analyse(const io::Recording& rec, const Options& opt) {
     written.terms.assign(written.terms.size(), false);
   }
   {
-    const VectorXd b = cur.fit.beta_full;
-    const Structure mm = write_baseline ? baseline_model : moved_structure(fin.cx, b);
-    const core::GapModel g = gap_model_of(st, b, fin.cx);
+    const Structure mm = write_baseline ? baseline_model : applied.structure;
+    const core::GapModel g = gap_model_of(st, applied.beta_full, applied.cx);
     json terms = json::array();
     for (std::size_t i = 0; i < g.terms.size(); ++i) {
       if (!written.terms[i]) continue;  // its online application made the held-out angle worse

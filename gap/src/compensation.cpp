@@ -41,6 +41,30 @@ core::GapModel gap_model_of(const State& st, const VectorXd& beta, const Context
   return g;
 }
 
+AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& after) {
+  AppliedFit a;
+  // The structure's coefficients are fitted on every block and shared by the folds
+  // (cv::cross_validate), so one move serves them all.
+  const Search at = moved(sx, after.fit.beta_full);
+  a.structure = moved_structure(sx.cx, after.fit.beta_full);
+  a.cx = at.cx;
+  const Design d = build_design(at, st);
+  const Index nb = base_cols(at.cx), nt = d.X.cols() - nb;
+  auto fit_without = [&](const cv::Grams& gr, std::size_t skip) {
+    Eigen::MatrixXd G = Eigen::MatrixXd::Zero(nt, nt);
+    VectorXd g = VectorXd::Zero(nt);
+    for (std::size_t b = 0; b < gr.G.size(); ++b)
+      if (b != skip) { G += gr.G[b]; g += gr.g[b]; }
+    VectorXd beta = VectorXd::Zero(nb + nt);
+    if (nt > 0) beta.tail(nt) = cv::solve(G, g);
+    return beta;
+  };
+  const cv::Grams gr = cv::make_grams(d.X.rightCols(nt), d.y, sx.blocks);
+  for (std::size_t f = 0; f < sx.blocks.size(); ++f) a.beta.push_back(fit_without(gr, f));
+  a.beta_full = fit_without(gr, sx.blocks.size());
+  return a;
+}
+
 namespace {
 
 // The compensator's angle over the whole recording (its memory runs through every block).
@@ -102,14 +126,14 @@ void score_blocks(HeldOut& h, const VectorXd& a, const VectorXd& ref, const cv::
 // fitted on the other folds, scored on the held-out blocks. Terms the compensator refuses are
 // skipped and named in not_applied.
 HeldOut held_out(const io::Recording& rec, const Search& sx, const State& st,
-                 const CurrentFit& after, const Applied& use, const VectorXd& a0, nlohmann::json* not_applied) {
+                 const AppliedFit& after, const Applied& use, const VectorXd& a0, nlohmann::json* not_applied) {
   const Signals& s = *sx.cx.s;
   const double rate = 1.0 / s.dt;
   HeldOut h;
   h.angle = a0;
   for (std::size_t f = 0; f < sx.blocks.size(); ++f) {
-    core::Calibration cal = calibration_of(moved_structure(sx.cx, after.fit.beta[f]), s);
-    core::GapModel g = gap_model_of(st, after.fit.beta[f], sx.cx);
+    core::Calibration cal = calibration_of(after.structure, s);
+    core::GapModel g = gap_model_of(st, after.beta[f], after.cx);
     if (!use.delay) g.delay_s = 0;
     if (!use.backlash) g.backlash_deg = 0;
     std::vector<core::GapTerm> kept;
@@ -160,7 +184,7 @@ core::Calibration calibration_of(const Structure& m, const Signals& s) {
 }
 
 nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, const Structure& before,
-                                const State& st, const CurrentFit& after, const std::vector<bool>& transition,
+                                const State& st, const AppliedFit& after, const std::vector<bool>& transition,
                                 Applied* written, VectorXd* angle_before, VectorXd* angle_after) {
   const Signals& s = *sx.cx.s;
   const double rate = 1.0 / s.dt;

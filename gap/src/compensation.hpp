@@ -15,6 +15,19 @@ namespace pof::gap {
 /// coefficients of beta (after the base_cols baseline columns, in term order).
 core::GapModel gap_model_of(const State& st, const Eigen::VectorXd& beta, const Context& cx);
 
+/// The model the compensator is given for a fitted state: the baseline structure as moved (within
+/// its bounds: moved_structure) and the terms' coefficients least-squares on the voltage that
+/// structure leaves, fold by fold on the training blocks and once on every block (docs/gap.md,
+/// section 5). The search's fit moves the structure to first order beside the terms; a move its
+/// bounds shorten leaves the terms fitted beside a structure that is not the one applied.
+struct AppliedFit {
+  Structure structure;
+  Context cx;                          // the search's context at that structure (for the terms' units)
+  std::vector<Eigen::VectorXd> beta;   // per fold: zeros for the structure's columns, then the terms'
+  Eigen::VectorXd beta_full;
+};
+AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& after);
+
 /// Which of a state's effects are applied: the kinematic ones and each voltage term (in order).
 struct Applied {
   bool delay = true, backlash = true;
@@ -37,7 +50,7 @@ struct Applied {
 /// model's spikes). Those errors are the baseline's, the same before and after, and no effect
 /// term acts on them; the steady figures show what the found model changes everywhere else.
 nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, const Structure& before,
-                                const State& st, const CurrentFit& after, const std::vector<bool>& transition,
+                                const State& st, const AppliedFit& after, const std::vector<bool>& transition,
                                 Applied* written, Eigen::VectorXd* angle_before, Eigen::VectorXd* angle_after);
 
 /// The calibration the compensator runs for a structure: the dynamic model, when there is one,

@@ -138,6 +138,44 @@ std::vector<GapProblem> gap_problems(const GapModel& g, double scan_rate_hz) {
 
 // --- GapCorrector ---------------------------------------------------------------------------------
 
+namespace {
+// 1 / sum over the n centred j of (j^2 - m2)^2, m2 the mean of j^2: the quadratic fit's norm.
+double acceleration_norm(int n) {
+  const double m2 = (static_cast<double>(n) * n - 1) / 12.0;
+  double s = 0;
+  for (int i = 0; i < n; ++i) {
+    const double j = i - (n - 1) / 2.0;
+    s += (j * j - m2) * (j * j - m2);
+  }
+  return 1.0 / s;
+}
+}  // namespace
+
+std::vector<double> acceleration_weights(int n, double dt_s) {
+  const double m2 = (static_cast<double>(n) * n - 1) / 12.0, norm = acceleration_norm(n);
+  std::vector<double> w(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const double j = (n - 1) / 2.0 - i;  // i scans back from the newest
+    w[static_cast<std::size_t>(i)] = 2.0 * (j * j - m2) * norm / (dt_s * dt_s);
+  }
+  return w;
+}
+
+int acceleration_window_scans(double coefficient_v, double theta_s, double c9, double scan_rate_hz) {
+  // `pof gap` estimates the acceleration from the smoothed reference angle; online it comes from
+  // the sensor's angle, whose white noise sigma the fit turns into an acceleration noise of
+  // sigma 2 sqrt(norm) / dt^2. Times the term's gain [deg per rad/s^2] that is the angle noise the
+  // term adds: on a 0.95 deg/(rad/s^2) term over 0.05 s it was 58 sigma (a hold read +-8 deg). So
+  // the window is lengthened (up to kMaxAccelerationWindowS) until the term adds at most
+  // kMaxAccelerationNoiseGain x the angle's own noise; its lag grows with it.
+  const double dt = 1.0 / scan_rate_hz;
+  const double gain_deg = std::abs(coefficient_v * c9) * kRadPerDeg;  // deg of angle per deg/s^2
+  const int n_max = static_cast<int>(std::lround(2 * kMaxAccelerationWindowS * scan_rate_hz)) + 1;
+  int n = std::max(3, static_cast<int>(std::lround(2 * theta_s * scan_rate_hz)) + 1);
+  while (n < n_max && gain_deg * 2.0 * std::sqrt(acceleration_norm(n)) / (dt * dt) > kMaxAccelerationNoiseGain) ++n;
+  return n;
+}
+
 GapCorrector::GapCorrector(const Calibration& cal, double scan_rate_hz) {
   if (!cal.gap) throw std::invalid_argument("gap corrector: the calibration has no [gap] section");
   if (!(scan_rate_hz > 0) || !std::isfinite(scan_rate_hz)) throw std::invalid_argument("gap corrector: scan rate must be > 0");
@@ -174,28 +212,13 @@ GapCorrector::GapCorrector(const Calibration& cal, double scan_rate_hz) {
         rate_.push_back({t.theta, c[0], c[1]});
         break;
       case Effect::kAccelerationDependence: {
-        // The causal quadratic least-squares fit over the last 2h: n = 2h fs + 1 scans (at least 3).
-        // `pof gap` estimates the acceleration from the smoothed reference angle; online it comes
-        // from the sensor's angle, whose white noise sigma the fit turns into an acceleration noise
-        // of sigma 2 sqrt(norm) / dt^2. Times the term's gain [deg per rad/s^2] that is the angle
-        // noise the term adds: on a 0.95 deg/(rad/s^2) term over 0.05 s it was 58 sigma (a hold
-        // read +-8 deg). So the window is lengthened (up to kMaxAccelerationWindowS) until the
-        // term adds at most kMaxAccelerationNoiseGain x the angle's own noise; its lag grows
+        // The causal quadratic least-squares fit over the last 2h: n = 2h fs + 1 scans (at least
+        // 3), lengthened until its noise is bounded (acceleration_window_scans); its lag grows
         // with it (acceleration_lag_s()).
         Acceleration a;
         a.coefficient = c[0];
-        const double gain_deg = std::abs(c[0] * paper_.c9) * kRadPerDeg;  // deg of angle per deg/s^2
-        const int n_max = static_cast<int>(std::lround(2 * kMaxAccelerationWindowS * scan_rate_hz)) + 1;
-        for (a.n = std::max(3, static_cast<int>(std::lround(2 * t.theta * scan_rate_hz)) + 1);; ++a.n) {
-          const double m2 = (static_cast<double>(a.n) * a.n - 1) / 12.0;  // mean of j^2 over centred j
-          double s = 0;
-          for (int i = 0; i < a.n; ++i) {
-            const double j = i - (a.n - 1) / 2.0;
-            s += (j * j - m2) * (j * j - m2);
-          }
-          a.norm = 1.0 / s;
-          if (gain_deg * 2.0 * std::sqrt(a.norm) / (dt_ * dt_) <= kMaxAccelerationNoiseGain || a.n >= n_max) break;
-        }
+        a.n = acceleration_window_scans(c[0], t.theta, paper_.c9, scan_rate_hz);
+        a.norm = acceleration_norm(a.n);
         longest = std::max(longest, a.n);
         accel_.push_back(a);
         break;

@@ -6,10 +6,13 @@
 #include <cmath>
 #include <deque>
 #include <limits>
+#include <numbers>
 #include <string>
 
 #include "pof/core/calibration.hpp"
 #include "pof/core/compensator.hpp"
+#include "pof/core/dynamic_model.hpp"
+#include "pof/core/gap_terms.hpp"
 
 namespace pof::gap {
 
@@ -41,6 +44,24 @@ core::GapModel gap_model_of(const State& st, const VectorXd& beta, const Context
   return g;
 }
 
+namespace {
+
+// The acceleration the compensator estimates at each scan (rad/s^2): the causal quadratic fit
+// over the n angles before it (GapCorrector: the estimate made when a scan's angle is committed
+// serves the next scan), 0 until n angles are in.
+VectorXd causal_acceleration(const VectorXd& angle_deg, int n, double dt) {
+  const std::vector<double> w = core::acceleration_weights(n, dt);
+  VectorXd a = VectorXd::Zero(angle_deg.size());
+  for (Index k = n; k < angle_deg.size(); ++k) {
+    double s = 0;
+    for (int i = 0; i < n; ++i) s += w[static_cast<std::size_t>(i)] * angle_deg(k - 1 - i);
+    a(k) = s * (std::numbers::pi / 180.0);
+  }
+  return a;
+}
+
+}  // namespace
+
 AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& after) {
   AppliedFit a;
   // The structure's coefficients are fitted on every block and shared by the folds
@@ -48,7 +69,7 @@ AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& afte
   const Search at = moved(sx, after.fit.beta_full);
   a.structure = moved_structure(sx.cx, after.fit.beta_full);
   a.cx = at.cx;
-  const Design d = build_design(at, st);
+  Design d = build_design(at, st);
   const Index nb = base_cols(at.cx), nt = d.X.cols() - nb;
   auto fit_without = [&](const cv::Grams& gr, std::size_t skip) {
     Eigen::MatrixXd G = Eigen::MatrixXd::Zero(nt, nt);
@@ -59,7 +80,46 @@ AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& afte
     if (nt > 0) beta.tail(nt) = cv::solve(G, g);
     return beta;
   };
-  const cv::Grams gr = cv::make_grams(d.X.rightCols(nt), d.y, sx.blocks);
+  // The search's acceleration column is centred (+-h on the reference angle); the compensator's
+  // estimate is causal and, to keep its noise bounded, often longer, so it lags by half its window
+  // and a scan. Fitted on the centred column, the coefficient is the physical one, and applied
+  // with that lag it pulls the angle the wrong way wherever the acceleration changes within it (a
+  // blind recording's gait cycles: +-5 deg). So its column is the compensator's own estimate on
+  // the angle it estimates it on, with the window the compensator will take for the coefficient
+  // fitted on it (which sets the window: fitted again until it stays).
+  struct Causal {
+    Index col;
+    double theta;
+    int n = 0;
+  };
+  std::vector<Causal> causal;
+  Index col = nb;
+  for (const Term& t : st.terms) {
+    if (t.effect == core::Effect::kAccelerationDependence) causal.push_back({col, t.theta});
+    col += effect_def(t.effect).linear;
+  }
+  const double rate = 1.0 / at.cx.s->dt;
+  // The angle the compensator estimates it on: the fibre's (the dynamic model's theta_f, behind
+  // its bend lag) or the quiet angle (the sensor's, on the paper structure).
+  VectorXd seen = d.k.angle;
+  if (!causal.empty() && at.cx.dyn && at.cx.dyn->bend_lag_s > 0) {
+    core::BendLag lag(at.cx.dyn->bend_lag_s, rate);
+    for (Index i = 0; i < seen.size(); ++i) seen(i) = lag.step(seen(i));
+  }
+  cv::Grams gr = cv::make_grams(d.X.rightCols(nt), d.y, sx.blocks);
+  for (int round = 0; round < 4 && !causal.empty(); ++round) {
+    const VectorXd beta = fit_without(gr, sx.blocks.size());
+    bool changed = false;
+    for (Causal& c : causal) {
+      const int n = core::acceleration_window_scans(beta(c.col), c.theta, at.cx.m.c9, rate);
+      if (n == c.n) continue;
+      c.n = n;
+      d.X.col(c.col) = causal_acceleration(seen, n, at.cx.s->dt);
+      changed = true;
+    }
+    if (!changed) break;
+    gr = cv::make_grams(d.X.rightCols(nt), d.y, sx.blocks);
+  }
   for (std::size_t f = 0; f < sx.blocks.size(); ++f) a.beta.push_back(fit_without(gr, f));
   a.beta_full = fit_without(gr, sx.blocks.size());
   return a;

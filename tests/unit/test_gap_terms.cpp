@@ -355,6 +355,28 @@ TEST(GapBasis, AccelerationWindowKeepsTheTermsNoiseBelowTheAnglesOwn) {
   EXPECT_GT(added, 0.5 * pof::core::kMaxAccelerationNoiseGain * sigma);  // not a window far longer than needed
 }
 
+// `pof gap` fits the coefficient it writes on the compensator's own estimate (compensation.cpp,
+// applied_fit): the window core::acceleration_window_scans gives and the weights
+// core::acceleration_weights, which must be the corrector's, window and all.
+TEST(GapBasis, TheAccelerationWeightsAreTheCorrectorsEstimate) {
+  const History h = history(60);
+  GapModel g;
+  g.terms.push_back(term("acceleration_dependence", 0.025, {0.02}));  // lengthened, as above
+  Calibration cal = base_calibration();
+  cal.gap = g;
+  const int n = pof::core::acceleration_window_scans(0.02, 0.025, cal.model.c9, kFs);
+  EXPECT_GT(n, 11);
+  EXPECT_NEAR(GapCorrector(cal, kFs).acceleration_lag_s(), ((n - 1) / 2.0 + 1.0) * kDt, 1e-12);
+  const std::vector<double> w = pof::core::acceleration_weights(n, kDt);
+  std::vector<double> want(h.size(), 0.0);
+  for (std::size_t k = static_cast<std::size_t>(n); k < h.size(); ++k) {
+    double a = 0;
+    for (int i = 0; i < n; ++i) a += w[static_cast<std::size_t>(i)] * h.angle[k - 1 - static_cast<std::size_t>(i)];
+    want[k] = 0.02 * a * kPi / 180;
+  }
+  expect_equal_series(predicted(g, h), want, 1e-9);
+}
+
 TEST(GapBasis, SourcePowerCouplingUsesTheCausalOneSecondMeanOfTheReference) {
   const History h = history(60);
   GapModel g;

@@ -89,6 +89,15 @@ inline constexpr double kMaxAccelerationWindowS = 1.0;  // acceleration_dependen
 /// acceleration_dependence online: the angle noise the term may add, as a multiple of the angle's
 /// own white noise; the estimate's window is lengthened until it does (GapCorrector).
 inline constexpr double kMaxAccelerationNoiseGain = 0.5;
+/// acceleration_dependence online: the causal quadratic least-squares fit over the newest n
+/// committed angles, a = 2 c / dt^2. Its weights: a = sum over i of weight[i] x A(k - i) [deg/s^2
+/// per deg], i scans back from the newest angle.
+std::vector<double> acceleration_weights(int n, double dt_s);
+/// The n the corrector uses for a term of coefficient coefficient_v [V s^2/rad] and half-window
+/// theta_s on a line of c9 [deg/V] at scan_rate_hz: 2 theta fs + 1 (at least 3), lengthened until
+/// the term adds at most kMaxAccelerationNoiseGain x the angle's own white noise (at most
+/// 2 kMaxAccelerationWindowS fs + 1).
+int acceleration_window_scans(double coefficient_v, double theta_s, double c9, double scan_rate_hz);
 /// The notch applied for periodic_interference (RBJ biquad, see GapCorrector): its quality factor.
 inline constexpr double kNotchQ = 5.0;
 /// The window of the quadratic fit that extrapolates a positive delay (GapCorrector) [s].

@@ -71,13 +71,18 @@ AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& afte
   a.cx = at.cx;
   Design d = build_design(at, st);
   const Index nb = base_cols(at.cx), nt = d.X.cols() - nb;
+  if (nt == 0) {  // only the kinematics (delay, play) or nothing: no coefficients to fit
+    a.beta.assign(sx.blocks.size(), VectorXd::Zero(nb));
+    a.beta_full = VectorXd::Zero(nb);
+    return a;
+  }
   auto fit_without = [&](const cv::Grams& gr, std::size_t skip) {
     Eigen::MatrixXd G = Eigen::MatrixXd::Zero(nt, nt);
     VectorXd g = VectorXd::Zero(nt);
     for (std::size_t b = 0; b < gr.G.size(); ++b)
       if (b != skip) { G += gr.G[b]; g += gr.g[b]; }
     VectorXd beta = VectorXd::Zero(nb + nt);
-    if (nt > 0) beta.tail(nt) = cv::solve(G, g);
+    beta.tail(nt) = cv::solve(G, g);
     return beta;
   };
   // The search's acceleration column is centred (+-h on the reference angle); the compensator's

@@ -139,6 +139,9 @@ double OnlineCompensator::terms_voltage(const TermsChain& c, double v, double re
   double a = guess, fa = F(a), ga = gval;
   if (!std::isfinite(fa)) return g0;
   double b = a, fb = fa, gb = ga;
+  // Without a bracket (the terms turning the voltage back where F' < 0) the steps can lead away:
+  // the angle with the smallest |F| seen is the one kept.
+  double best_f = std::abs(fa), best_g = ga;
   bool bracketed = false;
   for (int it = 0; it < kTermsSearchSteps && fb != 0; ++it) {
     const double dir = fb > 0 ? -1.0 : 1.0;
@@ -146,20 +149,24 @@ double OnlineCompensator::terms_voltage(const TermsChain& c, double v, double re
     const double dfdA = 1.0 + slope * (g1 - gb) / (dir * kTermsSlopeStepDeg);
     const double next = b - fb / std::max(std::isfinite(dfdA) ? dfdA : 1.0, kMinTermsDivisor);
     const double fn = F(next);
-    if (!std::isfinite(fn)) return gb;
+    if (!std::isfinite(fn)) return best_g;
+    if (std::abs(fn) < best_f) { best_f = std::abs(fn); best_g = gval; }
     if ((fn > 0) != (fb > 0)) { a = b; fa = fb; ga = gb; b = next; fb = fn; gb = gval; bracketed = true; break; }
     b = next; fb = fn; gb = gval;
   }
-  if (!bracketed) return gb;
+  if (!bracketed) return best_g;
+  // Illinois halves the kept end's F to move the secant; each end's own |F| is kept beside it.
+  double ra = std::abs(fa), rb = std::abs(fb);
   int side = 0;
   for (int it = 0; it < kTermsSearchSteps && std::abs(b - a) > kTermsTolDeg; ++it) {
     const double m = (a * fb - b * fa) / (fb - fa);
     const double fm = F(m);
+    if (!std::isfinite(fm)) break;
     if (fm == 0) return gval;
-    if ((fm > 0) == (fb > 0)) { b = m; fb = fm; gb = gval; if (side == -1) fa /= 2; side = -1; }
-    else { a = m; fa = fm; ga = gval; if (side == 1) fb /= 2; side = 1; }
+    if ((fm > 0) == (fb > 0)) { b = m; fb = fm; rb = std::abs(fm); gb = gval; if (side == -1) fa /= 2; side = -1; }
+    else { a = m; fa = fm; ra = std::abs(fm); ga = gval; if (side == 1) fb /= 2; side = 1; }
   }
-  return std::abs(fa) < std::abs(fb) ? ga : gb;
+  return ra < rb ? ga : gb;
 }
 
 double OnlineCompensator::model_slope(double angle, double w, Direction d) const noexcept {
@@ -443,7 +450,7 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
     // window): its angle overshoots at starts, stops and reversals, and memory terms driven by it
     // (stop operators at a hold after a 2 deg overshoot back) end on the wrong side. So there the
     // terms are the quiet chain's, at the quiet angle, with this scan's velocity and direction.
-    // The dynamic model's inverse decides nothing: its own chain, one Newton step to this angle.
+    // The dynamic model's inverse decides nothing: its own chain, solved for this angle.
     if (dynamic_ || !std::isfinite(y_quiet)) g = terms_voltage(v, reference_v, w, phase_) + quiet_chain_.terms.acceleration_voltage();
     else g = quiet_chain_.terms.voltage_at(y_quiet, reference_v, w, phase_);
     if (std::isfinite(y_quiet)) commit_quiet(y_quiet, v - g_quiet, reference_v);

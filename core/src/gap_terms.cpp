@@ -218,7 +218,7 @@ GapCorrector::GapCorrector(const Calibration& cal, double scan_rate_hz) {
         Acceleration a;
         a.coefficient = c[0];
         a.n = acceleration_window_scans(c[0], t.theta, paper_.c9, scan_rate_hz);
-        a.norm = acceleration_norm(a.n);
+        a.weights = acceleration_weights(a.n, dt_);
         longest = std::max(longest, a.n);
         accel_.push_back(a);
         break;
@@ -324,16 +324,14 @@ double GapCorrector::estimate_acceleration_voltage() const noexcept {
   const int size = static_cast<int>(hist_.size());
   for (const Acceleration& a : accel_) {
     if (hist_count_ < a.n) continue;  // no estimate until the window has filled
-    // sum (j^2 - m2) A_j over the newest n committed angles, j centred; a = 2 c / dt^2 [deg/s^2].
-    const double m2 = (static_cast<double>(a.n) * a.n - 1) / 12.0;
+    // The quadratic fit's a = 2 c / dt^2 over the newest n committed angles [deg/s^2].
     double s = 0;
     int at = hist_head_;
-    for (int i = 0; i < a.n; ++i) {
-      const double j = (a.n - 1) / 2.0 - i;  // i scans back from the newest
-      s += (j * j - m2) * hist_[static_cast<std::size_t>(at)];
+    for (int i = 0; i < a.n; ++i) {  // i scans back from the newest
+      s += a.weights[static_cast<std::size_t>(i)] * hist_[static_cast<std::size_t>(at)];
       at = at == 0 ? size - 1 : at - 1;
     }
-    v += a.coefficient * 2.0 * s * a.norm / (dt_ * dt_) * kRadPerDeg;
+    v += a.coefficient * s * kRadPerDeg;
   }
   return v;
 }

@@ -67,7 +67,7 @@ AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& afte
   // The structure's coefficients are fitted on every block and shared by the folds
   // (cv::cross_validate), so one move serves them all.
   const Search at = moved(sx, after.fit.beta_full);
-  a.structure = moved_structure(sx.cx, after.fit.beta_full);
+  a.structure = {at.cx.m, at.cx.dyn};
   a.cx = at.cx;
   Design d = build_design(at, st);
   const Index nb = base_cols(at.cx), nt = d.X.cols() - nb;
@@ -91,7 +91,8 @@ AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& afte
   // with that lag it pulls the angle the wrong way wherever the acceleration changes within it (a
   // blind recording's gait cycles: +-5 deg). So its column is the compensator's own estimate on
   // the angle it estimates it on, with the window the compensator will take for the coefficient
-  // fitted on it (which sets the window: fitted again until it stays).
+  // fitted on it (which sets the window: fitted again until it stays, at most four rounds; each
+  // fold's compensator takes the window its own coefficient sets, which may differ by a scan).
   struct Causal {
     Index col;
     double theta;

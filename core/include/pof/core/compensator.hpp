@@ -139,9 +139,9 @@ class OnlineCompensator {
       angle = u = std::numeric_limits<double>::quiet_NaN();
     }
   };
-  // A chain's voltage at this scan: at its previous angle (f5 of v for the first) with velocity w
-  // [rad/s] and direction d, plus one Newton step to this scan's angle on a model of slope dA/dv
-  // `slope` there.
+  // A chain's voltage at this scan's angle, with velocity w [rad/s] and direction d: solved from
+  // its previous angle (f5 of v for the first) on the model linearised there (slope dA/dv
+  // `slope`), the terms exact (see terms_voltage in compensator.cpp).
   double terms_voltage(const TermsChain& c, double v, double reference_v, double w, Direction d, double slope) const noexcept;
   // The published chain's voltage: slope of the active model.
   double terms_voltage(double v, double reference_v, double w, Direction d) const noexcept;

@@ -176,7 +176,8 @@ class GapCorrector {
   };
   struct Acceleration {  // a = 2 c / dt^2 of a quadratic least-squares fit over the last n angles
     int n = 0;
-    double coefficient = 0, norm = 0;  // norm = 1 / sum (j^2 - m2)^2
+    double coefficient = 0;
+    std::vector<double> weights;  // acceleration_weights(n, dt), newest angle first [1/s^2]
   };
   struct Notch {  // RBJ biquad notch, direct form I
     double b0 = 1, b1 = 0, b2 = 1, a1 = 0, a2 = 0;

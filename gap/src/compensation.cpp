@@ -188,11 +188,11 @@ void score_blocks(HeldOut& h, const VectorXd& a, const VectorXd& ref, const cv::
   for (std::size_t f = 0; f < blocks.size(); ++f) squared_error(a, ref, blocks.folds[f], h.ss[f], h.count[f]);
 }
 
-// The compensator's angle with the state's terms (those `use` keeps), fold by fold with the model
-// fitted on the other folds, scored on the held-out blocks. Terms the compensator refuses are
-// skipped and named in not_applied.
-HeldOut held_out(const io::Recording& rec, const Search& sx, const State& st,
-                 const AppliedFit& after, const Applied& use, const VectorXd& a0, nlohmann::json* not_applied) {
+// The compensator's angle with the state's terms (those `use` keeps: never one it refuses, see
+// compensated_rmse), fold by fold with the model fitted on the other folds, scored on the held-out
+// blocks.
+HeldOut held_out(const io::Recording& rec, const Search& sx, const State& st, const AppliedFit& after,
+                 const Applied& use, const VectorXd& a0) {
   const Signals& s = *sx.cx.s;
   const double rate = 1.0 / s.dt;
   HeldOut h;
@@ -203,13 +203,8 @@ HeldOut held_out(const io::Recording& rec, const Search& sx, const State& st,
     if (!use.delay) g.delay_s = 0;
     if (!use.backlash) g.backlash_deg = 0;
     std::vector<core::GapTerm> kept;
-    for (std::size_t t = 0; t < g.terms.size(); ++t) {
-      if (t < use.terms.size() && !use.terms[t]) continue;
-      core::GapModel one;
-      one.terms = {g.terms[t]};
-      if (core::gap_problems(one, rate).empty()) kept.push_back(g.terms[t]);
-      else if (f == 0 && not_applied != nullptr) not_applied->push_back(g.terms[t].effect);
-    }
+    for (std::size_t t = 0; t < g.terms.size(); ++t)
+      if (use.terms[t]) kept.push_back(g.terms[t]);
     g.terms = std::move(kept);
     if (!g.empty()) cal.gap = std::move(g);
     const VectorXd af = compensate(rec, cal, rate);
@@ -259,10 +254,23 @@ nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, cons
   HeldOut base_blocks;
   score_blocks(base_blocks, a0, rec.angle_ref_deg, sx.blocks);
   const double before_deg = base_blocks.rmse_without_block(sx.blocks.size());  // every block
+  // A term the compensator refuses (a drift: a trend over this recording has no online form) is
+  // neither applied nor written: model.toml must be a file pof-compensatord loads. It stays named
+  // in the report and in not_applied.
   Applied all;
   all.terms.assign(st.terms.size(), true);
   nlohmann::json not_applied = nlohmann::json::array();
-  const HeldOut with_all = held_out(rec, sx, st, after, all, a0, &not_applied);
+  {
+    const core::GapModel g = gap_model_of(st, after.beta_full, after.cx);
+    for (std::size_t t = 0; t < g.terms.size(); ++t) {
+      core::GapModel one;
+      one.terms = {g.terms[t]};
+      if (core::gap_problems(one, rate).empty()) continue;
+      all.terms[t] = false;
+      not_applied.push_back(g.terms[t].effect);
+    }
+  }
+  const HeldOut with_all = held_out(rec, sx, st, after, all, a0);
 
   // Each accepted effect left out in turn: one whose online application makes the held-out angle
   // worse (by > 2 %) is not written to model.toml (it stays named in the report), and if what is
@@ -281,12 +289,12 @@ nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, cons
   auto add_without = [&](std::string effect, void (*clear)(Applied&, std::size_t), std::size_t term) {
     Applied a = all;
     clear(a, term);
-    without.push_back({std::move(effect), clear, term, held_out(rec, sx, st, after, a, a0, nullptr)});
+    without.push_back({std::move(effect), clear, term, held_out(rec, sx, st, after, a, a0)});
   };
   if (st.delay_s != 0) add_without("time_delay", [](Applied& a, std::size_t) { a.delay = false; }, 0);
   if (st.backlash_deg > 0) add_without("backlash", [](Applied& a, std::size_t) { a.backlash = false; }, 0);
   for (std::size_t t = 0; t < st.terms.size(); ++t)
-    add_without(std::string(core::to_string(st.terms[t].effect)), [](Applied& a, std::size_t i) { a.terms[i] = false; }, t);
+    if (all.terms[t]) add_without(std::string(core::to_string(st.terms[t].effect)), [](Applied& a, std::size_t i) { a.terms[i] = false; }, t);
   // The effects kept when the choice may see the blocks other than `skip` (blocks.size(): all).
   auto choose = [&](std::size_t skip) {
     Applied keep = all;
@@ -301,7 +309,7 @@ nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, cons
     if (same(keep, all)) return with_all;
     for (const auto& [a, h] : runs)
       if (same(a, keep)) return h;
-    runs.emplace_back(keep, held_out(rec, sx, st, after, keep, a0, nullptr));
+    runs.emplace_back(keep, held_out(rec, sx, st, after, keep, a0));
     return runs.back().second;
   };
   const Applied keep = choose(sx.blocks.size());

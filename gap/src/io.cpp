@@ -157,7 +157,8 @@ std::string report_md(const Result& r, const std::string& source) {
       << "On held-out blocks, `pof compensate`'s angle against the reference: RMSE " << c["rmse_before_deg"].get<double>()
       << " deg with the baseline, " << c["rmse_after_deg"].get<double>() << " deg with the found model applied ("
       << c["reduction_pct"].get<double>() << " % lower)";
-    if (!c["not_applied"].empty()) o << "; not applied online (the compensator refuses them): " << c["not_applied"].dump();
+    if (!c["not_applied"].empty())
+      o << "; not applied online and not written to model.toml (the compensator refuses them): " << c["not_applied"].dump();
     o << ".\n\n";
     for (const json& l : c["left_out_of_model"])
       o << "- **" << l["effect"].get<std::string>() << " is not written to model.toml**: applied online it made the held-out "

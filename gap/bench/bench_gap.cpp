@@ -12,6 +12,7 @@
 //    "realistic" scenario (many effects at once), against the baseline-only analysis
 //    (--max-steps 0) of the same file in the same run.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <ctime>
 #include <cstdlib>
@@ -50,10 +51,12 @@ double median_of(std::vector<double> x) {
 struct Tally {
   std::vector<double> shrink, comp_down, comp_written, comp_nested;  // held-out gap shrink; compensated-angle RMSE reduction
   std::vector<double> comp_steady, transition_share;     // the same outside starts, stops and reversals
+  std::vector<double> comp_truth;  // the same against the simulated joint's true angle
+  std::vector<double> comp_ceiling;  // the most it can be: the same recording drawn without its effects
   int n = 0, hidden_total = 0, hits = 0, none_trials = 0, none_false = 0, extra = 0;
   int one_trials = 0, one_exact = 0, two_trials = 0, two_both = 0;
 
-  void add(const pof::gap::blind::Trial& t) {
+  void add(const pof::gap::blind::Trial& t, double effect_free_deg) {
     ++n;
     if (t.hidden.empty()) {
       ++none_trials;
@@ -73,6 +76,8 @@ struct Tally {
     const double written = c.value("model_toml", std::string()) == "found model" ? c.value("rmse_written_deg", before) : before;
     comp_written.push_back(before > 0 ? 1.0 - written / before : 0.0);
     if (c.contains("model_toml_nested")) comp_nested.push_back(c["model_toml_nested"].value("reduction_pct", 0.0) / 100.0);
+    comp_truth.push_back(t.truth_before_deg > 0 ? 1.0 - t.truth_after_deg / t.truth_before_deg : 0.0);
+    if (before > 0 && std::isfinite(effect_free_deg)) comp_ceiling.push_back(1.0 - effect_free_deg / before);
     if (c.contains("steady")) {
       comp_steady.push_back(c["steady"].value("reduction_pct", 0.0) / 100.0);
       transition_share.push_back(c["steady"].value("transition_share_of_squared_error_before", 0.0));
@@ -94,6 +99,11 @@ struct Tally {
                 sorted.empty() ? 0.0 : 100 * sorted.front(), sorted.size());
     std::printf("median held-out compensated-angle RMSE reduction (pof compensate's angle vs the reference) with an "
                 "effect hidden: %.1f %% (n = %zu)\n", 100 * median_of(comp_down), comp_down.size());
+    std::printf("the same against the simulated joint's true angle (no reference error at all): %.1f %% (n = %zu)\n",
+                100 * median_of(comp_truth), comp_truth.size());
+    std::printf("the most it can be (the baseline's angle on the same recording drawn without its hidden effects: "
+                "sensor noise, the structure's own error and the reference's noise are left): median %.1f %% (n = %zu)\n",
+                100 * median_of(comp_ceiling), comp_ceiling.size());
     std::printf("the same with what model.toml holds (harmful terms left out, chosen on the same blocks: optimistic): "
                 "%.1f %%\n", 100 * median_of(comp_written));
     std::printf("the same with what model.toml holds, each block's choice made on the other blocks (nested): "
@@ -128,8 +138,11 @@ void run_blind(int n, std::uint64_t seed0, double dynamic_share) {
     std::fprintf(stderr, "  seed %3llu %-7s sensor, %-7s baseline, hidden %-45s found %-45s gap %.3f -> %.3f deg (%.1f s)\n",
                  static_cast<unsigned long long>(seed), sensor.c_str(), chosen.c_str(), hid.empty() ? "none" : hid.c_str(),
                  fnd.empty() ? "none" : fnd.c_str(), t.baseline_gap_deg, t.final_gap_deg, t.analysis_s);
-    all_trials.add(t);
-    by_sensor[sensor].add(t);
+    // The ceiling of its compensated reduction: the same sensor drawn without the hidden effects.
+    const double effect_free_deg = t.hidden.empty() ? std::nan("")
+                                                    : pof::gap::blind::effect_free_rmse(seed, false, g_dir, 0.3, dynamic_share);
+    all_trials.add(t, effect_free_deg);
+    by_sensor[sensor].add(t, effect_free_deg);
     baseline_choice[sensor + " sensor -> " + chosen + " baseline"]++;
     // A dynamic-kind sensor's own physics named (Trial::covered) is neither a hit nor a wrong name.
     auto own = [&](const std::string& f) { return std::find(t.covered.begin(), t.covered.end(), f) != t.covered.end(); };
@@ -152,6 +165,8 @@ void run_blind(int n, std::uint64_t seed0, double dynamic_share) {
     nlohmann::json j{{"seed", seed}, {"sensor", sensor}, {"found", t.found}, {"baseline_gap_deg", t.baseline_gap_deg},
                      {"final_gap_deg", t.final_gap_deg}, {"analysis_s", t.analysis_s},
                      {"compensated", t.gap["compensated"]}, {"baseline", t.gap["baseline"]["refit_rms_mv"]},
+                     {"compensated_vs_truth", {{"rmse_before_deg", t.truth_before_deg}, {"rmse_after_deg", t.truth_after_deg}}},
+                     {"compensated_effect_free_rmse_deg", effect_free_deg},
                      {"baseline_choice", t.gap["baseline"].value("choice", nlohmann::json())}};
     if (t.gap["baseline"].contains("dynamic")) {
       j["baseline_dynamic"] = t.gap["baseline"]["dynamic"];

@@ -105,25 +105,27 @@ AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& afte
     col += effect_def(t.effect).linear;
   }
   const double rate = 1.0 / at.cx.s->dt;
-  // The angle the compensator estimates it on: the fibre's (the dynamic model's theta_f, behind
-  // its bend lag) or the quiet angle (the sensor's, on the paper structure).
-  VectorXd seen = d.k.angle;
-  if (!causal.empty() && at.cx.dyn && at.cx.dyn->bend_lag_s > 0) {
-    core::BendLag lag(at.cx.dyn->bend_lag_s, rate);
-    for (Index i = 0; i < seen.size(); ++i) seen(i) = lag.step(seen(i));
-  }
+  // The angle the compensator estimates it on, on either baseline: the quiet angle, f5 of the
+  // voltage after the other terms (core::OnlineCompensator's quiet chain). f5 has no branches, so
+  // wherever the sensor's loop turns (every start, stop and reversal) that angle has a corner the
+  // joint has not, and its second difference an acceleration the joint has not; fitted on the
+  // joint's angle, the coefficient applied to those corners moved the angle +-5 deg in gait. On
+  // the angle it will see, least squares weighs the corners in.
+  const VectorXd& v = at.cx.s->v;
+  auto quiet = [&](const VectorXd& beta) {
+    VectorXd g = d.X.rightCols(nt) * beta.tail(nt);
+    for (const Causal& c : causal) g -= d.X.col(c.col) * beta(c.col);
+    return VectorXd(-at.cx.m.c9 * (v - g).array() + at.cx.m.c10);
+  };
+  VectorXd beta = VectorXd::Zero(nb + nt);
   cv::Grams gr = cv::make_grams(d.X.rightCols(nt), d.y, sx.blocks);
   for (int round = 0; round < 4 && !causal.empty(); ++round) {
-    const VectorXd beta = fit_without(gr, sx.blocks.size());
-    bool changed = false;
+    if (round > 0) beta = fit_without(gr, sx.blocks.size());
+    const VectorXd seen = quiet(beta);
     for (Causal& c : causal) {
-      const int n = core::acceleration_window_scans(beta(c.col), c.theta, at.cx.m.c9, rate);
-      if (n == c.n) continue;
-      c.n = n;
-      d.X.col(c.col) = causal_acceleration(seen, n, at.cx.s->dt);
-      changed = true;
+      c.n = core::acceleration_window_scans(round > 0 ? beta(c.col) : 0.0, c.theta, at.cx.m.c9, rate);
+      d.X.col(c.col) = causal_acceleration(seen, c.n, at.cx.s->dt);
     }
-    if (!changed) break;
     gr = cv::make_grams(d.X.rightCols(nt), d.y, sx.blocks);
   }
   for (std::size_t f = 0; f < sx.blocks.size(); ++f) a.beta.push_back(fit_without(gr, f));

@@ -5,6 +5,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "pof/gap/io.hpp"
 #include "pof/io/csv_writer.hpp"
@@ -343,19 +344,45 @@ int Trial::false_finds() const {
   return n;
 }
 
+namespace {
+
+// A trial's sensor: the scenario before any effect is hidden (rng goes on to draw the effects).
+// Every recording has a sensor of its own: the paper's structure with its own coefficients, or
+// with that f5 a sensor of the dynamic model's kind.
+sim::Scenario draw_trial_sensor(Trial& t, std::mt19937_64& rng, bool short_session, double sensor_spread,
+                                double dynamic_share) {
+  sim::Scenario s = base_scenario(short_session);
+  s.sensor.model = draw_sensor(rng, sensor_spread);
+  t.sensor = s.sensor.model;
+  std::mt19937_64 kind_rng(t.seed ^ 0x9E3779B97F4A7C15ULL);
+  if (std::uniform_real_distribution<double>(0, 1)(kind_rng) < dynamic_share)
+    t.dynamic = draw_dynamic_sensor(s, kind_rng, t.covered);
+  return s;
+}
+
+}  // namespace
+
+double effect_free_rmse(std::uint64_t seed, bool short_session, const std::filesystem::path& dir, double sensor_spread,
+                        double dynamic_share) {
+  Trial t;
+  t.seed = seed;
+  std::mt19937_64 rng(seed);
+  const sim::Scenario s = draw_trial_sensor(t, rng, short_session, sensor_spread, dynamic_share);
+  const std::string csv = (dir / ("blind_" + std::to_string(seed) + "_effect_free.csv")).string();
+  io::write_csv(csv, simulate(s, seed));
+  Options opt;
+  opt.max_steps = 0;
+  const Result r = analyse(io::read_csv(csv), opt);
+  std::filesystem::remove(csv);
+  return r.compensated.value("rmse_before_deg", std::numeric_limits<double>::quiet_NaN());
+}
+
 Trial run_trial(std::uint64_t seed, int count, bool short_session, const std::filesystem::path& dir, const Options& opt,
                 double opt_sensor_spread, double dynamic_share) {
   Trial t;
   t.seed = seed;
   std::mt19937_64 rng(seed);
-  sim::Scenario s = base_scenario(short_session);
-  // Every recording has a sensor of its own: the paper's structure with its own coefficients, or
-  // with that f5 a sensor of the dynamic model's kind.
-  s.sensor.model = draw_sensor(rng, opt_sensor_spread);
-  t.sensor = s.sensor.model;
-  std::mt19937_64 kind_rng(seed ^ 0x9E3779B97F4A7C15ULL);
-  if (std::uniform_real_distribution<double>(0, 1)(kind_rng) < dynamic_share)
-    t.dynamic = draw_dynamic_sensor(s, kind_rng, t.covered);
+  sim::Scenario s = draw_trial_sensor(t, rng, short_session, opt_sensor_spread, dynamic_share);
   t.hidden = hide_random(s, count, rng, t.covered);
   // A bend lag is theta - tau theta' + tau^2 theta'' - ...: its second order is an acceleration
   // term of gain slope * tau^2, the lag's own physics where it is named (seed 1007's short
@@ -363,7 +390,8 @@ Trial run_trial(std::uint64_t seed, int count, bool short_session, const std::fi
   // draw, so an acceleration dependence may still be hidden on such a fibre (and is then a hit).
   if (t.dynamic.contains("bend_lag_s")) t.covered.emplace_back("acceleration_dependence");
   t.csv = (dir / ("blind_" + std::to_string(seed) + ".csv")).string();
-  io::write_csv(t.csv, simulate(s, seed));
+  const io::Recording rec = simulate(s, seed);
+  io::write_csv(t.csv, rec);
   // From here on only the file: nothing of the draw reaches the workflow.
   const auto t0 = std::chrono::steady_clock::now();
   const Result r = analyse(io::read_csv(t.csv), opt);
@@ -373,6 +401,23 @@ Trial run_trial(std::uint64_t seed, int count, bool short_session, const std::fi
   t.baseline_gap_deg = r.baseline_gap_deg;
   t.final_gap_deg = r.final_gap_deg;
   t.gap = r.to_json();
+  // The compensator's held-out angle against the joint's true angle, which only the simulator knows
+  // (on the series' scans: every scan, or an even stride through a long recording).
+  double sb = 0, sa = 0;
+  Eigen::Index n = 0;
+  const double dt = rec.t_s(1) - rec.t_s(0);
+  for (std::size_t i = 0; i < r.series.angle_comp_before.size(); ++i) {
+    const double tru = rec.angle_true_deg(std::lround(r.series.t[i] / dt));
+    const double eb = r.series.angle_comp_before[i] - tru, ea = r.series.angle_comp_after[i] - tru;
+    if (!std::isfinite(eb) || !std::isfinite(ea)) continue;
+    sb += eb * eb;
+    sa += ea * ea;
+    ++n;
+  }
+  if (n > 0) {
+    t.truth_before_deg = std::sqrt(sb / static_cast<double>(n));
+    t.truth_after_deg = std::sqrt(sa / static_cast<double>(n));
+  }
   return t;
 }
 

@@ -67,6 +67,10 @@ struct Trial {
   std::vector<std::string> found;   // accepted effects, in order
   double baseline_gap_deg = 0, final_gap_deg = 0;
   double analysis_s = 0;
+  // The compensator's angle (gap.json's `compensated`: the baseline's, and block by block the found
+  // model's fitted on the other blocks) against the simulated joint's true angle, which no reference
+  // noise reaches [deg RMSE]; 0 when the compensator could not run.
+  double truth_before_deg = 0, truth_after_deg = 0;
   std::string csv;                  // the file the workflow saw
   nlohmann::json gap;               // gap.json of the run
 
@@ -75,6 +79,15 @@ struct Trial {
   [[nodiscard]] int false_finds() const;     // found effects that were neither hidden nor the sensor's own physics (covered)
   [[nodiscard]] double shrink() const { return baseline_gap_deg > 0 ? 1.0 - final_gap_deg / baseline_gap_deg : 0.0; }
 };
+
+/// The baseline compensator's angle RMSE against the reference [deg] (gap.json's
+/// compensated.rmse_before_deg) on the recording run_trial draws for `seed`, drawn with the same
+/// sensor and none of its hidden effects: what a perfect model of those effects would leave (the
+/// sensor's noise, the structure's own error, the reference's noise), so 1 - this / the trial's
+/// rmse_before_deg is the most its compensated reduction can be. Its noise is another draw of the
+/// same level. The CSV file is written to dir and removed.
+double effect_free_rmse(std::uint64_t seed, bool short_session, const std::filesystem::path& dir,
+                        double sensor_spread = 0.3, double dynamic_share = 0.0);
 
 /// One blind trial: a sensor (draw_sensor with sensor_spread; 0 = the paper's table 2), with
 /// probability dynamic_share one of the dynamic model's kind (draw_dynamic_sensor, on top of the

@@ -17,6 +17,17 @@ namespace pof::io {
 
 AtomicFile::AtomicFile(std::filesystem::path dest, mode_t permissions, Replace replace)
     : dest_(std::move(dest)), replace_(replace) {
+  // A destination that is there and is not a regular file (a character device such as /dev/null,
+  // a FIFO a reader waits on) is written in place: there is no file to replace, and a rename over
+  // it replaces the node itself (as root, `pof compensate --csv /dev/null` left /dev/null a
+  // regular file, and every later `> /dev/null` on the machine wrote into it).
+  if (struct stat st {}; ::stat(dest_.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+    if (S_ISDIR(st.st_mode)) throw IoError(dest_.string() + ": is a directory; expected a file to write");
+    if (replace == Replace::kNo) throw IoError(dest_.string() + ": exists; not overwritten");
+    in_place_ = true;
+    tmp_ = dest_;
+    return;
+  }
   const std::filesystem::path dir = dest_.has_parent_path() ? dest_.parent_path() : std::filesystem::path(".");
   std::string pattern = (dir / ("." + dest_.filename().string() + ".tmp-XXXXXX")).string();
   std::vector<char> buf(pattern.begin(), pattern.end());
@@ -33,13 +44,17 @@ AtomicFile::AtomicFile(std::filesystem::path dest, mode_t permissions, Replace r
 }
 
 AtomicFile::~AtomicFile() {
-  if (!committed_) {
+  if (!committed_ && !in_place_) {
     std::error_code ec;
     std::filesystem::remove(tmp_, ec);
   }
 }
 
 void AtomicFile::commit() {
+  if (in_place_) {  // written straight into the device or pipe: nothing to sync or rename
+    committed_ = true;
+    return;
+  }
   const int fd = ::open(tmp_.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0 || ::fsync(fd) != 0) {
     const int e = errno;

@@ -2,8 +2,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -807,6 +809,35 @@ TEST(PotentiometerFile, ReadsItsSectionStrictlyAlsoFromACalibrationFile) {
   EXPECT_EQ(error_of([&] { pof::io::load_potentiometer(stray); }), stray + ":1: unknown key 'zero_v' at the top level");
   const auto version = d.file("v9.toml", "schema_version = 9\n[potentiometer]\ndeg_per_volt = 22.5\nzero_v = 0.5\n");
   EXPECT_EQ(error_of([&] { pof::io::load_potentiometer(version); }), version + ":1: key 'schema_version': expected 1 or 2, got 9");
+}
+
+// An output that is a device or a pipe is written into, never renamed over: as root a rename
+// replaced /dev/null with a regular file. A FIFO (any user may make one) stays a FIFO and its
+// reader gets the bytes; a directory is refused by name.
+TEST(AtomicWrite, APipeOrDeviceIsWrittenInPlace) {
+  TempDir d;
+  const std::string fifo = d.path("pipe");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0) << std::strerror(errno);
+  // The reader's end is open first (non-blocking), so neither side waits; the text fits the pipe.
+  const int rd = ::open(fifo.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  ASSERT_GE(rd, 0) << std::strerror(errno);
+  pof::io::write_file_atomic(fifo, "t_s,angle_deg\n0,1\n");
+  char buf[64] = {};
+  const ssize_t n = ::read(rd, buf, sizeof buf);
+  ::close(rd);
+  EXPECT_EQ(std::string(buf, n > 0 ? static_cast<std::size_t>(n) : 0), "t_s,angle_deg\n0,1\n");
+  EXPECT_TRUE(fs::is_fifo(fifo));
+  int entries = 0;
+  for ([[maybe_unused]] const auto& e : fs::directory_iterator(d.path())) ++entries;
+  EXPECT_EQ(entries, 1) << "no temporary file beside the pipe";
+  EXPECT_NO_THROW(pof::io::write_file_atomic("/dev/null", "x"));
+  EXPECT_TRUE(fs::is_character_file("/dev/null"));
+  try {
+    pof::io::write_file_atomic(d.path(), "x");
+    ADD_FAILURE() << "a directory was written";
+  } catch (const pof::IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("is a directory"), std::string::npos) << e.what();
+  }
 }
 
 TEST(AtomicWrite, ReplacesWholeFilesAndLeavesNothingOnFailure) {

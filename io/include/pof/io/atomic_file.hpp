@@ -17,7 +17,9 @@ class AtomicFile {
  public:
   /// Reserves a unique temporary file next to `dest`, created empty (mkstemp: 0600) and given
   /// `permissions` after the umask before anything is written, so a 0600 secret is never readable
-  /// by others. Throws IoError naming the directory if it cannot.
+  /// by others. Throws IoError naming the directory if it cannot. A `dest` that exists and is not a
+  /// regular file (/dev/null, a FIFO) is written in place: temp_path() is `dest` itself and
+  /// commit() does nothing; a directory, or any existing one with Replace::kNo, is an IoError.
   explicit AtomicFile(std::filesystem::path dest, mode_t permissions = 0666, Replace replace = Replace::kYes);
   AtomicFile(const AtomicFile&) = delete;
   AtomicFile& operator=(const AtomicFile&) = delete;
@@ -34,6 +36,7 @@ class AtomicFile {
   std::filesystem::path dest_, tmp_;
   Replace replace_;
   bool committed_ = false;
+  bool in_place_ = false;  // dest is a device or a pipe (see the constructor)
 };
 
 /// Writes `content` to `path` through an AtomicFile: the old file or the new one, never half.

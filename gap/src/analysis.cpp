@@ -261,7 +261,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
     written.terms.assign(written.terms.size(), false);
   }
   {
-    const Structure mm = write_baseline ? baseline_model : applied.structure;
+    const Structure mm = write_baseline ? baseline_model : applied.structure();
     const core::GapModel g = gap_model_of(st, applied.beta_full, applied.cx);
     json terms = json::array();
     for (std::size_t i = 0; i < g.terms.size(); ++i) {

@@ -67,7 +67,6 @@ AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& afte
   // The structure's coefficients are fitted on every block and shared by the folds
   // (cv::cross_validate), so one move serves them all.
   const Search at = moved(sx, after.fit.beta_full);
-  a.structure = {at.cx.m, at.cx.dyn};
   a.cx = at.cx;
   Design d = build_design(at, st);
   const Index nb = base_cols(at.cx), nt = d.X.cols() - nb;
@@ -200,7 +199,7 @@ HeldOut held_out(const io::Recording& rec, const Search& sx, const State& st, co
   HeldOut h;
   h.angle = a0;
   for (std::size_t f = 0; f < sx.blocks.size(); ++f) {
-    core::Calibration cal = calibration_of(after.structure, s);
+    core::Calibration cal = calibration_of(after.structure(), s);
     core::GapModel g = gap_model_of(st, after.beta[f], after.cx);
     if (!use.delay) g.delay_s = 0;
     if (!use.backlash) g.backlash_deg = 0;

@@ -21,10 +21,10 @@ core::GapModel gap_model_of(const State& st, const Eigen::VectorXd& beta, const 
 /// section 5). The search's fit moves the structure to first order beside the terms; a move its
 /// bounds shorten leaves the terms fitted beside a structure that is not the one applied.
 struct AppliedFit {
-  Structure structure;
-  Context cx;                          // the search's context at that structure (for the terms' units)
+  Context cx;                          // the search's context at the structure applied (for the terms' units)
   std::vector<Eigen::VectorXd> beta;   // per fold: zeros for the structure's columns, then the terms'
   Eigen::VectorXd beta_full;
+  [[nodiscard]] Structure structure() const { return {cx.m, cx.dyn}; }
 };
 AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& after);
 

@@ -90,8 +90,9 @@ AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& afte
   // with that lag it pulls the angle the wrong way wherever the acceleration changes within it (a
   // blind recording's gait cycles: +-5 deg). So its column is the compensator's own estimate on
   // the angle it estimates it on, with the window the compensator will take for the coefficient
-  // fitted on it (which sets the window: fitted again until it stays, at most four rounds; each
-  // fold's compensator takes the window its own coefficient sets, which may differ by a scan).
+  // fitted on it (the coefficient sets the window and the other terms' voltage the angle: fitted
+  // four rounds; each fold's compensator takes the window its own coefficient sets, which may
+  // differ by a scan).
   struct Causal {
     Index col;
     double theta;

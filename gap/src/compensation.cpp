@@ -13,6 +13,7 @@
 #include "pof/core/compensator.hpp"
 #include "pof/core/dynamic_model.hpp"
 #include "pof/core/gap_terms.hpp"
+#include "pof/core/model.hpp"
 
 namespace pof::gap {
 
@@ -115,7 +116,7 @@ AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& afte
   auto quiet = [&](const VectorXd& beta) {
     VectorXd g = d.X.rightCols(nt) * beta.tail(nt);
     for (const Causal& c : causal) g -= d.X.col(c.col) * beta(c.col);
-    return VectorXd(-at.cx.m.c9 * (v - g).array() + at.cx.m.c10);
+    return VectorXd((v - g).unaryExpr([&](double x) { return core::quasi_static_angle(at.cx.m, x); }));
   };
   VectorXd beta = VectorXd::Zero(nb + nt);
   cv::Grams gr = cv::make_grams(d.X.rightCols(nt), d.y, sx.blocks);
@@ -262,15 +263,10 @@ nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, cons
   Applied all;
   all.terms.assign(st.terms.size(), true);
   nlohmann::json not_applied = nlohmann::json::array();
-  {
-    const core::GapModel g = gap_model_of(st, after.beta_full, after.cx);
-    for (std::size_t t = 0; t < g.terms.size(); ++t) {
-      core::GapModel one;
-      one.terms = {g.terms[t]};
-      if (core::gap_problems(one, rate).empty()) continue;
-      all.terms[t] = false;
-      not_applied.push_back(g.terms[t].effect);
-    }
+  for (const core::GapProblem& p : core::gap_problems(gap_model_of(st, after.beta_full, after.cx), rate)) {
+    if (p.term == 0 || !all.terms[p.term - 1]) continue;  // 1-based; a term named twice counts once
+    all.terms[p.term - 1] = false;
+    not_applied.push_back(p.effect);
   }
   const HeldOut with_all = held_out(rec, sx, st, after, all, a0);
 

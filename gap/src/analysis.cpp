@@ -233,16 +233,23 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   // ---- the loop closed: the compensator's angle with and without the found model --------------
   VectorXd comp_before, comp_after;
   Applied written;
-  const AppliedFit applied = applied_fit(fin, st, cur);
+  // What the compensator refuses is neither applied nor written (model.toml must be a file
+  // pof-compensatord loads), and the model applied is fitted without it; it stays named in the
+  // report (compensated.not_applied).
+  std::vector<std::string> refused;
+  const State st_applied = appliable_state(st, cur, fin.cx, 1.0 / s.dt, &refused);
+  const AppliedFit applied =
+      st_applied.terms.size() == st.terms.size() ? applied_fit(fin, st, cur) : applied_fit(fin, st_applied, fit_state(fin, st_applied));
   say("compensating the held-out blocks with the baseline and with the found model");
   try {
     const std::vector<bool> transition = transition_scans(k0, s.dt, core::CompensatorSettings{}.velocity_window_s);
-    res.compensated = compensated_rmse(rec, fin, baseline_model, st, applied, transition, &written, &comp_before, &comp_after);
+    res.compensated = compensated_rmse(rec, fin, baseline_model, st_applied, applied, refused, transition, &written, &comp_before,
+                                      &comp_after);
   } catch (const std::exception& e) {
     // The compensator refused a model (std::invalid_argument from its constructor): the analysis
     // stands, model.toml holds the baseline, and the report says why.
     res.compensated = {{"error", std::string("the compensator could not run the found model: ") + e.what()}};
-    written.terms.assign(st.terms.size(), false);
+    written.terms.assign(st_applied.terms.size(), false);
     comp_before = comp_after = VectorXd::Constant(s.n, std::numeric_limits<double>::quiet_NaN());
   }
 
@@ -253,7 +260,9 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   const bool write_baseline =
       !res.steps.empty() && (res.compensated.contains("error") || !(res.compensated["rmse_written_deg"].get<double>() <
                                                                     res.compensated["rmse_before_deg"].get<double>()));
-  res.compensated["model_toml"] = write_baseline ? "baseline (the found model made the held-out angle worse)" : "found model";
+  res.compensated["model_toml"] = !write_baseline         ? "found model"
+                                  : st_applied.size() == 0 ? "baseline (the compensator can apply none of the effects found)"
+                                                           : "baseline (the found model made the held-out angle worse)";
   if (write_baseline) {
     // rmse_written_deg is what model.toml holds: the baseline's now (the kept terms' was not lower).
     res.compensated["rmse_written_deg"] = res.compensated["rmse_before_deg"];
@@ -262,7 +271,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   }
   {
     const Structure mm = write_baseline ? baseline_model : applied.structure();
-    const core::GapModel g = gap_model_of(st, applied.beta_full, applied.cx);
+    const core::GapModel g = gap_model_of(st_applied, applied.beta_full, applied.cx);
     json terms = json::array();
     for (std::size_t i = 0; i < g.terms.size(); ++i) {
       if (!written.terms[i]) continue;  // its online application made the held-out angle worse
@@ -279,8 +288,8 @@ Result analyse(const io::Recording& rec, const Options& opt) {
     res.model["structure"] = mm.dynamic ? "dynamic" : "paper";
     if (mm.dynamic) res.model["dynamic"] = io::dynamic_model_json(*mm.dynamic);
     res.dynamic_model = mm.dynamic;
-    res.model.update({{"reference_level_v", s.reference_level_v}, {"delay_s", written.delay ? st.delay_s : 0.0},
-                      {"backlash_deg", written.backlash ? st.backlash_deg : 0.0}, {"duration_s", fin.cx.duration_s},
+    res.model.update({{"reference_level_v", s.reference_level_v}, {"delay_s", written.delay ? st_applied.delay_s : 0.0},
+                      {"backlash_deg", written.backlash ? st_applied.backlash_deg : 0.0}, {"duration_s", fin.cx.duration_s},
                       {"terms", terms}, {"left_out", res.compensated.value("left_out_of_model", json::array())}});
     describe_range(res.model, s, k0);
   }

@@ -191,8 +191,8 @@ void score_blocks(HeldOut& h, const VectorXd& a, const VectorXd& ref, const cv::
   for (std::size_t f = 0; f < blocks.size(); ++f) squared_error(a, ref, blocks.folds[f], h.ss[f], h.count[f]);
 }
 
-// The compensator's angle with the state's terms (those `use` keeps: never one it refuses, see
-// compensated_rmse), fold by fold with the model fitted on the other folds, scored on the held-out
+// The compensator's angle with the state's terms (those `use` keeps; the state holds none the
+// compensator refuses, see appliable_state), fold by fold with the model fitted on the other folds, scored on the held-out
 // blocks.
 HeldOut held_out(const io::Recording& rec, const Search& sx, const State& st, const AppliedFit& after,
                  const Applied& use, const VectorXd& a0) {
@@ -247,9 +247,25 @@ core::Calibration calibration_of(const Structure& m, const Signals& s) {
   return cal;
 }
 
+State appliable_state(const State& st, const CurrentFit& cur, const Context& cx, double rate_hz,
+                      std::vector<std::string>* refused) {
+  std::vector<bool> keep(st.terms.size(), true);
+  for (const core::GapProblem& p : core::gap_problems(gap_model_of(st, cur.fit.beta_full, cx), rate_hz)) {
+    if (p.term == 0 || !keep[p.term - 1]) continue;  // 1-based; a term named twice counts once
+    keep[p.term - 1] = false;
+    if (std::find(refused->begin(), refused->end(), p.effect) == refused->end()) refused->push_back(p.effect);
+  }
+  State out = st;
+  out.terms.clear();
+  for (std::size_t t = 0; t < st.terms.size(); ++t)
+    if (keep[t]) out.terms.push_back(st.terms[t]);
+  return out;
+}
+
 nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, const Structure& before,
-                                const State& st, const AppliedFit& after, const std::vector<bool>& transition,
-                                Applied* written, VectorXd* angle_before, VectorXd* angle_after) {
+                                const State& st, const AppliedFit& after, const std::vector<std::string>& not_applied,
+                                const std::vector<bool>& transition, Applied* written, VectorXd* angle_before,
+                                VectorXd* angle_after) {
   const Signals& s = *sx.cx.s;
   const double rate = 1.0 / s.dt;
   const core::Calibration base = calibration_of(before, s);
@@ -257,17 +273,8 @@ nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, cons
   HeldOut base_blocks;
   score_blocks(base_blocks, a0, rec.angle_ref_deg, sx.blocks);
   const double before_deg = base_blocks.rmse_without_block(sx.blocks.size());  // every block
-  // A term the compensator refuses (a drift: a trend over this recording has no online form) is
-  // neither applied nor written: model.toml must be a file pof-compensatord loads. It stays named
-  // in the report and in not_applied.
   Applied all;
   all.terms.assign(st.terms.size(), true);
-  nlohmann::json not_applied = nlohmann::json::array();
-  for (const core::GapProblem& p : core::gap_problems(gap_model_of(st, after.beta_full, after.cx), rate)) {
-    if (p.term == 0 || !all.terms[p.term - 1]) continue;  // 1-based; a term named twice counts once
-    all.terms[p.term - 1] = false;
-    not_applied.push_back(p.effect);
-  }
   const HeldOut with_all = held_out(rec, sx, st, after, all, a0);
 
   // Each accepted effect left out in turn: one whose online application makes the held-out angle
@@ -292,7 +299,7 @@ nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, cons
   if (st.delay_s != 0) add_without("time_delay", [](Applied& a, std::size_t) { a.delay = false; }, 0);
   if (st.backlash_deg > 0) add_without("backlash", [](Applied& a, std::size_t) { a.backlash = false; }, 0);
   for (std::size_t t = 0; t < st.terms.size(); ++t)
-    if (all.terms[t]) add_without(std::string(core::to_string(st.terms[t].effect)), [](Applied& a, std::size_t i) { a.terms[i] = false; }, t);
+    add_without(std::string(core::to_string(st.terms[t].effect)), [](Applied& a, std::size_t i) { a.terms[i] = false; }, t);
   // The effects kept when the choice may see the blocks other than `skip` (blocks.size(): all).
   auto choose = [&](std::size_t skip) {
     Applied keep = all;

@@ -16,8 +16,9 @@ namespace pof::gap {
 /// coefficients of beta (after the base_cols baseline columns, in term order).
 core::GapModel gap_model_of(const State& st, const Eigen::VectorXd& beta, const Context& cx);
 
-/// The model the compensator is given for a fitted state: the baseline structure as moved (within
-/// its bounds: moved_structure) and the terms' coefficients least-squares on the voltage that
+/// The model the compensator is given for a fitted state: the baseline structure as moved (the
+/// search's step, then damped Gauss-Newton beside the terms, each step within its bounds:
+/// moved_structure) and the terms' coefficients least-squares on the voltage that
 /// structure leaves, fold by fold on the training blocks and once on every block (docs/gap.md,
 /// section 5). The search's fit moves the structure to first order beside the terms; a move its
 /// bounds shorten leaves the terms fitted beside a structure that is not the one applied.

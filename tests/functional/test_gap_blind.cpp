@@ -147,9 +147,11 @@ TEST(GapBlind, ARelaxationSpectrumIsNamedOnce) {
   // Applied online, the terms help. The structure's first-order move beside them is cut to 1/16
   // here (its full step puts the branches 114 deg apart); fitted beside the whole move, the terms
   // made the held-out compensated angle worse than the baseline's (1.38 -> 1.83 deg RMSE). Fitted
-  // at the structure applied (compensation.cpp, applied_fit): 1.04 deg.
+  // at the structure so moved: 1.04 deg, the terms taking only the share of the relaxation the
+  // baseline had not absorbed. With the structure moved on by damped Gauss-Newton beside them
+  // (compensation.cpp, applied_fit): 0.37 deg (the same sensor without the relaxation: 0.35).
   const auto& comp = t.gap.at("compensated");
-  EXPECT_LT(comp.at("rmse_after_deg").get<double>(), 0.9 * comp.at("rmse_before_deg").get<double>()) << comp.dump().substr(0, 600);
+  EXPECT_LT(comp.at("rmse_after_deg").get<double>(), 0.5 * comp.at("rmse_before_deg").get<double>()) << comp.dump().substr(0, 600);
   std::cout << "seed 213: " << relaxation << " relaxation step(s), " << creep_terms << " of them creep's term, "
             << t.false_finds() << " false; compensated " << comp.at("rmse_before_deg").get<double>() << " -> "
             << comp.at("rmse_after_deg").get<double>() << " deg\n";

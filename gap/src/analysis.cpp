@@ -236,15 +236,18 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   // What the compensator refuses is neither applied nor written (model.toml must be a file
   // pof-compensatord loads), and the model applied is fitted without it; it stays named in the
   // report (compensated.not_applied).
-  std::vector<std::string> refused;
-  const State st_applied = appliable_state(st, cur, fin.cx, 1.0 / s.dt, &refused);
-  const AppliedFit applied =
-      st_applied.terms.size() == st.terms.size() ? applied_fit(fin, st, cur) : applied_fit(fin, st_applied, fit_state(fin, st_applied));
+  const Appliable appliable = appliable_state(st, cur, fin.cx, 1.0 / s.dt);
+  const State& st_applied = appliable.state;
+  // With nothing to apply, the model applied is the baseline as it is (not the structure moved on
+  // alone: that would score a refit, not a found effect).
+  const bool reduced = st_applied.terms.size() != st.terms.size();
+  const AppliedFit applied = st_applied.size() == 0 ? applied_baseline(fin, baseline_model)
+                                                    : applied_fit(fin, st_applied, reduced ? fit_state(fin, st_applied) : cur);
   say("compensating the held-out blocks with the baseline and with the found model");
   try {
     const std::vector<bool> transition = transition_scans(k0, s.dt, core::CompensatorSettings{}.velocity_window_s);
-    res.compensated = compensated_rmse(rec, fin, baseline_model, st_applied, applied, refused, transition, &written, &comp_before,
-                                      &comp_after);
+    res.compensated = compensated_rmse(rec, fin, baseline_model, st_applied, applied, appliable.refused, transition,
+                                      &written, &comp_before, &comp_after);
   } catch (const std::exception& e) {
     // The compensator refused a model (std::invalid_argument from its constructor): the analysis
     // stands, model.toml holds the baseline, and the report says why.

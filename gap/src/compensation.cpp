@@ -61,13 +61,10 @@ VectorXd causal_acceleration(const VectorXd& angle_deg, int n, double dt) {
   return a;
 }
 
-}  // namespace
-
-namespace {
-
-// Gauss-Newton rounds of the structure beside the terms (the search's own step is the first), and
-// the relative decrease of the residual under which they stop. On blind recording 213 the residual
-// fell 86 -> 3.4 (V^2 over the recording) in 8 rounds, the last two by 0.1 % and less.
+// Gauss-Newton rounds of the structure beside the terms (the first takes the step of the fit
+// applied_fit is given), and the relative decrease of the residual under which they stop. On
+// blind recording 213 the residual fell 86 -> 3.4 (V^2 over the recording) in 8 rounds, the last
+// two by 0.1 % and less.
 constexpr int kMaxStructureRounds = 12;
 constexpr double kStructureRoundGain = 1e-3;
 
@@ -76,10 +73,8 @@ constexpr double kStructureRoundGain = 1e-3;
 double terms_residual(const Search& x, const State& st) {
   const Design d = build_design(x, st);
   const Index nt = d.X.cols() - base_cols(x.cx);
-  if (nt == 0) return d.y.squaredNorm();
-  const auto T = d.X.rightCols(nt);
-  const VectorXd b = cv::solve(T.transpose() * T, T.transpose() * d.y);
-  return (d.y - T * b).squaredNorm();
+  if (nt == 0) return d.y.squaredNorm();  // kinematics alone (delay, play): no coefficient to fit
+  return cv::cross_validate({cv::make_grams(d.X.rightCols(nt), d.y, x.blocks)}, 0).full_rss;
 }
 
 }  // namespace
@@ -89,9 +84,10 @@ AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& afte
   // The structure's coefficients are fitted on every block and shared by the folds
   // (cv::cross_validate), so the moves below serve them all.
   //
-  // The search's move is one Gauss-Newton step from the baseline. Along a direction the voltage
-  // barely tells from a term (the paper structure's hysteresis against a relaxation or a memory
-  // term that draws the same loop) a first-order step runs to branches ~100 deg off f5, and
+  // The search moves the structure by first-order steps beside the terms (a few, undamped), the
+  // last of them in `after`. Along a direction the voltage barely tells from a term (the paper
+  // structure's hysteresis against a relaxation or a memory term that draws the same loop) a
+  // first-order step runs to branches ~100 deg off f5, and
   // moved_structure halves it back within its bounds (to 1/16 on blind recording 213). Beside a
   // structure moved that little, the terms are refitted to the share of the effect the baseline
   // had not already absorbed in its hysteresis: there the relaxation's gain came out at a third of
@@ -180,6 +176,16 @@ AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& afte
   }
   for (std::size_t f = 0; f < sx.blocks.size(); ++f) a.beta.push_back(fit_without(gr, f));
   a.beta_full = fit_without(gr, sx.blocks.size());
+  return a;
+}
+
+AppliedFit applied_baseline(const Search& sx, const Structure& m) {
+  AppliedFit a;
+  a.cx = sx.cx;
+  a.cx.m = m.paper;
+  a.cx.dyn = m.dynamic;
+  a.beta.assign(sx.blocks.size(), VectorXd::Zero(base_cols(a.cx)));
+  a.beta_full = VectorXd::Zero(base_cols(a.cx));
   return a;
 }
 
@@ -296,18 +302,18 @@ core::Calibration calibration_of(const Structure& m, const Signals& s) {
   return cal;
 }
 
-State appliable_state(const State& st, const CurrentFit& cur, const Context& cx, double rate_hz,
-                      std::vector<std::string>* refused) {
+Appliable appliable_state(const State& st, const CurrentFit& cur, const Context& cx, double rate_hz) {
+  Appliable out;
   std::vector<bool> keep(st.terms.size(), true);
   for (const core::GapProblem& p : core::gap_problems(gap_model_of(st, cur.fit.beta_full, cx), rate_hz)) {
     if (p.term == 0 || !keep[p.term - 1]) continue;  // 1-based; a term named twice counts once
     keep[p.term - 1] = false;
-    if (std::find(refused->begin(), refused->end(), p.effect) == refused->end()) refused->push_back(p.effect);
+    if (std::find(out.refused.begin(), out.refused.end(), p.effect) == out.refused.end()) out.refused.push_back(p.effect);
   }
-  State out = st;
-  out.terms.clear();
+  out.state = st;
+  out.state.terms.clear();
   for (std::size_t t = 0; t < st.terms.size(); ++t)
-    if (keep[t]) out.terms.push_back(st.terms[t]);
+    if (keep[t]) out.state.terms.push_back(st.terms[t]);
   return out;
 }
 

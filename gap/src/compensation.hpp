@@ -29,15 +29,21 @@ struct AppliedFit {
   [[nodiscard]] Structure structure() const { return {cx.m, cx.dyn}; }
 };
 AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& after);
+/// The model applied when nothing found can be applied (no term, delay or play): structure m as
+/// it is, no coefficients.
+AppliedFit applied_baseline(const Search& sx, const Structure& m);
 
 /// The part of state st the compensator can apply: st without the terms it refuses
 /// (core::gap_problems, judged at the search's fit `cur`: a drift, a trend over this recording, has
-/// no online form). The refused terms' ids go to `refused`, once each. The model applied is fitted
-/// without them (applied_fit on the returned state): fitted beside a drift column and then applied
-/// without it, the structure lost the share of the trend its own offset had taken, and the angle
-/// got worse than the baseline's (blind recordings: up to 34 %).
-State appliable_state(const State& st, const CurrentFit& cur, const Context& cx, double rate_hz,
-                      std::vector<std::string>* refused);
+/// no online form), and the refused effects' ids, each named once. The model applied is fitted
+/// without them (applied_fit on `state`): fitted beside a drift column and then applied without
+/// it, the structure lost the share of the trend its own offset had taken, and the angle got worse
+/// than the baseline's (blind recordings: up to 34 %).
+struct Appliable {
+  State state;
+  std::vector<std::string> refused;
+};
+Appliable appliable_state(const State& st, const CurrentFit& cur, const Context& cx, double rate_hz);
 
 /// Which of a state's effects are applied: the kinematic ones and each voltage term (in order).
 struct Applied {

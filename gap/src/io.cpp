@@ -171,9 +171,8 @@ std::string report_md(const Result& r, const std::string& source) {
       o << "\nWhat model.toml gives, each block scored with the choice (effects kept, or the baseline) made on the "
            "other blocks alone: RMSE " << c["model_toml_nested"]["rmse_deg"].get<double>() << " deg ("
         << c["model_toml_nested"]["reduction_pct"].get<double>() << " % lower than the baseline).\n";
-    if (c.value("model_toml", "") != "found model")
-      o << "\n**model.toml holds the baseline**: with the found model the compensator's held-out angle was not "
-           "closer to the reference than with the baseline alone.\n";
+    if (const std::string held = c.value("model_toml", ""); held != "found model")
+      o << "\n**model.toml holds the " << held << "**.\n";
     o << "\n![compensated angle](compensated.png)\n\n";
   }
   o << "## What is left\n\n" << (r.unexplained ? "Structure remains that no candidate explains" : "No significant structure left")

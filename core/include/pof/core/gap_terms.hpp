@@ -102,6 +102,11 @@ int acceleration_window_scans(double coefficient_v, double theta_s, double c9, d
 inline constexpr double kNotchQ = 5.0;
 /// The window of the quadratic fit that extrapolates a positive delay (GapCorrector) [s].
 inline constexpr double kDelayFitWindowS = 0.12;
+/// backlash: the time constant of the first-order low-pass on the play operator's input [s]. A
+/// play fed the estimated angle is pushed to its noise's peaks in every hold (the belt sees the
+/// joint, not the noise), so its side is decided on the angle low-passed at about the knee's own
+/// bandwidth (6 Hz) and applied as an offset to the angle itself, which keeps its latency.
+inline constexpr double kPlayInputTauS = 0.025;
 /// source_power_coupling: the reference level's averaging window [s].
 inline constexpr double kSourceMeanWindowS = 1.0;
 
@@ -222,6 +227,8 @@ class GapCorrector {
   double late_scans_ = 0;     // |d| fs
   double half_play_ = 0;
   double play_ = 0;
+  double play_input_ = 0;   // the angle low-passed for the play (kPlayInputTauS)
+  double play_smooth_ = 0;  // that low-pass's gain per scan
   bool play_started_ = false;
   Kinematics kin_;
 };

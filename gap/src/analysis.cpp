@@ -240,9 +240,10 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   const State& st_applied = appliable.state;
   // With nothing to apply, the model applied is the baseline as it is (not the structure moved on
   // alone: that would score a refit, not a found effect).
-  const bool reduced = st_applied.terms.size() != st.terms.size();
-  const AppliedFit applied = st_applied.size() == 0 ? applied_baseline(fin, baseline_model)
-                                                    : applied_fit(fin, st_applied, reduced ? fit_state(fin, st_applied) : cur);
+  // (A conditional between fit_state's result and `cur` would copy `cur`'s design matrix.)
+  const AppliedFit applied = st_applied.size() == 0                     ? applied_baseline(fin, baseline_model)
+                             : st_applied.terms.size() == st.terms.size() ? applied_fit(fin, st_applied, cur)
+                                                                          : applied_fit(fin, st_applied, fit_state(fin, st_applied));
   say("compensating the held-out blocks with the baseline and with the found model");
   try {
     const std::vector<bool> transition = transition_scans(k0, s.dt, core::CompensatorSettings{}.velocity_window_s);

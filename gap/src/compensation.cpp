@@ -87,16 +87,16 @@ AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& afte
   // The search moves the structure by first-order steps beside the terms (a few, undamped), the
   // last of them in `after`. Along a direction the voltage barely tells from a term (the paper
   // structure's hysteresis against a relaxation or a memory term that draws the same loop) a
-  // first-order step runs to branches ~100 deg off f5, and
-  // moved_structure halves it back within its bounds (to 1/16 on blind recording 213). Beside a
-  // structure moved that little, the terms are refitted to the share of the effect the baseline
-  // had not already absorbed in its hysteresis: there the relaxation's gain came out at a third of
-  // the sensor's and the compensated angle at 1.04 deg RMSE. So the structure goes on by damped
-  // Gauss-Newton: relinearised where the last step landed, structure and terms fitted jointly, and
-  // the step halved until the residual the terms leave at the moved structure decreases (a round
-  // without a decrease ends the search; undamped, the steps oscillated: blind 290's residual went
-  // 6.9 -> 36 -> 12 -> 31 and its angle 0.48 -> 0.94 deg). On 213: 0.37 deg, against 0.35 for the
-  // same sensor drawn without the relaxation.
+  // first-order step runs to branches ~100 deg off f5, and moved_structure halves it back within
+  // its bounds (to 1/16 on blind recording 213). Beside a structure moved that little, the terms
+  // are refitted to the share of the effect the baseline had not already absorbed in its
+  // hysteresis: there the relaxation's gain came out at a third of the sensor's and the
+  // compensated angle at 1.04 deg RMSE. So the structure goes on by damped Gauss-Newton:
+  // relinearised where the last step landed, structure and terms fitted jointly, and the step
+  // halved until the residual the terms leave at the moved structure decreases (a round without a
+  // decrease ends the search; undamped, the steps oscillated: blind 290's residual went 6.9 -> 36
+  // -> 12 -> 31 and its angle 0.48 -> 0.94 deg). On 213: 0.37 deg, against 0.35 for the same
+  // sensor drawn without the relaxation.
   Search at = sx;
   double residual = terms_residual(at, st);
   VectorXd step = after.fit.beta_full;
@@ -247,8 +247,8 @@ void score_blocks(HeldOut& h, const VectorXd& a, const VectorXd& ref, const cv::
 }
 
 // The compensator's angle with the state's terms (those `use` keeps; the state holds none the
-// compensator refuses, see appliable_state), fold by fold with the model fitted on the other folds, scored on the held-out
-// blocks.
+// compensator refuses, see appliable_state), fold by fold with the model fitted on the other
+// folds, scored on the held-out blocks.
 HeldOut held_out(const io::Recording& rec, const Search& sx, const State& st, const AppliedFit& after,
                  const Applied& use, const VectorXd& a0) {
   const Signals& s = *sx.cx.s;

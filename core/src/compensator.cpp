@@ -68,6 +68,10 @@ OnlineCompensator::OnlineCompensator(const Calibration& cal, const CompensatorSe
     without_acceleration.gap = std::move(published);
     terms_chain_.terms = GapCorrector(without_acceleration, s.scan_rate_hz);
     terms_ = true;
+    if (dynamic_ && cal.gap->backlash_deg > 0) {
+      play_inverter_ = DynamicInverter(*cal.dynamic, s.scan_rate_hz);
+      play_inverse_ = true;
+    }
   }
   guard_.level_v = cal.reference_level_v;
   guard_.min_ratio = s.reference_min_ratio;
@@ -87,6 +91,7 @@ void OnlineCompensator::clear_window() noexcept {
 void OnlineCompensator::reset() noexcept {
   clear_window();
   inverter_.reset();  // the memory of the lost scans is unknown: start from a relaxed state
+  play_inverter_.reset();
   terms_chain_.restart();
   quiet_chain_.restart();
   gap_pending_ = true;
@@ -110,7 +115,8 @@ void OnlineCompensator::commit_quiet(double angle, double u, double reference_v)
   quiet_chain_.u = u;
   quiet_committed_ = true;
   // f5's slope reconstructs the angle without the acceleration term for its own window.
-  quiet_chain_.terms.advance(angle, reference_v, quiet_chain_.terms.has_acceleration() ? -cal_.model.c9 : 0.0);
+  const double play_angle = play_inverse_ ? play_inverter_.step(u).angle_deg : std::nan("");
+  quiet_chain_.terms.advance(angle, reference_v, quiet_chain_.terms.has_acceleration() ? -cal_.model.c9 : 0.0, play_angle);
 }
 
 double OnlineCompensator::terms_voltage(const TermsChain& c, double v, double reference_v, double w, Direction d,

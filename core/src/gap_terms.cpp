@@ -337,7 +337,7 @@ double GapCorrector::estimate_acceleration_voltage() const noexcept {
   return v;
 }
 
-double GapCorrector::advance(double angle, double reference_v, double angle_per_volt) noexcept {
+double GapCorrector::advance(double angle, double reference_v, double angle_per_volt, double play_angle) noexcept {
   if (!active_) {
     kin_ = {angle, angle, angle};
     return angle;
@@ -390,7 +390,8 @@ double GapCorrector::advance(double angle, double reference_v, double angle_per_
     // (kPlayInputTauS). Fed the angle directly, the play rode the noise's peaks: over the blind
     // benchmark's ten recordings with a 0.5-1.5 deg play, the median compensated reduction against
     // the reference went 6.6 -> 32.9 % with the low-pass (docs/calibration.md, "[gap]").
-    play_input_ = play_started_ ? play_input_ + play_smooth_ * (joint - play_input_) : joint;
+    const double belt = std::isfinite(play_angle) ? play_angle + (joint - angle) : joint;
+    play_input_ = play_started_ ? play_input_ + play_smooth_ * (belt - play_input_) : belt;
     play_ = play_started_ ? play_operator(play_, play_input_, half_play_) : play_input_;
     play_started_ = true;
     kin_.reference = joint + (play_ - play_input_);

@@ -147,7 +147,8 @@ class OnlineCompensator {
   double terms_voltage(double v, double reference_v, double w, Direction d) const noexcept;
   // f5 of v with the quiet chain's terms (voltage *g) taken off: the velocity source's angle.
   double quiet_angle(double v, double reference_v, double* g) const noexcept;
-  // Commits this scan's quiet angle and the voltage f5 inverted (v - g) to the quiet chain.
+  // Commits this scan's quiet angle and the voltage f5 inverted (v - g) to the quiet chain; on the
+  // dynamic model with a play, the play's side follows that voltage's dynamic inverse (play_inverter_).
   void commit_quiet(double angle, double u, double reference_v) noexcept;
   // dA/dv [deg/V] of the active model at angle [deg] with velocity w and direction d.
   double model_slope(double angle, double w, Direction d) const noexcept;
@@ -159,6 +160,13 @@ class OnlineCompensator {
   CompensatorSettings s_;
   bool dynamic_ = false;
   DynamicInverter inverter_;
+  // The dynamic model with a [gap] play: the model's inverse of the quiet chain's voltage, the angle
+  // the play's side is decided on. f5 (the quiet angle) lacks the structure's relaxation and stop
+  // operators: in the hold after a movement it falls back as the fibre relaxes, and a play fed it
+  // falls back with it; the published angle carries the direction-switched terms, late at every
+  // start and stop (docs/calibration.md, "[gap]", step 6).
+  DynamicInverter play_inverter_;
+  bool play_inverse_ = false;
   ReferenceGuard guard_;
   int n_ = 1;
   std::vector<double> ring_;

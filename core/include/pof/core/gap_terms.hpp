@@ -23,6 +23,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 #include <utility>
@@ -139,7 +140,12 @@ class GapCorrector {
   /// poles are undamped, and it diverges. So the angles that estimate it are open-loop ones,
   /// angle_deg + angle_per_volt x (this scan's acceleration voltage), the angle the voltage gives
   /// without that one term. 0: angle_deg already is such an angle (no acceleration term applied).
-  double advance(double angle_deg, double reference_v, double angle_per_volt) noexcept;
+  ///
+  /// play_angle_deg, if finite, is the angle whose movement decides the play's side instead of
+  /// angle_deg (another model's estimate of the same fibre angle; the delay inverse's offset at
+  /// angle_deg is added to it); the play's offset is still applied to angle_deg's joint angle.
+  double advance(double angle_deg, double reference_v, double angle_per_volt,
+                 double play_angle_deg = std::numeric_limits<double>::quiet_NaN()) noexcept;
 
   /// The angles of the last advance(): the one committed, the joint's (delay undone) and the
   /// reference-equivalent one (play applied; advance()'s return).

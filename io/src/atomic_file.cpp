@@ -112,6 +112,7 @@ namespace {
 // Identity of a path: the inode when it exists, else its absolute normalised spelling.
 struct FileId {
   bool exists = false;
+  bool in_place = false;  // a device or a pipe: written where it is, never replaced (write_file_atomic)
   dev_t dev = 0;
   ino_t ino = 0;
   std::filesystem::path spelled;
@@ -125,6 +126,7 @@ FileId file_id(const std::filesystem::path& p) {
   struct stat st {};
   if (::stat(p.c_str(), &st) == 0) {
     id.exists = true;
+    id.in_place = !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode);
     id.dev = st.st_dev;
     id.ino = st.st_ino;
   } else {
@@ -152,8 +154,10 @@ void refuse_output_over_input(const std::vector<NamedPath>& inputs, const std::v
         throw UsageError(o.option + " " + o.path.string() + ": is the same file as the input " + in.option + " " +
                          in.path.string() + "; refusing to overwrite an input (choose another output file)");
     }
+    // Two outputs on one device or pipe (--csv /dev/null --json /dev/null) are each written in
+    // place, one after the other: neither replaces the other.
     for (std::size_t j = 0; j < i; ++j)
-      if (!skipped(outputs[j]) && out_ids[j] == out_ids[i])
+      if (!skipped(outputs[j]) && out_ids[j] == out_ids[i] && !out_ids[i].in_place)
         throw UsageError(o.option + " " + o.path.string() + ": is the same file as " + outputs[j].option + " " +
                          outputs[j].path.string() + "; each output needs its own file");
   }

@@ -204,9 +204,13 @@ double OnlineCompensator::angle_of(double v, double reference_v, double w, Direc
   if (!quiet_committed_) return own;
   // The velocity extrapolation's slope and the play's side come from the quiet chain, which ran
   // the same kinematics on the quiet angle this scan (see quiet_chain_); a negative delay (the
-  // angle |d| ago) is exact on this angle and stays its own.
+  // angle |d| ago) is exact on this angle and stays its own. On the paper chain there is no
+  // extrapolation in a hold: the joint is still, and the quiet angle's slope there is that of the
+  // step f5 of the voltage makes as the sensor leaves its branch at the stop (eqs. (11)/(12)),
+  // which the fit window carries into the hold (docs/calibration.md, "[gap]", step 6).
   const GapCorrector::Kinematics& q = quiet_chain_.terms.last_kinematics();
-  const double joint = terms_chain_.terms.extrapolates() ? angle + (q.joint - q.angle) : terms_chain_.terms.last_kinematics().joint;
+  double joint = terms_chain_.terms.last_kinematics().joint;
+  if (terms_chain_.terms.extrapolates()) joint = dynamic_ || d != Direction::kHold ? angle + (q.joint - q.angle) : angle;
   return joint + (q.reference - q.joint);
 }
 

@@ -116,7 +116,19 @@ void OnlineCompensator::commit_quiet(double angle, double u, double reference_v)
   quiet_committed_ = true;
   // f5's slope reconstructs the angle without the acceleration term for its own window.
   const double play_angle = play_inverse_ ? play_inverter_.step(u).angle_deg : std::nan("");
-  quiet_chain_.terms.advance(angle, reference_v, quiet_chain_.terms.has_acceleration() ? -cal_.model.c9 : 0.0, play_angle);
+  // On the paper chain a positive delay is not extrapolated while the direction is a hold: there
+  // the quiet angle's slope is mostly that of the step f5 of the voltage makes as the sensor
+  // leaves its branch at a stop (eqs. (11)/(12)), which the fit window would carry into the hold.
+  // The price: a start is named up to a velocity window late, and is not extrapolated until then
+  // (docs/calibration.md, "[gap]", step 6).
+  const bool extrapolate = dynamic_ || phase_ != Direction::kHold;
+  quiet_chain_.terms.advance(angle, reference_v, quiet_chain_.terms.has_acceleration() ? -cal_.model.c9 : 0.0, play_angle,
+                             extrapolate);
+}
+
+void OnlineCompensator::skip_quiet() noexcept {
+  // The play's inverse has no angle this scan: its bend-lag window must not span the gap.
+  if (play_inverse_) play_inverter_.step(std::nan(""));
 }
 
 double OnlineCompensator::terms_voltage(const TermsChain& c, double v, double reference_v, double w, Direction d,
@@ -203,14 +215,10 @@ double OnlineCompensator::angle_of(double v, double reference_v, double w, Direc
   const double own = terms_chain_.terms.advance(angle, reference_v, 0.0);  // delay and backlash undone
   if (!quiet_committed_) return own;
   // The velocity extrapolation's slope and the play's side come from the quiet chain, which ran
-  // the same kinematics on the quiet angle this scan (see quiet_chain_); a negative delay (the
-  // angle |d| ago) is exact on this angle and stays its own. On the paper chain there is no
-  // extrapolation in a hold: the joint is still, and the quiet angle's slope there is that of the
-  // step f5 of the voltage makes as the sensor leaves its branch at the stop (eqs. (11)/(12)),
-  // which the fit window carries into the hold (docs/calibration.md, "[gap]", step 6).
+  // the same kinematics on the quiet angle this scan (see quiet_chain_ and commit_quiet); a
+  // negative delay (the angle |d| ago) is exact on this angle and stays its own.
   const GapCorrector::Kinematics& q = quiet_chain_.terms.last_kinematics();
-  double joint = terms_chain_.terms.last_kinematics().joint;
-  if (terms_chain_.terms.extrapolates()) joint = dynamic_ || d != Direction::kHold ? angle + (q.joint - q.angle) : angle;
+  const double joint = terms_chain_.terms.extrapolates() ? angle + (q.joint - q.angle) : terms_chain_.terms.last_kinematics().joint;
   return joint + (q.reference - q.joint);
 }
 
@@ -391,6 +399,7 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
     if (terms_) {
       terms_chain_.terms.interrupt();
       quiet_chain_.terms.interrupt();
+      skip_quiet();
     }
     return out;
   }
@@ -411,6 +420,7 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
     out.angle_deg = angle_of(v - g, reference_v, nan, Direction::kHold, &clamped);
     out.velocity_rad_s = nan;
     clear_window();
+    skip_quiet();
     return out;
   }
   if (step_hold_ > 0) --step_hold_;
@@ -464,6 +474,7 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
     if (dynamic_ || !std::isfinite(y_quiet)) g = terms_voltage(v, reference_v, w, phase_) + quiet_chain_.terms.acceleration_voltage();
     else g = quiet_chain_.terms.voltage_at(y_quiet, reference_v, w, phase_);
     if (std::isfinite(y_quiet)) commit_quiet(y_quiet, v - g_quiet, reference_v);
+    else skip_quiet();
   }
   out.angle_deg = angle_of(v - g, reference_v, w, phase_, &clamped);
   if (clamped) out.quality |= quality::kAngleExtrapolated;

@@ -337,7 +337,8 @@ double GapCorrector::estimate_acceleration_voltage() const noexcept {
   return v;
 }
 
-double GapCorrector::advance(double angle, double reference_v, double angle_per_volt, double play_angle) noexcept {
+double GapCorrector::advance(double angle, double reference_v, double angle_per_volt, double play_angle,
+                             bool extrapolate) noexcept {
   if (!active_) {
     kin_ = {angle, angle, angle};
     return angle;
@@ -383,6 +384,7 @@ double GapCorrector::advance(double angle, double reference_v, double angle_per_
     joint = (1 - f) * a0 + f * a1;
   } else {
     joint = lead_.step(angle);
+    if (!extrapolate) joint = angle;
   }
   kin_ = {angle, joint, joint};
   if (half_play_ > 0) {

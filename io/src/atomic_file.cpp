@@ -112,7 +112,7 @@ namespace {
 // Identity of a path: the inode when it exists, else its absolute normalised spelling.
 struct FileId {
   bool exists = false;
-  bool in_place = false;  // a device or a pipe: written where it is, never replaced (write_file_atomic)
+  bool shared_ok = false;  // a character device (/dev/null, a tty): written in place, whatever was written before
   dev_t dev = 0;
   ino_t ino = 0;
   std::filesystem::path spelled;
@@ -126,7 +126,7 @@ FileId file_id(const std::filesystem::path& p) {
   struct stat st {};
   if (::stat(p.c_str(), &st) == 0) {
     id.exists = true;
-    id.in_place = !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode);
+    id.shared_ok = S_ISCHR(st.st_mode);
     id.dev = st.st_dev;
     id.ino = st.st_ino;
   } else {
@@ -154,10 +154,12 @@ void refuse_output_over_input(const std::vector<NamedPath>& inputs, const std::v
         throw UsageError(o.option + " " + o.path.string() + ": is the same file as the input " + in.option + " " +
                          in.path.string() + "; refusing to overwrite an input (choose another output file)");
     }
-    // Two outputs on one device or pipe (--csv /dev/null --json /dev/null) are each written in
-    // place, one after the other: neither replaces the other.
+    // Two outputs on one character device (--csv /dev/null --json /dev/null) are each written to
+    // it, and neither takes the other's place. A pipe is not exempt (its reader would get both
+    // outputs run together, or stop at the first one's end), nor is a block device (each output
+    // is written from its start).
     for (std::size_t j = 0; j < i; ++j)
-      if (!skipped(outputs[j]) && out_ids[j] == out_ids[i] && !out_ids[i].in_place)
+      if (!skipped(outputs[j]) && out_ids[j] == out_ids[i] && !out_ids[i].shared_ok)
         throw UsageError(o.option + " " + o.path.string() + ": is the same file as " + outputs[j].option + " " +
                          outputs[j].path.string() + "; each output needs its own file");
   }

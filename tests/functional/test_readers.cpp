@@ -348,8 +348,11 @@ TEST(OutputGuard, AnOutputThatIsAnInputIsAUsageError) {
   pof::io::refuse_output_over_input({{"recording", in}, {"--pot-cal", ""}}, {{"-o", d.path("cal.toml")}, {"--csv", "-"}, {"--json", "-"}});
   EXPECT_THROW(pof::io::refuse_output_over_input({{"recording", in}}, {{"--csv", d.path("x")}, {"--json", d.path("./x")}}),
                pof::UsageError);
-  // A device is written in place, so two outputs may share it.
+  // Two outputs may share a character device; not a pipe, whose reader would get them run together.
   EXPECT_NO_THROW(pof::io::refuse_output_over_input({{"recording", in}}, {{"--csv", "/dev/null"}, {"--json", "/dev/null"}}));
+  ASSERT_EQ(::mkfifo(d.path("fifo").c_str(), 0600), 0);
+  EXPECT_THROW(pof::io::refuse_output_over_input({{"recording", in}}, {{"--csv", d.path("fifo")}, {"--json", d.path("fifo")}}),
+               pof::UsageError);
   EXPECT_EQ(slurp(in), "data");
 }
 

@@ -150,6 +150,8 @@ class OnlineCompensator {
   // Commits this scan's quiet angle and the voltage f5 inverted (v - g) to the quiet chain; on the
   // dynamic model with a play, the play's side follows that voltage's dynamic inverse (play_inverter_).
   void commit_quiet(double angle, double u, double reference_v) noexcept;
+  // A scan the quiet chain does not commit: the windows that would span it restart.
+  void skip_quiet() noexcept;
   // dA/dv [deg/V] of the active model at angle [deg] with velocity w and direction d.
   double model_slope(double angle, double w, Direction d) const noexcept;
   // The angle of normalised voltage v (the terms' voltage already subtracted) through the active

@@ -142,10 +142,12 @@ class GapCorrector {
   /// without that one term. 0: angle_deg already is such an angle (no acceleration term applied).
   ///
   /// play_angle_deg, if finite, is the angle whose movement decides the play's side instead of
-  /// angle_deg (another model's estimate of the same fibre angle; the delay inverse's offset at
+  /// angle_deg (another model's estimate of the same joint angle; the delay inverse's offset at
   /// angle_deg is added to it); the play's offset is still applied to angle_deg's joint angle.
+  /// extrapolate false: a positive delay's velocity extrapolation is left out this scan (the joint
+  /// angle is angle_deg itself; the extrapolation's window still takes the angle).
   double advance(double angle_deg, double reference_v, double angle_per_volt,
-                 double play_angle_deg = std::numeric_limits<double>::quiet_NaN()) noexcept;
+                 double play_angle_deg = std::numeric_limits<double>::quiet_NaN(), bool extrapolate = true) noexcept;
 
   /// The angles of the last advance(): the one committed, the joint's (delay undone) and the
   /// reference-equivalent one (play applied; advance()'s return).

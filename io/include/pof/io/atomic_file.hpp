@@ -60,8 +60,8 @@ struct NamedPath {
 /// result where the data was. Files are the same when stat(2) gives the same st_dev and st_ino
 /// (so also through a symlink, a hard link or another spelling such as ./run.csv); an output that
 /// does not exist yet is compared by its absolute, normalised path. "" (option not given) and "-"
-/// (standard output) are skipped, and so are two outputs on the same device or pipe (/dev/null), which
-/// are written in place. Throws UsageError (exit 2) naming both options and the file.
+/// (standard output) are skipped, and two outputs may share a character device (/dev/null). Throws
+/// UsageError (exit 2) naming both options and the file.
 void refuse_output_over_input(const std::vector<NamedPath>& inputs, const std::vector<NamedPath>& outputs);
 
 }  // namespace pof::io

@@ -114,7 +114,6 @@ void OnlineCompensator::commit_quiet(double angle, double u, double reference_v)
   quiet_chain_.angle = angle;
   quiet_chain_.u = u;
   quiet_committed_ = true;
-  // f5's slope reconstructs the angle without the acceleration term for its own window.
   const double play_angle = play_inverse_ ? play_inverter_.step(u).angle_deg : std::nan("");
   // On the paper chain a positive delay is not extrapolated while the direction is a hold: there
   // the quiet angle's slope is mostly that of the step f5 of the voltage makes as the sensor
@@ -122,6 +121,7 @@ void OnlineCompensator::commit_quiet(double angle, double u, double reference_v)
   // The price: a start is named up to a velocity window late, and is not extrapolated until then
   // (docs/calibration.md, "[gap]", step 6).
   const bool extrapolate = dynamic_ || phase_ != Direction::kHold;
+  // f5's slope reconstructs the angle without the acceleration term for its own window.
   quiet_chain_.terms.advance(angle, reference_v, quiet_chain_.terms.has_acceleration() ? -cal_.model.c9 : 0.0, play_angle,
                              extrapolate);
 }

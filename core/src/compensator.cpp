@@ -396,6 +396,11 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
     out.quality |= quality::kSettling;
     out.angle_deg = out.angle_uncomp_deg = out.velocity_rad_s = nan;
     clear_window();
+    // The dynamic inverse keeps the fibre's memory across the scan (the operators and Prony terms
+    // are the fibre's state, not a window), but its bend-lag inverse differentiates a window that
+    // must not span the scans it never saw: after a 0.2 s loss mid-swing it read the 20 deg the
+    // knee moved meanwhile as speed, 54 deg off with an 80 ms lag (test_dynamic_model.cpp).
+    if (dynamic_) inverter_.step(nan);
     if (terms_) {
       terms_chain_.terms.interrupt();
       quiet_chain_.terms.interrupt();

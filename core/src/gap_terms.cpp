@@ -257,7 +257,7 @@ GapCorrector::GapCorrector(const Calibration& cal, double scan_rate_hz) {
     late_.assign(static_cast<std::size_t>(std::floor(late_scans_)) + 2, 0.0);
   }
   half_play_ = 0.5 * g.backlash_deg;
-  play_smooth_ = 1.0 - std::exp(-1.0 / (kPlayInputTauS * scan_rate_hz));
+  memory_smooth_ = 1.0 - std::exp(-1.0 / (kMemoryInputTauS * scan_rate_hz));
 }
 
 double GapCorrector::acceleration_lag_s() const noexcept {
@@ -294,7 +294,7 @@ double GapCorrector::voltage_at(double angle, double reference_v, double velocit
   v += u2 * (static_[0] + u * (static_[1] + u * (static_[2] + u * static_[3])));
   if (started_) {
     for (const Creep& c : creep_) v += c.coefficient * (c.x + c.alpha * (angle - c.x) - angle);
-    const double step = angle - last_angle_;
+    const double step = angle - stop_input_;
     for (const Stop& s : stops_) v += s.coefficient * stop_operator(s.s, step, s.r);
   }  // before the first angle: creep relaxed (x_0 = A_0) and stop operators at 0: no voltage
   if (!rate_.empty()) {
@@ -345,9 +345,13 @@ double GapCorrector::advance(double angle, double reference_v, double angle_per_
   }
   const double open = accel_.empty() || angle_per_volt == 0 ? angle : angle + angle_per_volt * accel_v_;
   for (Creep& c : creep_) c.x = started_ ? c.x + c.alpha * (angle - c.x) : angle;
-  const double step = started_ ? angle - last_angle_ : 0.0;
+  // The stop operators move on the low-passed angle (kMemoryInputTauS): committed on the angle
+  // itself, an operator left at its threshold by a movement ratcheted with the noise on its sliding
+  // side and walked across its width through a hold (docs/calibration.md, "[gap]").
+  const double input = started_ ? stop_input_ + memory_smooth_ * (angle - stop_input_) : angle;
+  const double step = started_ ? input - stop_input_ : 0.0;
   for (Stop& s : stops_) s.s = stop_operator(s.s, step, s.r);
-  last_angle_ = angle;
+  stop_input_ = input;
   started_ = true;
   const int hsize = static_cast<int>(hist_.size());
   hist_head_ = (hist_head_ + 1) % hsize;
@@ -389,11 +393,11 @@ double GapCorrector::advance(double angle, double reference_v, double angle_per_
   kin_ = {angle, joint, joint};
   if (half_play_ > 0) {
     // The side is decided on the low-passed angle, the offset applied to the angle itself
-    // (kPlayInputTauS). Fed the angle directly, the play rode the noise's peaks: over the blind
+    // (kMemoryInputTauS). Fed the angle directly, the play rode the noise's peaks: over the blind
     // benchmark's ten recordings with a 0.5-1.5 deg play, the median compensated reduction against
     // the reference went 6.6 -> 32.9 % with the low-pass (docs/calibration.md, "[gap]").
     const double belt = std::isfinite(play_angle) ? play_angle + (joint - angle) : joint;
-    play_input_ = play_started_ ? play_input_ + play_smooth_ * (belt - play_input_) : belt;
+    play_input_ = play_started_ ? play_input_ + memory_smooth_ * (belt - play_input_) : belt;
     play_ = play_started_ ? play_operator(play_, play_input_, half_play_) : play_input_;
     play_started_ = true;
     kin_.reference = joint + (play_ - play_input_);

@@ -279,18 +279,57 @@ TEST(GapBasis, CreepAndViscoelasticRelaxationAreFirstOrderMemories) {
   expect_equal_series(predicted(g, h), want, 1e-12);
 }
 
+// The stop operators' states are committed on the angle through the low-pass kMemoryInputTauS (x);
+// the voltage at A_k is each operator moved on from its committed state by A_k - x_k-1.
 TEST(GapBasis, MemoryHysteresisRunsStopOperators) {
   const History h = history(80);
   GapTerm m = term("memory_hysteresis", 0, {0.0004, 0.0003, 0.0002});
   m.thresholds_deg = {0.5, 2, 8};
   GapModel g;
   g.terms.push_back(m);
+  const double lp = 1.0 - std::exp(-kDt / pof::core::kMemoryInputTauS);
   std::vector<double> want(h.size(), 0.0);
   for (std::size_t i = 0; i < 3; ++i) {
-    const auto s = stop_basis(h.angle, m.thresholds_deg[i]);
-    for (std::size_t k = 0; k < h.size(); ++k) want[k] += m.coefficients_v[i] * s[k];
+    const double r = m.thresholds_deg[i];
+    double s = 0, x = h.angle[0];
+    for (std::size_t k = 1; k < h.size(); ++k) {
+      want[k] += m.coefficients_v[i] * std::clamp(s + h.angle[k] - x, -r, r);
+      const double x_new = x + lp * (h.angle[k] - x);
+      s = std::clamp(s + x_new - x, -r, r);
+      x = x_new;
+    }
   }
   expect_equal_series(predicted(g, h), want, 1e-12);
+}
+
+// A hold read with noise: the stop operators must stay where the movement left them (the fibre's
+// memory sees the joint, not the noise). Committed on the noisy angle itself, each operator
+// ratcheted to the noise's peaks on its sliding side and ended the hold off by a peak.
+TEST(GapBasis, MemoryHysteresisDoesNotRideAHoldsNoise) {
+  GapTerm m = term("memory_hysteresis", 0, {0.001});
+  m.thresholds_deg = {1.0};
+  GapModel g;
+  g.terms.push_back(m);
+  Calibration cal = base_calibration();
+  cal.gap = g;
+  GapCorrector c(cal, kFs);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.3);
+  for (int i = 0; i < 200; ++i) c.advance(0.1 * i, kLevel, 0.0);  // flexion to 20 deg: the operator at +1
+  double mean = 0;
+  int n = 0;
+  for (int i = 0; i < 2000; ++i) {  // a 10 s hold at 20 deg, 0.3 deg noise
+    const double a = 20.0 + noise(rng);
+    if (i >= 1000) {
+      mean += c.voltage_at(20.0, kLevel, 0.0, Direction::kHold);
+      ++n;
+    }
+    c.advance(a, kLevel, 0.0);
+  }
+  mean /= n;
+  // Without noise the operator reads +1 deg (0.001 V) throughout the hold; through the low-pass it
+  // ends at +0.74. Committed on the noisy angle it walked across its whole width, to -0.04.
+  EXPECT_NEAR(mean, 0.001, 0.0004);
 }
 
 TEST(GapBasis, RateDependentHysteresisFollowsSpeedDirectionAndThePaperOffset) {
@@ -436,12 +475,12 @@ TEST(GapKinematics, NegativeDelayDelaysTheAngleExactly) {
 }
 
 // The play of half the width, its side decided on the angle through the first-order low-pass
-// kPlayInputTauS and its offset added to the angle itself (docs/calibration.md, "[gap]").
+// kMemoryInputTauS and its offset added to the angle itself (docs/calibration.md, "[gap]").
 TEST(GapKinematics, BacklashIsThePlayOperatorOfHalfTheWidth) {
   GapModel g;
   g.backlash_deg = 1.5;
   const History h = history(80);
-  const double k = 1.0 - std::exp(-kDt / pof::core::kPlayInputTauS);
+  const double k = 1.0 - std::exp(-kDt / pof::core::kMemoryInputTauS);
   std::vector<double> want(h.size());
   double y = h.angle[0], x = h.angle[0];
   for (std::size_t i = 0; i < h.size(); ++i) {
@@ -834,7 +873,7 @@ TEST(GapRoundTrip, KinematicsAndTheNotch) {
   GapModel play;
   play.backlash_deg = 1.5;
   const RoundTrip c = round_trip("backlash 1.5 deg", cal, play);
-  EXPECT_LT(c.with, c.without / 10);  // 0.049 deg: the low-pass (kPlayInputTauS) turns the play late
+  EXPECT_LT(c.with, c.without / 10);  // 0.049 deg: the low-pass (kMemoryInputTauS) turns the play late
   const RoundTrip d = round_trip("periodic_interference 37.3 Hz", cal, one(term("periodic_interference", 37.3, {0.005, 0.003, 0.002, 0.001})));
   EXPECT_LT(d.with, d.without / 5);
 }

@@ -103,11 +103,13 @@ int acceleration_window_scans(double coefficient_v, double theta_s, double c9, d
 inline constexpr double kNotchQ = 5.0;
 /// The window of the quadratic fit that extrapolates a positive delay (GapCorrector) [s].
 inline constexpr double kDelayFitWindowS = 0.12;
-/// backlash: the time constant of the first-order low-pass on the play operator's input [s]. A
-/// play fed the estimated angle is pushed to its noise's peaks in every hold (the belt sees the
-/// joint, not the noise), so its side is decided on the angle low-passed at about the knee's own
-/// bandwidth (6 Hz) and applied as an offset to the angle itself, which keeps its latency.
-inline constexpr double kPlayInputTauS = 0.025;
+/// backlash and memory_hysteresis: the time constant of the first-order low-pass on the angle
+/// that moves the memories, the play's side and the stop operators' states [s]. A play or stop
+/// operator fed the estimated angle is pushed to its noise's peaks in every hold (the belt and the
+/// fibre see the joint, not the noise), so they move on the angle low-passed at about the knee's
+/// own bandwidth (6 Hz); the play's offset is applied to the angle itself and the operators are
+/// evaluated at it, which keeps the latency.
+inline constexpr double kMemoryInputTauS = 0.025;
 /// source_power_coupling: the reference level's averaging window [s].
 inline constexpr double kSourceMeanWindowS = 1.0;
 
@@ -226,7 +228,7 @@ class GapCorrector {
   std::int64_t ref_since_refresh_ = 0;
 
   bool started_ = false;
-  double last_angle_ = 0;
+  double stop_input_ = 0;  // the angle low-passed for the stop operators' states
 
   // Kinematics.
   LagInverse lead_;           // delay_s > 0: A + d A'
@@ -235,8 +237,8 @@ class GapCorrector {
   double late_scans_ = 0;     // |d| fs
   double half_play_ = 0;
   double play_ = 0;
-  double play_input_ = 0;   // the angle low-passed for the play (kPlayInputTauS)
-  double play_smooth_ = 0;  // that low-pass's gain per scan
+  double play_input_ = 0;   // the angle low-passed for the play (kMemoryInputTauS)
+  double memory_smooth_ = 0;  // that low-pass's gain per scan
   bool play_started_ = false;
   Kinematics kin_;
 };

@@ -416,6 +416,7 @@ void GapCorrector::interrupt() noexcept {
 void GapCorrector::reset() noexcept {
   interrupt();
   started_ = false;
+  for (Stop& s : stops_) s.s = 0;  // unloaded; creep relaxes and the play centres at the next angle
   ref_count_ = 0;
   ref_sum_ = 0;
   ref_since_refresh_ = 0;

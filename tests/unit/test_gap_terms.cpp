@@ -329,7 +329,24 @@ TEST(GapBasis, MemoryHysteresisDoesNotRideAHoldsNoise) {
   mean /= n;
   // Without noise the operator reads +1 deg (0.001 V) throughout the hold; through the low-pass it
   // ends at +0.74. Committed on the noisy angle it walked across its whole width, to -0.04.
-  EXPECT_NEAR(mean, 0.001, 0.0004);
+  EXPECT_NEAR(mean, 0.001, 0.0005);
+}
+
+// Lost scans: the stop operators restart unloaded (the memory of the lost scans is unknown), as the
+// dynamic inverter's own do. Before, reset() left them where the movement had loaded them.
+TEST(GapBasis, ResetUnloadsTheStopOperators) {
+  GapTerm m = term("memory_hysteresis", 0, {0.001});
+  m.thresholds_deg = {1.0};
+  GapModel g;
+  g.terms.push_back(m);
+  Calibration cal = base_calibration();
+  cal.gap = g;
+  GapCorrector c(cal, kFs);
+  for (int i = 0; i < 200; ++i) c.advance(0.1 * i, kLevel, 0.0);  // flexion to 20 deg: the operator at +1
+  EXPECT_NEAR(c.voltage_at(19.9, kLevel, 0.0, Direction::kHold), 0.001, 1e-9);
+  c.reset();
+  c.advance(19.9, kLevel, 0.0);
+  EXPECT_EQ(c.voltage_at(19.9, kLevel, 0.0, Direction::kHold), 0.0);
 }
 
 TEST(GapBasis, RateDependentHysteresisFollowsSpeedDirectionAndThePaperOffset) {
@@ -803,7 +820,7 @@ TEST(GapRoundTrip, ATermSteeperThanTheLineDoesNotRing) {
 // A memory hysteresis that flattens the line: an operator of 1 deg whose weight is 0.66 of the
 // sensitivity with the opposite sign (as fitted on a blind recording), so that after every
 // reversal, and in every hold, the voltage moves with the angle at a third of its usual slope.
-// The terms are then piecewise linear in the angle with a kink at the previous scan's angle:
+// The terms are then piecewise linear in the angle with a kink at the previous (low-passed) angle:
 // elastic on one side, sliding on the other. One Newton step with the slope of one side, taken
 // for a move to the other, overshot, and with 0.1 deg of noise the quiet angle swung by degrees
 // from scan to scan in every hold: 1.06 deg RMSE with the term against 1.11 without it. The

@@ -183,7 +183,7 @@ class DynamicInverter {
     int iterations = 0;
   };
   /// The angle of this scan's normalised voltage v [V]; commits it to the memory. A non-finite v
-  /// returns NaN and leaves the memory untouched.
+  /// returns NaN, leaves the memory untouched and restarts the bend-lag inverse's window.
   Result step(double v) noexcept;
   /// Forget the history (after lost scans): the next scan starts from a relaxed, centred state.
   void reset() noexcept {

@@ -237,8 +237,8 @@ class GapCorrector {
   double late_scans_ = 0;     // |d| fs
   double half_play_ = 0;
   double play_ = 0;
-  double play_input_ = 0;   // the angle low-passed for the play (kMemoryInputTauS)
-  double memory_smooth_ = 0;  // that low-pass's gain per scan
+  double play_input_ = 0;     // the angle low-passed for the play (kMemoryInputTauS)
+  double memory_smooth_ = 0;  // the gain per scan of that low-pass and of stop_input_'s
   bool play_started_ = false;
   Kinematics kin_;
 };

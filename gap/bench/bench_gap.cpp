@@ -1,6 +1,7 @@
 // bench_gap: the blind benchmark of `pof gap` (docs/gap.md) and the speed of `pof gap`.
 //
 //   bench_gap [--blind N] [--seed S] [--out DIR] [--keep] [--dynamic-share P] [--benchmark_* flags]
+//   bench_gap --summarise DIR [DIR ...]
 //
 // 1. Blind: N recordings from the physics simulator (pof_sim), every 5th with no hidden effect,
 //    every 5th+4 with two, the rest with one, effect and magnitude drawn at random per seed; each
@@ -8,6 +9,8 @@
 //    (testing/src/gap_blind.cpp). Each is written to CSV and analysed from the file alone; then the draw is
 //    compared: confusion matrix, effects named correctly, false discoveries on the recordings with
 //    nothing hidden, median held-out gap shrink. Summary on stdout, per-trial JSON in DIR.
+//    --summarise prints the same summary for the union of earlier runs' DIR/blind.json (the halves
+//    of a benchmark run in parallel), from the records alone.
 // 2. Speed (Google Benchmark): `pof gap`'s read + analysis of a 40-minute 200 Hz recording of the
 //    "realistic" scenario (many effects at once), against the baseline-only analysis
 //    (--max-steps 0) of the same file in the same run.
@@ -17,6 +20,7 @@
 #include <ctime>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <map>
 #include <set>
@@ -114,35 +118,45 @@ struct Tally {
   }
 };
 
-void run_blind(int n, std::uint64_t seed0, double dynamic_share) {
-  using pof::gap::blind::Trial;
+// A record's number, or `otherwise` where it is absent or null (a NaN is written as null).
+double number_or(const nlohmann::json& j, const char* key, double otherwise) {
+  return j.contains(key) && j[key].is_number() ? j[key].get<double>() : otherwise;
+}
+
+// A trial as far as the summary needs it, from its blind.json record.
+pof::gap::blind::Trial trial_of(const nlohmann::json& j) {
+  pof::gap::blind::Trial t;
+  t.seed = j.at("seed").get<std::uint64_t>();
+  if (j.contains("hidden"))
+    for (const auto& h : j["hidden"]) t.hidden.push_back({h.at("effect").get<std::string>(), h.value("truth", nlohmann::json())});
+  t.found = j.at("found").get<std::vector<std::string>>();
+  if (j.contains("covered")) t.covered = j["covered"].get<std::vector<std::string>>();
+  t.baseline_gap_deg = number_or(j, "baseline_gap_deg", 0.0);
+  t.final_gap_deg = number_or(j, "final_gap_deg", 0.0);
+  t.analysis_s = number_or(j, "analysis_s", 0.0);
+  t.truth_before_deg = number_or(j.at("compensated_vs_truth"), "rmse_before_deg", 0.0);
+  t.truth_after_deg = number_or(j.at("compensated_vs_truth"), "rmse_after_deg", 0.0);
+  t.gap["compensated"] = j.at("compensated");
+  return t;
+}
+
+// The summary of a set of blind.json records: confusion matrix, then the targets over all
+// recordings and per sensor kind.
+void summarise(const nlohmann::json& records) {
   std::map<std::string, std::map<std::string, int>> confusion;  // hidden -> named -> count
   Tally all_trials;
   std::map<std::string, Tally> by_sensor;       // "paper" / "dynamic" sensor
   std::map<std::string, int> baseline_choice;   // "<sensor> sensor -> <baseline> baseline"
   double worst_time = 0;
-  nlohmann::json all = nlohmann::json::array();
-  std::cerr << "blind benchmark: " << n << " recordings\n";
-  for (int i = 0; i < n; ++i) {
-    // The number of hidden effects follows the seed: seed % 5 == 1 none, == 0 two, else one.
-    const std::uint64_t seed = seed0 + static_cast<std::uint64_t>(i);
-    const int count = seed % 5 == 1 ? 0 : (seed % 5 == 0 ? 2 : 1);
-    const Trial t = pof::gap::blind::run_trial(seed, count, false, g_dir, {}, 0.3, dynamic_share);
-    if (!g_keep) fs::remove(t.csv);
+  for (const auto& j : records) {
+    const pof::gap::blind::Trial t = trial_of(j);
+    const std::string sensor = j.at("sensor").get<std::string>();
+    const nlohmann::json choice = j.value("baseline_choice", nlohmann::json());
+    const std::string chosen = choice.is_object() ? choice.value("chosen", "?") : "?";
+    const double effect_free_deg = number_or(j, "compensated_effect_free_rmse_deg", std::nan(""));
     worst_time = std::max(worst_time, t.analysis_s);
-    const std::string sensor = t.dynamic.is_null() ? "paper" : "dynamic";
-    const std::string chosen = t.gap["baseline"].contains("choice") ? t.gap["baseline"]["choice"].value("chosen", "?") : "?";
-    std::string hid, fnd;
-    for (const auto& h : t.hidden) hid += (hid.empty() ? "" : "+") + h.effect;
-    for (const auto& f : t.found) fnd += (fnd.empty() ? "" : "+") + f;
-    std::fprintf(stderr, "  seed %3llu %-7s sensor, %-7s baseline, hidden %-45s found %-45s gap %.3f -> %.3f deg (%.1f s)\n",
-                 static_cast<unsigned long long>(seed), sensor.c_str(), chosen.c_str(), hid.empty() ? "none" : hid.c_str(),
-                 fnd.empty() ? "none" : fnd.c_str(), t.baseline_gap_deg, t.final_gap_deg, t.analysis_s);
-    // The ceiling of its compensated reduction: the same sensor drawn without the hidden effects.
-    const double effect_free_deg = t.hidden.empty() ? std::nan("")
-                                                    : pof::gap::blind::effect_free_rmse(seed, false, g_dir, 0.3, dynamic_share);
-    all_trials.add(t, effect_free_deg);
-    by_sensor[sensor].add(t, effect_free_deg);
+    all_trials.add(t, t.hidden.empty() ? std::nan("") : effect_free_deg);
+    by_sensor[sensor].add(t, t.hidden.empty() ? std::nan("") : effect_free_deg);
     baseline_choice[sensor + " sensor -> " + chosen + " baseline"]++;
     // A dynamic-kind sensor's own physics named (Trial::covered) is neither a hit nor a wrong name.
     auto own = [&](const std::string& f) { return std::find(t.covered.begin(), t.covered.end(), f) != t.covered.end(); };
@@ -162,26 +176,7 @@ void run_blind(int n, std::uint64_t seed0, double dynamic_share) {
         confusion[h.effect][col]++;
       }
     }
-    nlohmann::json j{{"seed", seed}, {"sensor", sensor}, {"found", t.found}, {"baseline_gap_deg", t.baseline_gap_deg},
-                     {"final_gap_deg", t.final_gap_deg}, {"analysis_s", t.analysis_s},
-                     {"compensated", t.gap["compensated"]}, {"baseline", t.gap["baseline"]["refit_rms_mv"]},
-                     {"compensated_vs_truth", {{"rmse_before_deg", t.truth_before_deg}, {"rmse_after_deg", t.truth_after_deg}}},
-                     {"compensated_effect_free_rmse_deg", effect_free_deg},
-                     {"baseline_choice", t.gap["baseline"].value("choice", nlohmann::json())}};
-    if (t.gap["baseline"].contains("dynamic")) {
-      j["baseline_dynamic"] = t.gap["baseline"]["dynamic"];
-      j["baseline_dynamic"].erase("model");
-    }
-    if (!t.dynamic.is_null()) {
-      j["dynamic_sensor"] = t.dynamic;
-      j["covered"] = t.covered;
-    }
-    for (const auto& h : t.hidden) j["hidden"].push_back({{"effect", h.effect}, {"truth", h.truth}});
-    j["in_baseline"] = t.gap["in_baseline"];
-    j["steps"] = t.gap["steps"];
-    all.push_back(j);
   }
-  pof::io::write_file_atomic(g_dir / "blind.json", all.dump(1) + "\n");
   // Markdown, ready for BENCHMARKS.md.
   std::vector<std::string> cols{"none"};
   for (auto id : pof::core::kEffectIds) cols.emplace_back(id);
@@ -217,6 +212,50 @@ void run_blind(int n, std::uint64_t seed0, double dynamic_share) {
   for (const auto& [k, v] : baseline_choice) std::printf(" %s %d;", k.c_str(), v);
   std::printf("\nslowest analysis: %.2f s\n\n", worst_time);
   std::fflush(stdout);
+}
+
+void run_blind(int n, std::uint64_t seed0, double dynamic_share) {
+  using pof::gap::blind::Trial;
+  nlohmann::json all = nlohmann::json::array();
+  std::cerr << "blind benchmark: " << n << " recordings\n";
+  for (int i = 0; i < n; ++i) {
+    // The number of hidden effects follows the seed: seed % 5 == 1 none, == 0 two, else one.
+    const std::uint64_t seed = seed0 + static_cast<std::uint64_t>(i);
+    const int count = seed % 5 == 1 ? 0 : (seed % 5 == 0 ? 2 : 1);
+    const Trial t = pof::gap::blind::run_trial(seed, count, false, g_dir, {}, 0.3, dynamic_share);
+    if (!g_keep) fs::remove(t.csv);
+    const std::string sensor = t.dynamic.is_null() ? "paper" : "dynamic";
+    const std::string chosen = t.gap["baseline"].contains("choice") ? t.gap["baseline"]["choice"].value("chosen", "?") : "?";
+    std::string hid, fnd;
+    for (const auto& h : t.hidden) hid += (hid.empty() ? "" : "+") + h.effect;
+    for (const auto& f : t.found) fnd += (fnd.empty() ? "" : "+") + f;
+    std::fprintf(stderr, "  seed %3llu %-7s sensor, %-7s baseline, hidden %-45s found %-45s gap %.3f -> %.3f deg (%.1f s)\n",
+                 static_cast<unsigned long long>(seed), sensor.c_str(), chosen.c_str(), hid.empty() ? "none" : hid.c_str(),
+                 fnd.empty() ? "none" : fnd.c_str(), t.baseline_gap_deg, t.final_gap_deg, t.analysis_s);
+    // The ceiling of its compensated reduction: the same sensor drawn without the hidden effects.
+    const double effect_free_deg = t.hidden.empty() ? std::nan("")
+                                                    : pof::gap::blind::effect_free_rmse(seed, false, g_dir, 0.3, dynamic_share);
+    nlohmann::json j{{"seed", seed}, {"sensor", sensor}, {"found", t.found}, {"baseline_gap_deg", t.baseline_gap_deg},
+                     {"final_gap_deg", t.final_gap_deg}, {"analysis_s", t.analysis_s},
+                     {"compensated", t.gap["compensated"]}, {"baseline", t.gap["baseline"]["refit_rms_mv"]},
+                     {"compensated_vs_truth", {{"rmse_before_deg", t.truth_before_deg}, {"rmse_after_deg", t.truth_after_deg}}},
+                     {"compensated_effect_free_rmse_deg", effect_free_deg},
+                     {"baseline_choice", t.gap["baseline"].value("choice", nlohmann::json())}};
+    if (t.gap["baseline"].contains("dynamic")) {
+      j["baseline_dynamic"] = t.gap["baseline"]["dynamic"];
+      j["baseline_dynamic"].erase("model");
+    }
+    if (!t.dynamic.is_null()) {
+      j["dynamic_sensor"] = t.dynamic;
+      j["covered"] = t.covered;
+    }
+    for (const auto& h : t.hidden) j["hidden"].push_back({{"effect", h.effect}, {"truth", h.truth}});
+    j["in_baseline"] = t.gap["in_baseline"];
+    j["steps"] = t.gap["steps"];
+    all.push_back(j);
+  }
+  pof::io::write_file_atomic(g_dir / "blind.json", all.dump(1) + "\n");
+  summarise(all);
 }
 
 void make_long_recording() {
@@ -256,24 +295,61 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 1;
   double dynamic_share = 0.5;
   std::vector<char*> rest{argv[0]};
+  std::vector<fs::path> summarise_dirs;
+  bool summarise_only = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--blind" && i + 1 < argc) n = std::atoi(argv[++i]);
+    if (a == "--summarise") {
+      summarise_only = true;
+      while (i + 1 < argc && std::string(argv[i + 1]).rfind("--", 0) != 0) summarise_dirs.emplace_back(argv[++i]);
+    } else if (a == "--blind" && i + 1 < argc) n = std::atoi(argv[++i]);
     else if (a == "--seed" && i + 1 < argc) seed = std::strtoull(argv[++i], nullptr, 10);
     else if (a == "--out" && i + 1 < argc) g_dir = argv[++i];
     else if (a == "--keep") g_keep = true;
     else if (a == "--dynamic-share" && i + 1 < argc) dynamic_share = std::atof(argv[++i]);
     else if (a == "--help" || a == "-h") {
       std::cout << "usage: bench_gap [--blind N] [--seed S] [--out DIR] [--keep] [--dynamic-share P] [benchmark flags]\n"
+                   "       bench_gap --summarise DIR [DIR ...]\n"
                    "  --blind N          blind recordings to draw and analyse (default 50; 0: the timing benchmarks only)\n"
                    "  --seed S           the first recording's seed (default 1; recording i has seed S + i)\n"
                    "  --out DIR          where blind.json, the CSVs and the 40-min recording go\n"
                    "  --keep             keep each blind recording's CSV and the 40-min recording\n"
                    "  --dynamic-share P  share of sensors of the dynamic model's kind (default 0.5)\n"
+                   "  --summarise DIR... the summary of earlier runs' DIR/blind.json together (halves run in parallel)\n"
                    "  --benchmark_filter=NONE skips the timing benchmarks; the benchmark library's flags follow:\n\n";
       rest.push_back(argv[i]);
       n = 0;
     } else rest.push_back(argv[i]);
+  }
+  if (summarise_only) {
+    if (summarise_dirs.empty()) {
+      std::cerr << "bench_gap: --summarise needs at least one DIR holding a blind.json\n";
+      return 2;
+    }
+    nlohmann::json all = nlohmann::json::array();
+    for (const fs::path& d : summarise_dirs) {
+      const fs::path f = d / "blind.json";
+      std::ifstream in(f);
+      if (!in) {
+        std::cerr << "bench_gap: " << f.string() << ": cannot open (a DIR of an earlier --blind run was expected)\n";
+        return 66;
+      }
+      const nlohmann::json part = nlohmann::json::parse(in, nullptr, false);
+      if (!part.is_array()) {
+        std::cerr << "bench_gap: " << f.string() << ": not a JSON array of blind trials\n";
+        return 65;
+      }
+      try {
+        for (const auto& j : part) (void)trial_of(j);  // every record readable before anything is printed
+      } catch (const nlohmann::json::exception& e) {
+        std::cerr << "bench_gap: " << f.string() << ": a trial record lacks what the summary needs: " << e.what() << "\n";
+        return 65;
+      }
+      all.insert(all.end(), part.begin(), part.end());
+    }
+    std::cerr << "blind benchmark summary: " << all.size() << " recordings from " << summarise_dirs.size() << " run(s)\n";
+    summarise(all);
+    return 0;
   }
   pof::gap::keep_freed_memory_for_reuse();  // as `pof gap` does
   fs::create_directories(g_dir);

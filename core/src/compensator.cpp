@@ -142,9 +142,9 @@ double OnlineCompensator::terms_voltage(const TermsChain& c, double v, double re
   // Evaluated at A0 alone, g closes a loop whose error e_k = -s g' e_k-1 oscillates and grows once
   // |s g'| > 1: a strong memory hysteresis near a reversal read 9 deg RMSE on a blind recording.
   // One Newton step is not enough either: stop and play operators make g piecewise linear with a
-  // kink at A0 (at the stop operators' committed, low-passed angle: elastic on one side, sliding on
-  // the other), and a slope from the wrong side
-  // overshoots; a term that flattened the line to a third swung the angle by +-5 deg from scan to
+  // kink near A0, at the operators' committed (low-passed) angle: elastic on one side, sliding on
+  // the other, and a slope from the wrong side overshoots; a term that flattened the line to a
+  // third swung the angle by +-5 deg from scan to
   // scan through a hold. So the search steps by Newton with the slope of the side it moves to
   // until F changes sign, then closes the bracket by regula falsi (Illinois). The combined
   // voltage must stay monotone in A (F' > 0, as the dynamic model's inverse requires of its own

@@ -144,12 +144,12 @@ double OnlineCompensator::terms_voltage(const TermsChain& c, double v, double re
   // One Newton step is not enough either: stop and play operators make g piecewise linear with a
   // kink near A0, at the operators' committed (low-passed) angle: elastic on one side, sliding on
   // the other, and a slope from the wrong side overshoots; a term that flattened the line to a
-  // third swung the angle by +-5 deg from scan to
-  // scan through a hold. So the search steps by Newton with the slope of the side it moves to
-  // until F changes sign, then closes the bracket by regula falsi (Illinois). The combined
-  // voltage must stay monotone in A (F' > 0, as the dynamic model's inverse requires of its own
-  // terms); where the terms would nearly cancel the model's slope the step's divisor is held at
-  // kMinTermsDivisor, and without a sign change the search keeps its last angle.
+  // third swung the angle by +-5 deg from scan to scan through a hold. So the search steps by
+  // Newton with the slope of the side it moves to until F changes sign, then closes the bracket
+  // by regula falsi (Illinois). The combined voltage must stay monotone in A (F' > 0, as the
+  // dynamic model's inverse requires of its own terms); where the terms would nearly cancel the
+  // model's slope the step's divisor is held at kMinTermsDivisor, and without a sign change the
+  // search keeps its last angle.
   double gval = g0;
   auto F = [&](double a) {
     gval = c.terms.voltage_at(a, reference_v, w, d);

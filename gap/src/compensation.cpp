@@ -121,13 +121,27 @@ AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& afte
     a.beta_full = VectorXd::Zero(nb);
     return a;
   }
+  // A memory term's stop operators are Maxwell-slip elements: each a spring of one stiffness sign
+  // (Brokate & Sprekels 1996, ch. 2: a Prandtl-Ishlinskii operator with a non-negative density
+  // draws one loop, counter-clockwise or, for a sensor whose voltage falls with the angle,
+  // clockwise). Weights of both signs draw loops that cross themselves, which no fibre does; on
+  // the reference's angle least squares makes them up all the same, where the small operators
+  // shape what the paper's branch step leaves at each reversal, and online the compensator's
+  // angle has that step elsewhere (blind recording 290, docs/gap.md, "Limitations"). So the
+  // weights applied are held to one sign: the sign of the loop's height.
+  std::vector<cv::OneSigned> one_signed;
+  for (Index c = 0; const Term& t : st.terms) {
+    const EffectDef& def = effect_def(t.effect);
+    if (t.effect == core::Effect::kMemoryHysteresis) one_signed.push_back({c, def.basis_values(t.theta)});
+    c += def.linear;
+  }
   auto fit_without = [&](const cv::Grams& gr, std::size_t skip) {
     Eigen::MatrixXd G = Eigen::MatrixXd::Zero(nt, nt);
     VectorXd g = VectorXd::Zero(nt);
     for (std::size_t b = 0; b < gr.G.size(); ++b)
       if (b != skip) { G += gr.G[b]; g += gr.g[b]; }
     VectorXd beta = VectorXd::Zero(nb + nt);
-    beta.tail(nt) = cv::solve(G, g);
+    beta.tail(nt) = cv::solve_one_signed(G, g, one_signed);
     return beta;
   };
   // The search's acceleration column is centred (+-h on the reference angle); the compensator's

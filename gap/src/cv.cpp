@@ -7,6 +7,8 @@
 
 #include <Eigen/Dense>
 
+#include "pof/core/fit.hpp"
+
 namespace pof::gap::cv {
 
 using Eigen::Index;
@@ -121,6 +123,26 @@ VectorXd solve(const MatrixXd& G, const VectorXd& g) {
   return d.asDiagonal() * bs;
 }
 
+VectorXd solve_one_signed(const MatrixXd& G, const VectorXd& g, const std::vector<OneSigned>& groups) {
+  const Index k = G.rows();
+  const VectorXd free_fit = solve(G, g);
+  // Each constrained coefficient's sign: its group's height, unconstrained. 0: free.
+  VectorXd sign = VectorXd::Zero(k);
+  for (const OneSigned& grp : groups) {
+    const auto m = static_cast<Index>(grp.weight.size());
+    const double height = Eigen::Map<const VectorXd>(grp.weight.data(), m).dot(free_fit.segment(grp.first, m));
+    sign.segment(grp.first, m).setConstant(height >= 0 ? 1.0 : -1.0);
+  }
+  if (((sign.array() * free_fit.array()) >= 0).all()) return free_fit;
+  // Non-negative least squares on s_i b_i (core::nnls_normal), the free coefficients as they are:
+  // with S = diag(s, 1 for the free ones), G -> S G S and g -> S g.
+  const VectorXd s = (sign.array() == 0).select(VectorXd::Ones(k), sign);
+  std::vector<bool> nonneg(static_cast<std::size_t>(k));
+  for (Index i = 0; i < k; ++i) nonneg[static_cast<std::size_t>(i)] = sign(i) != 0;
+  VectorXd b;
+  core::nnls_normal(s.asDiagonal() * G * s.asDiagonal(), s.asDiagonal() * g, nonneg, b);  // not converging: a feasible point
+  return s.asDiagonal() * b;
+}
 
 namespace {
 // Least squares with the first `shared` coefficients fixed at b_shared: G_uu u = g_u - G_us b_s.

@@ -161,6 +161,19 @@ TEST(GapCandidates, MemoryHysteresis) {
   expect_named(r, "memory_hysteresis");
   // The hysteron's 0.02 V half-height is 0.91 deg at the paper's 45.7 deg/V.
   EXPECT_NEAR(std::abs(param(r, "half_height_deg")), 0.91, 0.3);
+  // What model.toml holds is a loop that does not cross itself: operator weights of one sign.
+  int written = 0;
+  for (const auto& t : r.model.at("terms")) {
+    if (t.at("effect") != "memory_hysteresis") continue;
+    ++written;
+    bool positive = false, negative = false;
+    for (const auto& c : t.at("coefficients_v")) {
+      positive = positive || c.get<double>() > 0;
+      negative = negative || c.get<double>() < 0;
+    }
+    EXPECT_FALSE(positive && negative) << t.dump();
+  }
+  EXPECT_EQ(written, 1) << r.model.dump(1);
 }
 TEST(GapCandidates, ViscoelasticRelaxation) {
   const auto r = run("viscoelastic_relaxation", 0.08);

@@ -121,14 +121,13 @@ AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& afte
     a.beta_full = VectorXd::Zero(nb);
     return a;
   }
-  // A memory term's stop operators are Maxwell-slip elements: each a spring of one stiffness sign
-  // (Brokate & Sprekels 1996, ch. 2: a Prandtl-Ishlinskii operator with a non-negative density
-  // draws one loop, counter-clockwise or, for a sensor whose voltage falls with the angle,
-  // clockwise). Weights of both signs draw loops that cross themselves, which no fibre does; on
-  // the reference's angle least squares makes them up all the same, where the small operators
-  // shape what the paper's branch step leaves at each reversal, and online the compensator's
-  // angle has that step elsewhere (blind recording 290, docs/gap.md, "Limitations"). So the
-  // weights applied are held to one sign: the sign of the loop's height.
+  // A memory term's stop operators are Maxwell-slip elements, each a spring that slips at its
+  // threshold (Brokate & Sprekels 1996, "Hysteresis and Phase Transitions", ch. 2): with weights
+  // of one sign every loop, major or minor, is run the same way round and dissipates; a weight of
+  // the other sign is an element that gives energy back, which no fibre has. Least squares on the
+  // reference's angle makes such weights up all the same (blind recording 290: the 2 deg operator
+  // against the other four, 2.1 SE from zero), and applied online they made the held-out angle
+  // worse (docs/gap.md, section 5). So the weights applied are held to one sign, their loop's.
   std::vector<cv::OneSigned> one_signed;
   for (Index c = 0; const Term& t : st.terms) {
     const EffectDef& def = effect_def(t.effect);

@@ -106,28 +106,9 @@ double rss_of(double yy, const VectorXd& g, const MatrixXd& G, const VectorXd& b
 
 // Sign-constrained least squares: the operator weights all >= 0 or all <= 0, whichever fits better.
 VectorXd solve_signed(const MatrixXd& G, const VectorXd& g, double yy, const Design& d, double* rss) {
-  const Index p = G.rows();
-  std::vector<bool> nonneg(static_cast<std::size_t>(p), false);
-  for (int o = 0; o < d.n_ops; ++o) nonneg[static_cast<std::size_t>(d.n_poly + o)] = true;
-  VectorXd best;
-  double best_rss = kInf;
-  for (double sign : {1.0, -1.0}) {
-    if (d.n_ops == 0 && sign < 0) break;
-    VectorXd flip = VectorXd::Ones(p);
-    for (int o = 0; o < d.n_ops; ++o) flip(d.n_poly + o) = sign;
-    const MatrixXd Gf = flip.asDiagonal() * G * flip.asDiagonal();
-    const VectorXd gf = flip.asDiagonal() * g;
-    VectorXd b;
-    nnls_normal(Gf, gf, nonneg, b);  // not converging leaves a feasible point: still scored
-    b = flip.asDiagonal() * b;
-    const double r = rss_of(yy, g, G, b);
-    if (r < best_rss) {
-      best_rss = r;
-      best = b;
-    }
-  }
-  if (rss != nullptr) *rss = best_rss;
-  return best;
+  VectorXd b = one_signed_least_squares(G, g, d.n_poly, d.n_ops);
+  if (rss != nullptr) *rss = rss_of(yy, g, G, b);
+  return b;
 }
 
 DynamicModel with_coefficients(DynamicModel m, const VectorXd& b, const Design& d) {

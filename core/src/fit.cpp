@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include <Eigen/Dense>
@@ -180,6 +181,31 @@ bool nnls_normal(const Eigen::Ref<const Eigen::MatrixXd>& G, const Eigen::Ref<co
   }
   b = d.asDiagonal() * x;
   return converged;
+}
+
+Eigen::VectorXd one_signed_least_squares(const Eigen::Ref<const Eigen::MatrixXd>& G,
+                                         const Eigen::Ref<const Eigen::VectorXd>& g, Eigen::Index first,
+                                         Eigen::Index size) {
+  const Eigen::Index p = G.rows();
+  std::vector<bool> nonneg(static_cast<std::size_t>(p), false);
+  for (Eigen::Index i = first; i < first + size; ++i) nonneg[static_cast<std::size_t>(i)] = true;
+  Eigen::VectorXd best;
+  double best_objective = std::numeric_limits<double>::infinity();
+  for (const double sign : {1.0, -1.0}) {
+    if (size == 0 && sign < 0) break;
+    Eigen::VectorXd flip = Eigen::VectorXd::Ones(p);
+    flip.segment(first, size).setConstant(sign);
+    Eigen::VectorXd b;
+    nnls_normal(flip.asDiagonal() * G * flip.asDiagonal(), flip.asDiagonal() * g, nonneg, b);  // not converging leaves a feasible point: still scored
+    b = flip.asDiagonal() * b;
+    // The residual's sum of squares less y'y.
+    const double objective = b.dot(G * b) - 2.0 * b.dot(g);
+    if (objective < best_objective) {
+      best_objective = objective;
+      best = std::move(b);
+    }
+  }
+  return best;
 }
 
 }  // namespace pof::core

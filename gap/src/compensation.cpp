@@ -121,17 +121,16 @@ AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& afte
     a.beta_full = VectorXd::Zero(nb);
     return a;
   }
-  // A memory term's stop operators are Maxwell-slip elements, each a spring that slips at its
-  // threshold (Brokate & Sprekels 1996, "Hysteresis and Phase Transitions", ch. 2): with weights
-  // of one sign every loop, major or minor, is run the same way round and dissipates; a weight of
-  // the other sign is an element that gives energy back, which no fibre has. Least squares on the
-  // reference's angle makes such weights up all the same (blind recording 290: the 2 deg operator
-  // against the other four, 2.1 SE from zero), and applied online they made the held-out angle
-  // worse (docs/gap.md, section 5). So the weights applied are held to one sign, their loop's.
-  std::vector<cv::OneSigned> one_signed;
+  // A memory term's stop-operator weights are held to one sign, whichever fits better: with
+  // weights of one sign every loop, major or minor, runs the same way round (docs/calibration.md,
+  // "Why stop operators"); a weight against the others draws loops that run the other way, a
+  // Maxwell-slip element of negative stiffness, which no fibre is taken to have. Least squares on
+  // the reference's angle makes such weights up all the same, and applied online they made the
+  // held-out angle worse (docs/gap.md, section 5). The state holds each effect at most once.
+  Index memory_first = 0, memory_size = 0;
   for (Index c = 0; const Term& t : st.terms) {
     const EffectDef& def = effect_def(t.effect);
-    if (t.effect == core::Effect::kMemoryHysteresis) one_signed.push_back({c, def.basis_values(t.theta)});
+    if (t.effect == core::Effect::kMemoryHysteresis) { memory_first = c; memory_size = def.linear; }
     c += def.linear;
   }
   auto fit_without = [&](const cv::Grams& gr, std::size_t skip) {
@@ -140,7 +139,7 @@ AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& afte
     for (std::size_t b = 0; b < gr.G.size(); ++b)
       if (b != skip) { G += gr.G[b]; g += gr.g[b]; }
     VectorXd beta = VectorXd::Zero(nb + nt);
-    beta.tail(nt) = cv::solve_one_signed(G, g, one_signed);
+    beta.tail(nt) = cv::solve_one_signed(G, g, memory_first, memory_size);
     return beta;
   };
   // The search's acceleration column is centred (+-h on the reference angle); the compensator's

@@ -123,25 +123,11 @@ VectorXd solve(const MatrixXd& G, const VectorXd& g) {
   return d.asDiagonal() * bs;
 }
 
-VectorXd solve_one_signed(const MatrixXd& G, const VectorXd& g, const std::vector<OneSigned>& groups) {
-  const Index k = G.rows();
+VectorXd solve_one_signed(const MatrixXd& G, const VectorXd& g, Index first, Index size) {
   const VectorXd free_fit = solve(G, g);
-  // Each constrained coefficient's sign: its group's height, unconstrained. 0: free.
-  VectorXd sign = VectorXd::Zero(k);
-  for (const OneSigned& grp : groups) {
-    const auto m = static_cast<Index>(grp.weight.size());
-    const double height = Eigen::Map<const VectorXd>(grp.weight.data(), m).dot(free_fit.segment(grp.first, m));
-    sign.segment(grp.first, m).setConstant(height >= 0 ? 1.0 : -1.0);
-  }
-  if (((sign.array() * free_fit.array()) >= 0).all()) return free_fit;
-  // Non-negative least squares on s_i b_i (core::nnls_normal), the free coefficients as they are:
-  // with S = diag(s, 1 for the free ones), G -> S G S and g -> S g.
-  const VectorXd s = (sign.array() == 0).select(VectorXd::Ones(k), sign);
-  std::vector<bool> nonneg(static_cast<std::size_t>(k));
-  for (Index i = 0; i < k; ++i) nonneg[static_cast<std::size_t>(i)] = sign(i) != 0;
-  VectorXd b;
-  core::nnls_normal(s.asDiagonal() * G * s.asDiagonal(), s.asDiagonal() * g, nonneg, b);  // not converging: a feasible point
-  return s.asDiagonal() * b;
+  const auto part = free_fit.segment(first, size).array();
+  if ((part >= 0).all() || (part <= 0).all()) return free_fit;  // the constrained optimum as well
+  return core::one_signed_least_squares(G, g, first, size);
 }
 
 namespace {

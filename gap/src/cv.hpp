@@ -43,18 +43,10 @@ Grams extend_grams(const Grams& base, const Eigen::MatrixXd& X0, const Eigen::Ma
 /// Jacobi-scaled LDLT with a tiny ridge: a column that is all zeros gets a zero coefficient.
 Eigen::VectorXd solve(const Eigen::MatrixXd& G, const Eigen::VectorXd& g);
 
-/// Coefficients that must share one sign: columns [first, first + size) of the system, whose
-/// common sign is that of sum_j weight_j beta_j (a loop's height: weight_j the operator's
-/// threshold).
-struct OneSigned {
-  Eigen::Index first = 0;
-  std::vector<double> weight;
-};
-
-/// Least squares (as solve) with each group's coefficients of one sign, the sign of the group's
-/// height in the unconstrained solution: non-negative least squares on the signed coefficients,
-/// the others free (core::nnls_normal, Lawson and Hanson's active set).
-Eigen::VectorXd solve_one_signed(const Eigen::MatrixXd& G, const Eigen::VectorXd& g, const std::vector<OneSigned>& groups);
+/// Least squares (as solve) with the coefficients [first, first + size) all of one sign, whichever
+/// fits better (core::one_signed_least_squares); a solution already of one sign there is solve's.
+Eigen::VectorXd solve_one_signed(const Eigen::MatrixXd& G, const Eigen::VectorXd& g, Eigen::Index first,
+                                 Eigen::Index size);
 
 struct FoldFit {
   std::vector<std::size_t> theta_idx;  // per fold: grid index chosen on the training blocks

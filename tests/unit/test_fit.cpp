@@ -1,8 +1,13 @@
 // Fits of table 2: lines with standard errors, the exponential f1, eq. (1).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
+#include <vector>
+
+#include <Eigen/Dense>
 
 #include "pof/core/fit.hpp"
 #include "pof/core/normalise.hpp"
@@ -112,4 +117,103 @@ TEST(Potentiometer, LinearWithInterpolatedOffsetTable) {
   Eigen::VectorXd v(2);
   v << 0.5, 3.0;
   EXPECT_NEAR(p.angles(v)(1), 46, 1e-12);
+}
+
+namespace {
+
+// The residual's sum of squares less y'y, from the normal equations.
+double objective(const Eigen::MatrixXd& G, const Eigen::VectorXd& g, const Eigen::VectorXd& b) {
+  return b.dot(G * b) - 2 * b.dot(g);
+}
+
+// The one-signed optimum by enumeration: for each sign, every subset of the group held at zero
+// and the rest by least squares; the best whose group has that sign throughout.
+Eigen::VectorXd one_signed_by_enumeration(const Eigen::MatrixXd& G, const Eigen::VectorXd& g, Eigen::Index first,
+                                          Eigen::Index size) {
+  const Eigen::Index k = G.rows();
+  Eigen::VectorXd best;
+  double best_f = std::numeric_limits<double>::infinity();
+  for (const double sign : {1.0, -1.0})
+    for (unsigned mask = 0; mask < (1u << size); ++mask) {
+      std::vector<Eigen::Index> p;
+      for (Eigen::Index i = 0; i < k; ++i)
+        if (i < first || i >= first + size || (mask >> (i - first) & 1u) != 0) p.push_back(i);
+      const Eigen::MatrixXd Gp = G(p, p);
+      const Eigen::VectorXd gp = g(p);
+      const Eigen::VectorXd bp = Gp.ldlt().solve(gp);
+      Eigen::VectorXd b = Eigen::VectorXd::Zero(k);
+      b(p) = bp;
+      bool ok = true;
+      for (Eigen::Index i = first; i < first + size; ++i) ok = ok && sign * b(i) >= -1e-12;
+      if (ok && objective(G, g, b) < best_f) {
+        best_f = objective(G, g, b);
+        best = b;
+      }
+    }
+  return best;
+}
+
+}  // namespace
+
+// A bank of five stop operators (thresholds 1-16 deg) on a random walk, between an offset and a
+// slow free column. Half the trials draw weights of one sign, which least squares returns as they
+// are; the other half one weight against the rest, which the one-signed fit must hold at zero
+// or turn, reaching the enumerated optimum.
+TEST(Fit, OneSignedLeastSquaresIsTheConstrainedOptimum) {
+  std::mt19937_64 rng(17);
+  std::normal_distribution<double> n01(0, 1);
+  const std::vector<double> r = {1, 2, 4, 8, 16};
+  const Eigen::Index n = 4000, first = 1, size = 5, k = 7;
+  int constrained = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    Eigen::MatrixXd X(n, k);
+    double a = 0, prev = 0;
+    std::vector<double> s(r.size(), 0.0);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      a += 0.8 * n01(rng);
+      for (std::size_t j = 0; j < r.size(); ++j) s[j] = std::clamp(s[j] + a - prev, -r[j], r[j]);
+      prev = a;
+      X(i, 0) = 1;
+      for (Eigen::Index j = 0; j < size; ++j) X(i, first + j) = s[static_cast<std::size_t>(j)];
+      X(i, k - 1) = std::sin(0.01 * static_cast<double>(i));
+    }
+    const double sign = trial % 4 < 2 ? 1.0 : -1.0;
+    const bool against = trial % 2 == 1;
+    Eigen::VectorXd truth(k);
+    truth << 0.3, sign * 0.5, (against ? -0.9 : 0.9) * sign, sign * 0.2, against ? 0.0 : sign * 0.1, sign * 0.05, 0.4;
+    const Eigen::VectorXd y = X * truth + 0.2 * Eigen::VectorXd::NullaryExpr(n, [&] { return n01(rng); });
+    const Eigen::MatrixXd G = X.transpose() * X;
+    const Eigen::VectorXd g = X.transpose() * y;
+    const Eigen::VectorXd b = one_signed_least_squares(G, g, first, size);
+    const Eigen::VectorXd want = one_signed_by_enumeration(G, g, first, size);
+    const Eigen::VectorXd free_fit = G.ldlt().solve(g);
+    const auto part = free_fit.segment(first, size).array();
+    if ((part >= 0).all() || (part <= 0).all()) {
+      EXPECT_LT((b - free_fit).norm(), 1e-6 * free_fit.norm()) << "trial " << trial << ": a one-signed fit is the optimum";
+    } else {
+      ++constrained;
+    }
+    const auto got = b.segment(first, size).array();
+    EXPECT_TRUE((got >= 0).all() || (got <= 0).all()) << "trial " << trial << ": " << b.transpose();
+    EXPECT_NEAR(objective(G, g, b), objective(G, g, want), 1e-9 * std::abs(objective(G, g, want))) << "trial " << trial;
+    EXPECT_LT((b - want).norm(), 1e-6 * want.norm()) << "trial " << trial;
+  }
+  EXPECT_GE(constrained, 15) << "too few trials exercise the constraint";
+  EXPECT_LE(constrained, 25) << "too few trials are one-signed already";
+}
+
+// The sign is the one that fits better, not the one of the loop's height: a group whose two
+// smallest operators outweigh the large one in the fit but not in their thresholds' sum.
+TEST(Fit, OneSignedLeastSquaresTakesTheBetterSign) {
+  // Orthonormal columns: the unconstrained solution is g; for a sign, the group's coefficients of
+  // the other sign go to zero, and the better sign keeps the larger sum of squares.
+  const Eigen::MatrixXd G = Eigen::MatrixXd::Identity(4, 4);
+  Eigen::VectorXd g(4);
+  g << 0.7, -2, -2, 1;  // free; a group of three (with thresholds 1, 2, 16 deg its height is 10 > 0)
+  const Eigen::VectorXd b = one_signed_least_squares(G, g, 1, 3);
+  Eigen::VectorXd want(4);
+  want << 0.7, -2, -2, 0;
+  EXPECT_LT((b - want).norm(), 1e-9) << b.transpose();
+  // No group: plain least squares.
+  EXPECT_LT((one_signed_least_squares(G, g, 0, 0) - g).norm(), 1e-9);
 }

@@ -92,4 +92,13 @@ namespace pof::core {
 bool nnls_normal(const Eigen::Ref<const Eigen::MatrixXd>& G, const Eigen::Ref<const Eigen::VectorXd>& g,
                  const std::vector<bool>& nonneg, Eigen::VectorXd& b);
 
+/// Least squares from the normal equations with the coefficients [first, first + size) all >= 0
+/// or all <= 0, whichever leaves the smaller residual; the others free. A bank of stop operators
+/// (Maxwell-slip elements) with weights of one sign runs every loop, major or minor, the same way
+/// round (docs/calibration.md, "Why stop operators"). Two nnls_normal solves on the flipped
+/// system (S G S, S g; S = -1 on the group for the second); size 0: one, every coefficient free.
+Eigen::VectorXd one_signed_least_squares(const Eigen::Ref<const Eigen::MatrixXd>& G,
+                                         const Eigen::Ref<const Eigen::VectorXd>& g, Eigen::Index first,
+                                         Eigen::Index size);
+
 }  // namespace pof::core

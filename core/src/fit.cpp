@@ -196,7 +196,8 @@ Eigen::VectorXd one_signed_least_squares(const Eigen::Ref<const Eigen::MatrixXd>
     Eigen::VectorXd flip = Eigen::VectorXd::Ones(p);
     flip.segment(first, size).setConstant(sign);
     Eigen::VectorXd b;
-    nnls_normal(flip.asDiagonal() * G * flip.asDiagonal(), flip.asDiagonal() * g, nonneg, b);  // not converging leaves a feasible point: still scored
+    // Not converging leaves a feasible point: still scored.
+    nnls_normal(flip.asDiagonal() * G * flip.asDiagonal(), flip.asDiagonal() * g, nonneg, b);
     b = flip.asDiagonal() * b;
     // The residual's sum of squares less y'y.
     const double objective = b.dot(G * b) - 2.0 * b.dot(g);

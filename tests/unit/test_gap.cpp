@@ -161,7 +161,7 @@ TEST(GapCandidates, MemoryHysteresis) {
   expect_named(r, "memory_hysteresis");
   // The hysteron's 0.02 V half-height is 0.91 deg at the paper's 45.7 deg/V.
   EXPECT_NEAR(std::abs(param(r, "half_height_deg")), 0.91, 0.3);
-  // What model.toml holds is a loop that does not cross itself: operator weights of one sign.
+  // What model.toml holds runs every loop the same way round: operator weights of one sign.
   int written = 0;
   for (const auto& t : r.model.at("terms")) {
     if (t.at("effect") != "memory_hysteresis") continue;

@@ -12,6 +12,6 @@ function(pof_benchmark name)
   if(NOT ARG_PLAIN)
     target_link_libraries(${name} PRIVATE benchmark::benchmark)
   endif()
-  target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR}/testing/include)  # generators
+  target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR}/tests/generators/include)  # generators
   pof_set_warnings(${name})
 endfunction()

@@ -79,7 +79,7 @@ function(pof_lcm_types)
   list(FILTER c_files INCLUDE REGEX "\\.h$")
   install(FILES ${c_files} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} COMPONENT dev)
 
-  # Python: lcm-gen's classes (package <pkg>), used by the pofkit Python package (python/pofkit),
+  # Python: lcm-gen's classes (package <pkg>), used by the pofkit Python package (lcmtypes/python/pofkit),
   # which speaks the log format and udpm itself (Debian ships no LCM Python module).
   set(ppath ${CMAKE_BINARY_DIR}/python)
   set(pys ${ppath}/${ARG_PACKAGE}/__init__.py)

@@ -2,7 +2,7 @@
 # The main job on the built-in simulated exoskeleton (`./pofkit demo` runs this after building).
 #
 #   1. calibration: the paper's protocol (quasi-static steps + table-1 velocity cycles) is simulated
-#      on a viscoelastic PMMA fibre (sim/scenarios/fibre_calibration.toml: a hysteresis loop with
+#      on a viscoelastic PMMA fibre (daq/sim/scenarios/fibre_calibration.toml: a hysteresis loop with
 #      memory and Prony relaxation, not the paper's step model) and fitted: `pof calibrate` fits the
 #      paper's model and the dynamic model, marks the one with the lower held-out error active and
 #      writes cal.toml and a report with the paper's figures and the dynamic model's;
@@ -28,7 +28,7 @@ trap cleanup EXIT
 say "1/3 calibration on the simulated rig (paper protocol)"
 "$BIN/pof" sim fibre_calibration -o calibration-session.csv --seed 1
 "$BIN/pof" calibrate calibration-session.csv -o cal.toml --report calibration-report
-# The simulated potentiometer: angle = 22.5 deg/V (pot_v - 0.5 V) (sim/scenarios/*.toml, [knee]).
+# The simulated potentiometer: angle = 22.5 deg/V (pot_v - 0.5 V) (daq/sim/scenarios/*.toml, [knee]).
 cat > pot.toml <<'TOML'
 schema_version = 1
 [potentiometer]

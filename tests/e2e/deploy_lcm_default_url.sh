@@ -28,7 +28,7 @@ printf 'schema_version = 1\n' >daqd.toml
 "$POF" calibrate cal.csv -o cal.toml >/dev/null 2>&1 || fail "pof calibrate failed"
 printf 'schema_version = 1\n[potentiometer]\ndeg_per_volt = 22.5\nzero_v = 0.5\n' >pot.toml
 export LCM_DEFAULT_URL="$URL"
-PYTHONPATH="$BIN_DIR/../python:$SOURCE_DIR/python" /usr/bin/python3 - >rx.out 2>&1 <<'PY' &
+PYTHONPATH="$BIN_DIR/../python:$SOURCE_DIR/lcmtypes/python" /usr/bin/python3 - >rx.out 2>&1 <<'PY' &
 import time
 import pofkit
 want = {"POF_RAW", "POF_ANGLE"}

@@ -66,6 +66,6 @@ grep -qE "^  POF_RAW +raw_block_t .* 0 gaps" check.txt || fail "recorded POF_RAW
 "$POF" export auth.lcmlog -c POF_RAW -o raw.csv 2>/dev/null || fail "export POF_RAW"
 "$POF" export auth.lcmlog -c POF_ANGLE -o angle.csv 2>/dev/null || fail "export POF_ANGLE"
 "$POF" export auth.lcmlog -c POF_COMPENSATOR_STATUS -o status.csv 2>/dev/null || fail "export POF_COMPENSATOR_STATUS"
-PYTHONPATH="$BIN_DIR/../python:$SOURCE_DIR/python" "$PY" "$SOURCE_DIR/tests/e2e/lcm_auth_check.py" ||
+PYTHONPATH="$BIN_DIR/../python:$SOURCE_DIR/lcmtypes/python" "$PY" "$SOURCE_DIR/tests/e2e/lcm_auth_check.py" ||
   fail "checks failed (compensator log: $(tail -3 comp.log))"
 echo ok

@@ -19,8 +19,8 @@ sockets (what any process on the host, or any machine on the segment, can send).
       on pof-compensatord's angles, forged angles of 90 deg claiming seq and scans from 10^12 on.
 
 The message types come from lcm-gen's Python output in ./py (the script generates it).
-Wire format: lcm/lcm_udpm.c (see bus/include/pof/bus/udpm_receiver.hpp). The authenticated mode's
-trailer: bus/include/pof/bus/auth_trailer.hpp (keyed BLAKE2b is hashlib.blake2b(key=...)).
+Wire format: lcm/lcm_udpm.c (see common/bus/include/pof/bus/udpm_receiver.hpp). The authenticated mode's
+trailer: common/bus/include/pof/bus/auth_trailer.hpp (keyed BLAKE2b is hashlib.blake2b(key=...)).
 """
 import hashlib
 import json
@@ -96,7 +96,7 @@ def raw_bytes(sensor_len=3, n_channels=2, names=("sensor", "reference"), n_scans
     return b + struct.pack(">i", 0)
 
 
-# --- The authenticated mode's trailer (bus/include/pof/bus/auth_trailer.hpp) --------------------
+# --- The authenticated mode's trailer (common/bus/include/pof/bus/auth_trailer.hpp) --------------------
 TRAILER_MAGIC, TRAILER_VERSION, TRAILER_BYTES = 0x504F4641, 1, 60
 
 

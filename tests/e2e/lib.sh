@@ -55,5 +55,5 @@ wait_until() { "$PY" "$POF_WAIT" until "$@"; }
 # caught_up --lcm-url URL [--sensor-id ID] (--blocks N | -- DAQ command...): returns once
 # pof-compensatord's status shows it took N raw blocks (or every block the DAQ command published).
 caught_up() {
-  PYTHONPATH="$BIN_DIR/../python:$SOURCE_DIR/python" "$PY" "$POF_WAIT" caught-up "$@"
+  PYTHONPATH="$BIN_DIR/../python:$SOURCE_DIR/lcmtypes/python" "$PY" "$POF_WAIT" caught-up "$@"
 }

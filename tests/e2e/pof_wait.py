@@ -7,7 +7,7 @@ never for a fixed time.
       exit status, `kill` reaches it), after forking a watcher that writes one line to FIFO:
       "READY <pid>" once CMD is ready, or "FAILED <why>" when CMD exits or TIMEOUT passes first (CMD
       is then terminated). Ready is, with --notify, READY=1 on the sd_notify socket named by
-      $NOTIFY_SOCKET (pof-daqd, pof-compensatord and pof record send it: service/sd_notify.hpp, the
+      $NOTIFY_SOCKET (pof-daqd, pof-compensatord and pof record send it: pof/service/sd_notify.hpp, the
       protocol of sd_notify(3)); with --listening, a UDP socket of CMD bound on PORT (lcm-logger,
       pof spy, clients: anything that subscribes to LCM without sd_notify).
   pof_wait.py notify-log [--watchdog-usec N] -- CMD...

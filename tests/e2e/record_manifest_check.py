@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Checks of a `pof record` manifest (<log>.manifest.json, recorder/src/session.cpp) for
+"""Checks of a `pof record` manifest (<log>.manifest.json, tools/recorder/src/session.cpp) for
 tests/e2e/record_lossless.sh and record_crash.sh.
 
   record_manifest_check.py lossless MANIFEST N   every one of N messages received and written,

@@ -13,7 +13,7 @@ expect_exit 0 "$POF" sim paper -o paper3.csv --seconds 10 --seed 4
 cmp -s paper.csv paper3.csv && fail "different seeds gave the same bytes"
 
 # A scenario file and --rate; --pot-column adds pot_v.
-cp "$SOURCE_DIR/sim/scenarios/realistic.toml" my.toml
+cp "$SOURCE_DIR/daq/sim/scenarios/realistic.toml" my.toml
 expect_exit 0 "$POF" sim my.toml -o r.csv --seconds 2 --rate 1000 --pot-column
 [ "$(head -1 r.csv)" = "t_s,sensor_v,reference_v,angle_ref_deg,pot_v,angle_true_deg" ] || fail "pot column: $(head -1 r.csv)"
 [ "$(wc -l < r.csv)" -eq 2001 ] || fail "2 s at 1 kHz"

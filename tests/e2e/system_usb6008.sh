@@ -26,7 +26,7 @@ POF="$BIN_DIR/pof"
 "$POF" calibrate cal.csv -o cal.toml >/dev/null 2>&1 || fail "pof calibrate failed"
 printf 'schema_version = 1\n[potentiometer]\ndeg_per_volt = 22.5\nzero_v = 0.5\n' > pot.toml
 # The session: the demo's scenario, three cycles at 0.35 rad/s (inside the calibrated range).
-{ cat "$SOURCE_DIR/sim/scenarios/session.toml"; printf 'velocities_rad_s = [0.35]\ncycles_per_velocity = 3\n'; } > short.toml
+{ cat "$SOURCE_DIR/daq/sim/scenarios/session.toml"; printf 'velocities_rad_s = [0.35]\ncycles_per_velocity = 3\n'; } > short.toml
 DECIMATE=10
 
 start_ready notify record.log "$POF" record -o live.lcmlog --lcm-url "$URL" -c 'POF_.*' -q

@@ -1,6 +1,6 @@
 #pragma once
 // A scripted pof::daq::Backend (daq/include/pof/daq/stream/backend.hpp) for driving pof-daqd's
-// state machine (daqd/daemon.hpp) in-process, in test_daqd_states.cpp.
+// state machine (daq/daemon/daemon.hpp) in-process, in test_daqd_states.cpp.
 //
 // The test scripts one Attempt per open(): the device is absent, faulty, throws (breaking the
 // never-throws contract, as a bug would), or opens and then streams a list of steps: scans, read

@@ -1,4 +1,4 @@
-// pof-compensatord's pipeline (compensatord/pipeline.hpp): raw blocks in, angles and cycle
+// pof-compensatord's pipeline (compensator/daemon/pipeline.hpp): raw blocks in, angles and cycle
 // statistics out. Fed by the simulator's `validation` scenario; checked against the offline path
 // (`pof compensate`), for gaps, bad blocks, decimation, reloads and over a real memq:// bus.
 #include <gtest/gtest.h>

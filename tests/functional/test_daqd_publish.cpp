@@ -1,4 +1,4 @@
-// pof-daqd's publisher (daqd/daemon.hpp) over real liblcm: every message LCM refuses is counted and
+// pof-daqd's publisher (daq/daemon/daemon.hpp) over real liblcm: every message LCM refuses is counted and
 // carried by the status. liblcm 1.3.1's udpm:// refuses a channel name longer than
 // LCM_MAX_CHANNEL_NAME_LENGTH, the refusal a test can provoke: a 56-character sensor id makes both
 // POF_RAW_<id> and POF_DAQ_STATUS_<id> too long, so every raw block and status is refused. (The

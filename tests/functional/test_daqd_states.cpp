@@ -1,4 +1,4 @@
-// pof-daqd's state machine (daqd/daemon.hpp) in-process: the daemon runs on a scripted backend
+// pof-daqd's state machine (daq/daemon/daemon.hpp) in-process: the daemon runs on a scripted backend
 // (fake_backend.hpp) and publishes on a memq:// bus the test reads through pof::bus::Receiver.
 // Everything is checked from what the daemon publishes: the POF_DAQ_STATUS state sequence and its
 // reasons and counters, and the POF_RAW blocks (seq, first_scan, FLAG_GAP, the volts themselves).

@@ -66,7 +66,7 @@ TEST(GapBlind, TwoEffects) { check(1005, 2); }
 // maybe a bend lag and a bowed curve, instead of the paper's steps.
 TEST(GapBlind, DynamicSensorNothingHidden) { check(1006, 0, 1.0); }
 // Seed 1007's fibre lags the joint by 58 ms: beside its rate-dependent hysteresis an acceleration
-// term is named, the lag's second order (covered by the harness: testing/src/gap_blind.cpp).
+// term is named, the lag's second order (covered by the harness: tests/generators/src/gap_blind.cpp).
 TEST(GapBlind, DynamicSensorOneEffect) { check(1007, 1, 1.0); }
 
 // A delay of the angle on a fibre of the dynamic model's kind without a bend lag of its own: the

@@ -1,5 +1,5 @@
 // fuzz-link: pof_bus
-// The authenticated mode's receive side (bus/include/pof/bus/auth_trailer.hpp, auth.hpp):
+// The authenticated mode's receive side (common/bus/include/pof/bus/auth_trailer.hpp, auth.hpp):
 // parse_trailer() and Verifier::verify(), with a fixed key. Random bytes almost never carry a
 // valid MAC, so the input is read two ways (fuzz_auth_input.hpp): as one message off the bus, and
 // as a script in which senders with the key sign messages made of the input's bytes, alter them,

@@ -1,5 +1,5 @@
 // fuzz-link: pof_io
-// The calibration loader (io/include/pof/io/calibration_file.hpp): any text is either a
+// The calibration loader (common/io/include/pof/io/calibration_file.hpp): any text is either a
 // ConfigError or a calibration that writes back (to_toml) to text the loader accepts and that
 // writes back identically: what `pof calibrate` relies on when it validates before saving.
 #include <cstdint>

@@ -1,5 +1,5 @@
 // fuzz-link: pof_io
-// The CSV recording reader (io/src/csv_reader.cpp): any text either reads as a recording whose
+// The CSV recording reader (common/io/src/csv_reader.cpp): any text either reads as a recording whose
 // columns have one length and whose times are finite and increasing, or is a DataError naming the
 // file and a line, with a bounded message.
 #include <cmath>

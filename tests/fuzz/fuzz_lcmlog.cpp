@@ -1,5 +1,5 @@
 // fuzz-link: pof_io
-// The LCM log reader (io/include/pof/io/lcmlog_scan.hpp) and the recording reader on top of it
+// The LCM log reader (common/io/include/pof/io/lcmlog_scan.hpp) and the recording reader on top of it
 // (read_lcmlog: raw blocks on POF_RAW*). Any input must scan to events that lie inside it, never
 // overlap and, with the damaged bytes, account for every byte; reading it as a recording either
 // succeeds with consistent columns or is a DataError.

@@ -2,7 +2,7 @@
 // ni_usb600x, mcc_usb1208ls) from the code's own encoders: lcm-gen's for the messages, the Signer
 // for the trailers, make_frame/make_reply/configure_frames/start_frames/encode_sample for the NI
 // devices, encode_scan_report for the MCC one; the datagrams by the wire format of
-// bus/include/pof/bus/udpm_receiver.hpp (tests/support/udpm_wire.hpp). Each corpus holds valid
+// common/bus/include/pof/bus/udpm_receiver.hpp (tests/support/udpm_wire.hpp). Each corpus holds valid
 // inputs and a few near-valid ones (one field wrong). Crash inputs kept as regression tests
 // (regress_*) are not written here.
 //

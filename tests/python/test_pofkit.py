@@ -2,7 +2,7 @@
 loopback, logs written by stock lcm-logger, damaged logs and hostile datagrams, and its LCM URL
 rule against the C++ one.
 
-Run by ctest with PYTHONPATH = build/python (lcm-gen's `pof` classes) : python/ (pofkit),
+Run by ctest with PYTHONPATH = build/python (lcm-gen's `pof` classes) : lcmtypes/python/ (pofkit),
 POF_TESTPUB = build/tests/pof-testpub and POF_URL_PROBE = build/tests/url_probe.
 """
 import os
@@ -165,7 +165,7 @@ class Logs(unittest.TestCase):
 
 
 class UrlRules(unittest.TestCase):
-    """pofkit.resolve_url and parse_udpm_url mirror bus/include/pof/bus/url.hpp (Python cannot share
+    """pofkit.resolve_url and parse_udpm_url mirror common/bus/include/pof/bus/url.hpp (Python cannot share
     the C++ code): both read every URL of a list alike, with $LCM_DEFAULT_URL set and unset. The C++
     side is build/tests/url_probe (tests/support/url_probe.cpp)."""
 

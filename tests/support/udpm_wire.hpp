@@ -1,5 +1,5 @@
 #pragma once
-// Hand-made LCM udpm:// datagrams (the wire format of bus/include/pof/bus/udpm_receiver.hpp, LCM's
+// Hand-made LCM udpm:// datagrams (the wire format of common/bus/include/pof/bus/udpm_receiver.hpp, LCM's
 // "UDP Multicast Protocol Description"), what a forger or a test sends: the unit test of
 // pof::bus::parse_udpm_datagram, the hostile-datagram tests and the udpm_datagram fuzz target (its
 // round trip and its seeds). Fields are written as given, checked or not.

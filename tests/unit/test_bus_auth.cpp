@@ -1,4 +1,4 @@
-// The authenticated mode's pure code (bus/include/pof/bus/auth.hpp, auth_trailer.hpp): the trailer
+// The authenticated mode's pure code (common/bus/include/pof/bus/auth.hpp, auth_trailer.hpp): the trailer
 // a Signer writes, what a Verifier accepts and why it refuses the rest (unsigned, bad MAC, stale,
 // replayed), the counter that never goes back nor wraps, and the bounded replay state; the key
 // file (pof/bus/auth_key.hpp): its formats, and who may own and read it.

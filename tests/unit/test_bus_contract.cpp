@@ -1,4 +1,4 @@
-// The bus contract (bus/include/pof/bus/): which LCM URL a process uses, what a udpm:// URL says,
+// The bus contract (common/bus/include/pof/bus/): which LCM URL a process uses, what a udpm:// URL says,
 // the channel names and their inverse, and our types by fingerprint.
 #include <cstdlib>
 #include <optional>

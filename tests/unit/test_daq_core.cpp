@@ -164,7 +164,7 @@ TEST(DaqConfig, EveryErrorNamesItsKey) {
 }
 
 // Lines, unknown keys with a suggestion, and the command line's values (no line: the source says
-// "command line"), as every pofkit TOML file reports them (base/include/pof/base/toml_reader.hpp).
+// "command line"), as every pofkit TOML file reports them (common/base/include/pof/base/toml_reader.hpp).
 TEST(DaqConfig, ErrorsNameTheLineAndSuggestTheKnownKey) {
   EXPECT_EQ(config_error("schema_version = 1\n[acquisition]\nscan_rate_hz = 'fast'"),
             "t.toml:3: key 'acquisition.scan_rate_hz': expected a number, got a string 'fast'");

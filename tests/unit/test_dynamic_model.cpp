@@ -1,4 +1,4 @@
-// The dynamic sensor model (core/include/pof/core/dynamic_model.hpp): the properties of
+// The dynamic sensor model (compensator/model/include/pof/core/dynamic_model.hpp): the properties of
 // its hysteresis family, forward-then-inverse, identification round trip, and the calibration's
 // held-out comparison with the paper's model.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// The [gap] effect terms online (core/gap_terms.hpp, docs/calibration.md "`[gap]`: effect terms
+// The [gap] effect terms online (pof/core/gap_terms.hpp, docs/calibration.md "`[gap]`: effect terms
 // and how the compensator applies them"):
 //  - each basis: GapCorrector::voltage_at() against the contract's formula, computed here
 //    independently over a synthetic angle history;

@@ -1,4 +1,4 @@
-// The crash-safe LCM log writer, check and repair (recorder/include/pof/recorder/lcmlog_durable.hpp).
+// The crash-safe LCM log writer, check and repair (tools/recorder/include/pof/recorder/lcmlog_durable.hpp).
 #include <sys/resource.h>
 #include <unistd.h>
 

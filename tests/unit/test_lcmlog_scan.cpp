@@ -1,4 +1,4 @@
-// The LCM log scanner (io/include/pof/io/lcmlog_scan.hpp) on logs built in memory: clean logs,
+// The LCM log scanner (common/io/include/pof/io/lcmlog_scan.hpp) on logs built in memory: clean logs,
 // truncation at every byte, huge lengths, every single-bit flip, lost sync, zero-filled files.
 #include <cstdint>
 #include <string>

@@ -1,4 +1,4 @@
-// The paper's structure refitted in the voltage domain (core/paper_refit.hpp): the analytic
+// The paper's structure refitted in the voltage domain (pof/core/paper_refit.hpp): the analytic
 // gradient against finite differences, and a sensor with coefficients of its own recovered from
 // its voltage, started from table 2.
 #include <gtest/gtest.h>

@@ -129,7 +129,7 @@ TEST(SimScenario, BuiltinsLoadAndMatchThePaperProtocol) {
 // How `sim:<x>` (daq.toml) and the virtual devices' --sim-scenario name a scenario.
 TEST(SimScenario, ByNameOrPath) {
   EXPECT_EQ(pof::sim::scenario_by_name_or_path("session").name, "session");
-  const auto file = pof::sim::scenario_by_name_or_path(std::string(POF_SOURCE_DIR) + "/sim/scenarios/paper.toml");
+  const auto file = pof::sim::scenario_by_name_or_path(std::string(POF_SOURCE_DIR) + "/daq/sim/scenarios/paper.toml");
   EXPECT_NE(file.source.find("paper.toml"), std::string::npos);
   EXPECT_THROW((void)pof::sim::scenario_by_name_or_path("no_such_scenario"), pof::NoInputError);
   EXPECT_THROW((void)pof::sim::scenario_by_name_or_path("missing.toml"), pof::NoInputError);

@@ -1,4 +1,4 @@
-// The model and renderer of `pof spy` (spy/include/pof/spy/monitor.hpp).
+// The model and renderer of `pof spy` (tools/spy/include/pof/spy/monitor.hpp).
 #include <memory>
 #include <string>
 #include <vector>

@@ -1,4 +1,4 @@
-// The strict TOML reader every pofkit file goes through (base/include/pof/base/toml_reader.hpp):
+// The strict TOML reader every pofkit file goes through (common/base/include/pof/base/toml_reader.hpp):
 // typed values with file:line, ranges, unknown keys with a suggestion, schema_version.
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// pof::bus::parse_udpm_datagram (bus/include/pof/bus/udpm_receiver.hpp): the header checks of our
+// pof::bus::parse_udpm_datagram (common/bus/include/pof/bus/udpm_receiver.hpp): the header checks of our
 // udpm:// receive path, on hand-made datagrams. What UdpmReceiver does with the parts (reassembly,
 // bounds, counters) is tested over real multicast (tests/functional/test_bus_receiver_udpm.cpp);
 // tests/fuzz/fuzz_udpm_datagram.cpp feeds it arbitrary bytes.

@@ -150,7 +150,7 @@ struct Checker {
   pof::daq_status_t last_status;
   long status_msgs = 0;
   // pof-daqd publishes `stopping` when its acquisition ends and once more, with the final counters,
-  // after its last block (daqd/daemon.cpp, publisher_main): the second one ends its stream.
+  // after its last block (daq/daemon/daemon.cpp, publisher_main): the second one ends its stream.
   long stopping_msgs = 0;
 
   // Truth time of device scan `idx` of `session` (device mutex held).

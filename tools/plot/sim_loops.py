@@ -4,7 +4,7 @@
 usage: sim_loops.py TRACE.csv OUT.png [--title T]
 
 TRACE.csv has the recording columns plus the simulator's per-effect contributions (EffectTrace in
-sim/include/pof/sim/simulator.hpp). Panels: the sensor loop (normalised voltage against the
+daq/sim/include/pof/sim/simulator.hpp). Panels: the sensor loop (normalised voltage against the
 reference angle, coloured by signed angular velocity, holds grey); the dynamic part of the voltage
 against the true angle (what the paper's f1-f4 compensate); the motion; each sensor effect against
 time; the light path; the potentiometer error (backlash, linearity, vibration).

@@ -1,4 +1,4 @@
-// `pof sim <scenario|builtin> -o out.{lcmlog,csv}`: run the physics simulator (sim/) and
+// `pof sim <scenario|builtin> -o out.{lcmlog,csv}`: run the physics simulator (daq/sim/) and
 // write a recording in the formats every other tool reads, with the ground-truth angle. --plot
 // draws the scenario's loops and the effect traces (tools/plot/sim_loops.py).
 #include <unistd.h>

@@ -1,5 +1,5 @@
 // `pof spy`: a terminal live view of the LCM bus (plain ANSI, works over SSH, no Java). The model
-// and renderer are pof_spy (spy/); this file is the loop: one thread poll()s the receiver's fd
+// and renderer are pof_spy (tools/spy/); this file is the loop: one thread poll()s the receiver's fd
 // (pof::bus::Receiver: bounded, total, counts malformed datagrams), stdin and the signal waiter's
 // signalfd, so there is no locking and 'q', SIGINT or SIGTERM quit at once; so does SIGHUP (the
 // terminal hung up), which restores the terminal on the way out like the others.

@@ -56,7 +56,7 @@ export BIN_DIR SOURCE_DIR WORK_DIR=$out
 source "$SOURCE_DIR/tests/e2e/lib.sh"
 touch .pof-soak
 CHECK="$SOURCE_DIR/tools/soak/soak_check.py"
-export PYTHONPATH="$BIN_DIR/../python:$SOURCE_DIR/python"
+export PYTHONPATH="$BIN_DIR/../python:$SOURCE_DIR/lcmtypes/python"
 POF="$BIN_DIR/pof"
 pids=()
 cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; }

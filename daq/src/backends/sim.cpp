@@ -46,7 +46,7 @@ class SyntheticSource final : public SampleSource {
   std::uint64_t i_ = 0;
 };
 
-// The physics simulator (sim/, docs/simulator.md) behind the same interface. The scans are
+// The physics simulator (daq/sim/, docs/simulator.md) behind the same interface. The scans are
 // already quantised by the simulated converter; the seed is fixed so that runs repeat.
 class SimulatorSource final : public SampleSource {
  public:

@@ -1,6 +1,6 @@
 #pragma once
 // The one table of supported USB devices. The daemon matches devices with it and the udev rule in
-// deploy/udev/ is generated from it (daqd/gen_udev_rules.cpp); a test fails when the
+// deploy/udev/ is generated from it (daq/daemon/gen_udev_rules.cpp); a test fails when the
 // checked-in rule is stale. Sources (docs/daq.md, "Protocol facts"): NI IDs from
 // seregioo/comedi ni_usb6009.c and argusro/datalogger-rpi usb6008.py; MCC ID from
 // wjasper/Linux_Drivers usb-1208LS.c.

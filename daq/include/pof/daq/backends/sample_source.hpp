@@ -1,6 +1,6 @@
 #pragma once
 // Where the `sim:<scenario>` backend gets its scans. A small interface so that the synthetic
-// waveform below and the physics simulator (pof::sim::Simulator, sim/ branch) are a one-line swap
+// waveform below and the physics simulator (pof::sim::Simulator, daq/sim/ branch) are a one-line swap
 // in make_sample_source().
 #include <cstddef>
 #include <memory>

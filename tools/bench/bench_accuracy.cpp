@@ -1,0 +1,166 @@
+// Accuracy of both sensor models against the simulator's TRUE angle, on fibres the compensator's
+// dynamic model does not share (docs/simulator.md: Bouc-Wen loops, an exponential speed factor,
+// the viscoelastic lag; and the paper's own step model), calibrated on the paper's protocol and
+// tested on held-out gait, rehabilitation cycles and random point-to-point moves:
+//
+//   build/bin/bench_accuracy [--minutes 30]      (figures in BENCHMARKS.md)
+//
+// Each fibre: `fibre_calibration` (the paper's protocol) simulated with that fibre -> pof calibrate's
+// path (calibrate(), fit_dynamic(), compare_held_out() picking the active model) -> the three
+// held-out scenarios simulated with the same fibre and a different seed -> compensate_recording()
+// with the paper model, the dynamic model and the active one; RMSE and |error| p99 over every scan,
+// holds included. --minutes also times the calibration of a recording that long (the paper's
+// protocol repeated), the figure for "30 min of 200 Hz in < 5 s".
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "pof/core/calibration.hpp"
+#include "pof/core/dynamic_fit.hpp"
+#include "pof/core/model_selection.hpp"
+#include "pof/core/normalise.hpp"
+#include "pof/core/offline.hpp"
+#include "pof/sim/scenario.hpp"
+#include "pof/testing/gap_blind.hpp"
+
+namespace {
+
+using pof::sim::Scenario;
+using pof::sim::SensorSettings;
+
+using pof::gap::blind::simulate;  // the simulator run to its end into a Recording (tests/generators/)
+
+struct Fibre {
+  const char* name;
+  const char* family;  // what the simulator runs, for the table
+  SensorSettings sensor;
+};
+
+std::vector<Fibre> fibres() {
+  const SensorSettings base = pof::sim::builtin_scenario("fibre_calibration").sensor;
+  std::vector<Fibre> f;
+  f.push_back({"A", "Bouc-Wen n=1, narrows with speed (exp), Prony 2 s + 20 s, bowed line", base});
+
+  SensorSettings b = base;
+  b.memory_hysteresis.family = pof::sim::MemoryHysteresisFamily::kMaxwellSlip;
+  b.memory_hysteresis.thresholds_deg = {1.5, 4.0, 10.0};
+  b.memory_hysteresis.weights = {1, 1, 1};
+  b.memory_hysteresis.amplitude_v = 0.022;
+  b.memory_hysteresis.rate_sensitivity_s_per_rad = 0;
+  b.viscoelastic_lag.enabled = true;
+  b.viscoelastic_lag.tau_s = 0.08;
+  b.creep.terms = {pof::sim::CreepTerm{8.0, -0.00015}};
+  f.push_back({"B", "Maxwell-slip, widens with speed by a 0.08 s viscoelastic lag, Prony 8 s", b});
+
+  SensorSettings c = base;
+  c.memory_hysteresis.width_deg = 20;
+  c.memory_hysteresis.shape = 2;
+  c.memory_hysteresis.amplitude_v = 0.02;
+  c.memory_hysteresis.rate_sensitivity_s_per_rad = 0.4;
+  c.creep.terms = {pof::sim::CreepTerm{0.8, -0.0002}, pof::sim::CreepTerm{6.0, -0.00015}, pof::sim::CreepTerm{40.0, -0.0001}};
+  c.static_nonlinearity.s_v = 0.005;
+  f.push_back({"C", "Bouc-Wen n=2 width 20 deg, widens with speed (exp), Prony 0.8/6/40 s, S-shaped line", c});
+
+  // A lag off the fit's grid (0.02-0.32 s, doubling) on a Bouc-Wen fibre.
+  SensorSettings e = base;
+  e.viscoelastic_lag.enabled = true;
+  e.viscoelastic_lag.tau_s = 0.11;
+  f.push_back({"D", "fibre A behind a 0.11 s viscoelastic lag", e});
+
+  SensorSettings d = pof::sim::builtin_scenario("paper").sensor;
+  f.push_back({"P", "the paper's step model (eqs. (11)/(12) at the true velocity, f5 in holds)", d});
+  return f;
+}
+
+struct Errors {
+  double rmse = 0, p99 = 0;
+};
+
+Errors errors(const Eigen::VectorXd& a, const Eigen::VectorXd& truth) {
+  const auto e = pof::core::error_stats(a, truth);
+  return {e.rmse_deg, e.p99_abs_deg};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  double minutes = 30;
+  for (int i = 1; i < argc; ++i)
+    if (std::strcmp(argv[i], "--minutes") == 0 && i + 1 < argc) minutes = std::atof(argv[++i]);
+
+  const char* tests[] = {"heldout_gait", "heldout_rehab", "heldout_random"};
+  std::printf("%-3s %-15s %8s | %-16s %-16s %-16s | %s\n", "fib", "held-out test", "scans", "uncomp RMSE/p99",
+              "paper RMSE/p99", "dynamic RMSE/p99", "active (held-out on the calibration: paper / dynamic)");
+  std::uint64_t seed = 100;
+  for (const Fibre& f : fibres()) {
+    Scenario cs = pof::sim::builtin_scenario("fibre_calibration");
+    cs.sensor = f.sensor;
+    const pof::io::Recording cal = simulate(cs, ++seed);
+    const auto pr = pof::core::calibrate(cal.t_s, cal.sensor_v, cal.reference_v, cal.angle_ref_deg);
+    pof::core::ReferenceGuard g;
+    g.level_v = pr.cal.reference_level_v;
+    const Eigen::VectorXd v = pof::core::normalise(cal.sensor_v, cal.reference_v, g);
+    const auto dyn = pof::core::fit_dynamic(cal.t_s, v, cal.angle_ref_deg);
+    const auto cmp = pof::core::compare_held_out(cal.t_s, cal.sensor_v, cal.reference_v, cal.angle_ref_deg, dyn);
+    pof::core::Calibration paper = pr.cal, dynamic = pr.cal;
+    dynamic.dynamic = dyn.model;
+    dynamic.active = pof::core::ModelKind::kDynamic;
+    const bool dyn_active = cmp.dynamic.rmse_deg < cmp.paper.rmse_deg;
+    Eigen::VectorXd all_p, all_d, all_u, all_t;
+    for (const char* test : tests) {
+      Scenario ts = pof::sim::builtin_scenario(test);
+      ts.sensor = f.sensor;
+      const pof::io::Recording r = simulate(ts, ++seed);
+      const auto rp = pof::core::compensate_recording(r.t_s, r.sensor_v, r.reference_v, Eigen::VectorXd(), paper);
+      const auto rd = pof::core::compensate_recording(r.t_s, r.sensor_v, r.reference_v, Eigen::VectorXd(), dynamic);
+      const Errors eu = errors(rp.angle_uncomp_deg, r.angle_true_deg), ep = errors(rp.angle_deg, r.angle_true_deg),
+                   ed = errors(rd.angle_deg, r.angle_true_deg);
+      std::printf("%-3s %-15s %8ld | %6.3f / %6.3f  %6.3f / %6.3f  %6.3f / %6.3f  |\n", f.name, test, static_cast<long>(r.t_s.size()),
+                  eu.rmse, eu.p99, ep.rmse, ep.p99, ed.rmse, ed.p99);
+      auto append = [](Eigen::VectorXd& to, const Eigen::VectorXd& x) {
+        Eigen::VectorXd y(to.size() + x.size());
+        y << to, x;
+        to = y;
+      };
+      append(all_p, rp.angle_deg);
+      append(all_d, rd.angle_deg);
+      append(all_u, rp.angle_uncomp_deg);
+      append(all_t, r.angle_true_deg);
+    }
+    const Errors eu = errors(all_u, all_t), ep = errors(all_p, all_t), ed = errors(all_d, all_t);
+    std::printf("%-3s %-15s %8ld | %6.3f / %6.3f  %6.3f / %6.3f  %6.3f / %6.3f  | %s (%.3f / %.3f deg)\n", f.name, "all three",
+                static_cast<long>(all_t.size()), eu.rmse, eu.p99, ep.rmse, ep.p99, ed.rmse, ed.p99, dyn_active ? "dynamic" : "paper",
+                cmp.paper.rmse_deg, cmp.dynamic.rmse_deg);
+    std::printf("%-3s dynamic structure: degree %d, %d operators, %d Prony terms, kappa %g s/rad, bend lag %g s\n", f.name,
+                dyn.chosen.degree, dyn.chosen.n_operators, dyn.chosen.n_prony, dyn.chosen.rate_gain_s_per_rad, dyn.chosen.bend_lag_s);
+  }
+  std::printf("fibres:\n");
+  for (const Fibre& f : fibres()) std::printf("  %s  %s\n", f.name, f.family);
+
+  if (minutes > 0) {
+    // The paper's protocol repeated to `minutes` of 200 Hz: what pof calibrate computes, timed.
+    Scenario cs = pof::sim::builtin_scenario("fibre_calibration");
+    cs.loop = true;
+    cs.duration_s = minutes * 60;
+    const pof::io::Recording cal = simulate(cs, 7);
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto pr = pof::core::calibrate(cal.t_s, cal.sensor_v, cal.reference_v, cal.angle_ref_deg);
+    const auto t1 = std::chrono::steady_clock::now();
+    pof::core::ReferenceGuard g;
+    g.level_v = pr.cal.reference_level_v;
+    const Eigen::VectorXd v = pof::core::normalise(cal.sensor_v, cal.reference_v, g);
+    const auto dyn = pof::core::fit_dynamic(cal.t_s, v, cal.angle_ref_deg);
+    const auto t2 = std::chrono::steady_clock::now();
+    const auto cmp = pof::core::compare_held_out(cal.t_s, cal.sensor_v, cal.reference_v, cal.angle_ref_deg, dyn);
+    const auto t3 = std::chrono::steady_clock::now();
+    auto s = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
+    std::printf("calibration of %.0f min at 200 Hz (%ld scans): paper fit %.2f s, dynamic fit %.2f s (%zu structures), "
+                "held-out comparison %.2f s, total %.2f s (wall clock)\n",
+                minutes, static_cast<long>(cal.t_s.size()), s(t0, t1), s(t1, t2), dyn.candidates.size(), s(t2, t3), s(t0, t3));
+    (void)cmp;
+  }
+  return 0;
+}

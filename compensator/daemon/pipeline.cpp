@@ -155,28 +155,28 @@ void Pipeline::on_block(const pof::raw_block_t& b, std::int64_t publish_utime, S
     return;
   }
 
-  // Continuity. Lost scans (index jump) or a device-flagged gap restart the velocity estimator,
-  // whose window would otherwise straddle the hole; so does a new stream.
-  bool gap = (b.flags & pof::raw_block_t::FLAG_GAP) != 0 || restart;
+  // Continuity. Lost scans (an index jump, or the device's FLAG_GAP) restart the velocity
+  // estimator, whose window would otherwise straddle the hole; so does a new stream.
+  bool scans_lost = (b.flags & pof::raw_block_t::FLAG_GAP) != 0 || restart;
   // A block the daemon cannot stand behind (raw_block_t.FLAG_DOUBTFUL, e.g. the USB-6008's byte
   // order not yet told from the data, docs/daq.md) is not compensated: its scans go through as
   // invalid input (NaN angle, QUALITY_INVALID_INPUT, counted as fault scans), so no wrongly decoded
   // value enters the angle or the model's memory; as after any invalid sample, the velocity
-  // estimator settles again on the next good scans (QUALITY_SETTLING). No scan is lost: no gap.
+  // estimator settles again on the next good scans (QUALITY_SETTLING). No scan is lost.
   const bool doubtful = (b.flags & pof::raw_block_t::FLAG_DOUBTFUL) != 0;
   if (last_seq_ && !restart) {
     // b.seq > *last_seq_ >= 0 and b.first_scan >= *next_scan_ >= 0: the differences cannot overflow.
     sat_add(counters_.lost_blocks, b.seq - *last_seq_ - 1);
     if (b.first_scan > *next_scan_) {
       sat_add(counters_.lost_scans, b.first_scan - *next_scan_);
-      gap = true;
+      scans_lost = true;
     }
   }
   last_seq_ = b.seq;
   next_scan_ = b.first_scan + b.n_scans;
   last_utime_ = b.utime;
   stale_run_ = 0;
-  if (gap) {
+  if (scans_lost) {
     comp_->reset();
     in_window_ = 0;  // never average across a hole
   }

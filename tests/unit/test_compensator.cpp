@@ -229,10 +229,10 @@ TEST(Compensator, QualityFlags) {
 
   comp.reset();
   out = comp.step(v45, 4.0);
-  EXPECT_TRUE(out.quality & quality::kGap);
+  EXPECT_TRUE(out.quality & quality::kScansLost);
   EXPECT_TRUE(out.quality & quality::kSettling);
   out = comp.step(v45, 4.0);
-  EXPECT_FALSE(out.quality & quality::kGap);
+  EXPECT_FALSE(out.quality & quality::kScansLost);
 
   // 1 rad/s is beyond the calibrated 0.4304 rad/s.
   comp.reset();
@@ -291,9 +291,9 @@ TEST(Compensator, OfflineRecordingResetsAtGapsAndFlagsThem) {
                                                  paper_calibration(p.reference_level_v));
   EXPECT_NEAR(r.scan_rate_hz, 200, 1e-6);
   EXPECT_EQ(r.resets, 1);
-  EXPECT_TRUE(r.quality[static_cast<std::size_t>(cut)] & quality::kGap);
+  EXPECT_TRUE(r.quality[static_cast<std::size_t>(cut)] & quality::kScansLost);
   EXPECT_TRUE(r.quality[static_cast<std::size_t>(cut + 1)] & quality::kSettling);
-  EXPECT_FALSE(r.quality[static_cast<std::size_t>(cut + 1)] & quality::kGap);
+  EXPECT_FALSE(r.quality[static_cast<std::size_t>(cut + 1)] & quality::kScansLost);
   EXPECT_EQ(r.angle_deg.size(), g.size());
   EXPECT_EQ(r.phase.size(), static_cast<std::size_t>(g.size()));
 }

@@ -12,7 +12,7 @@ using A = pof::angle_t;
 static_assert(q::kReferenceLost == A::QUALITY_REFERENCE_LOST);
 static_assert(q::kOverRange == A::QUALITY_OVER_RANGE);
 static_assert(q::kInvalidInput == A::QUALITY_INVALID_INPUT);
-static_assert(q::kGap == A::QUALITY_GAP);
+static_assert(q::kScansLost == A::QUALITY_GAP);
 static_assert(q::kVelocityExtrapolated == A::QUALITY_VELOCITY_EXTRAPOLATED);
 static_assert(q::kAngleExtrapolated == A::QUALITY_ANGLE_EXTRAPOLATED);
 static_assert(q::kSettling == A::QUALITY_SETTLING);

@@ -10,7 +10,7 @@ namespace quality {
 inline constexpr std::int32_t kReferenceLost = 1;          // reference power near 0 or far from its level
 inline constexpr std::int32_t kOverRange = 2;              // a DAQ input at its range limit
 inline constexpr std::int32_t kInvalidInput = 4;           // NaN/inf sample; angle is NaN
-inline constexpr std::int32_t kGap = 8;                    // scans lost before this one; estimator reset
+inline constexpr std::int32_t kScansLost = 8;              // scans lost before this one; estimator reset (QUALITY_GAP)
 inline constexpr std::int32_t kVelocityExtrapolated = 16;  // |velocity| outside the calibrated range
 inline constexpr std::int32_t kAngleExtrapolated = 32;     // angle outside the calibrated range
 inline constexpr std::int32_t kSettling = 64;              // velocity estimator not yet settled

@@ -8,37 +8,34 @@
 // "these velocities can be obtained from the rate of angle variation"); it assumes constant velocity
 // per movement (its named future work is variable velocity and acceleration).
 //
-// Velocity estimator: least-squares slope of the last N = round(velocity_window_s * scan_rate_hz)
-// angles, updated from running sums in O(1). For a constant velocity it is unbiased and its estimate
-// refers to the window centre, i.e. it lags by delay_s() = (N - 1) / (2 fs) (0.2475 s for 0.5 s at
-// 200 Hz). With white angle noise sigma [deg] its standard deviation is
-// sigma * sqrt(12 / (N (N^2 - 1))) * fs [deg/s] (velocity_noise_rad_s()); 0.1 deg gives 0.0012 rad/s
-// at the defaults, five times below the hold threshold.
-//
-// With the dynamic model active (Calibration::active), angle_deg is its online inverse instead
-// (dynamic_model.hpp): no direction is decided, so the estimator above only reports velocity and
-// phase (POF_ANGLE, the statistics) and sets the same quality flags.
-//
-// With effect terms in the calibration (Calibration::gap, gap_terms.hpp, docs/calibration.md
-// "`[gap]`: effect terms and how the compensator applies them"), each scan also: notches the
-// normalised voltage at every periodic_interference frequency, subtracts the sensor-side terms'
-// voltage predicted at the previous scan's angle before the inverse (either model), and undoes the
-// delay and the backlash on the angle the inverse gives. The sensor's velocity is then estimated
-// from f5 of the voltage without the terms (a creep relaxing in a hold must not look like a
-// movement); angle_uncomp_deg stays f5 of the voltage as measured.
+// OnlineCompensator owns the parts, each in a header of its own, and runs them in this order
+// (docs/calibration.md, "Online compensation"):
+//   ReferenceGuard      normalisation and its guard (normalise.hpp)
+//   TermChains          the [gap] effect terms, if any: notch, quiet angle, terms voltage, the
+//                       delay and play undone (term_chains.hpp)
+//   VelocityWindow      the velocity: least-squares slope of the last N angles (velocity_window.hpp);
+//                       it lags by delay_s() = (N - 1) / (2 fs), its noise is velocity_noise_rad_s()
+//   StepDetector        model steps, paper model only (step_detector.hpp)
+//   DirectionDetector   flexion, extension or hold with a dead band (direction_detector.hpp)
+//   the inverse         eq. (11)/(12) (f5 in holds), or the dynamic model's DynamicInverter
+//                       (dynamic_model.hpp), which decides no direction: the window and the
+//                       detector then only report velocity and phase (POF_ANGLE, the statistics)
 //
 // Threading: one instance per sensor stream, used from one thread. step() and reset() never
-// allocate, never throw and never block; the constructor allocates the window.
+// allocate, never throw and never block; the constructor allocates every part.
 #include <cstdint>
 #include <limits>
 #include <vector>
 
 #include "pof/core/calibration.hpp"
+#include "pof/core/direction_detector.hpp"
 #include "pof/core/dynamic_model.hpp"
-#include "pof/core/gap_terms.hpp"
 #include "pof/core/model.hpp"
 #include "pof/core/normalise.hpp"
 #include "pof/core/quality.hpp"
+#include "pof/core/step_detector.hpp"
+#include "pof/core/term_chains.hpp"
+#include "pof/core/velocity_window.hpp"
 
 namespace pof::core {
 
@@ -100,120 +97,35 @@ class OnlineCompensator {
   /// One scan. angle_ref_deg is only used with VelocitySource::kReference (pass NaN otherwise).
   CompensatedScan step(double sensor_v, double reference_v, double angle_ref_deg = kNoReference) noexcept;
 
-  /// Forget the velocity history (after lost scans); the next output carries quality::kGap and
-  /// kSettling until the window has refilled.
+  /// Forget the velocity history (after lost scans); the next output carries quality::kScansLost
+  /// and kSettling until the window has refilled.
   void reset() noexcept;
 
   [[nodiscard]] double delay_s() const noexcept;
   [[nodiscard]] double velocity_noise_rad_s(double angle_noise_deg) const noexcept;
-  [[nodiscard]] int window() const noexcept { return n_; }
+  [[nodiscard]] int window() const noexcept { return window_.size(); }
   [[nodiscard]] const Calibration& calibration() const noexcept { return cal_; }
   [[nodiscard]] const CompensatorSettings& settings() const noexcept { return s_; }
 
   static constexpr double kNoReference = std::numeric_limits<double>::quiet_NaN();
 
  private:
+  // The window, the steps taken out of it and the direction restart (an unusable scan, lost scans).
   void clear_window() noexcept;
-  double push(double y) noexcept;  // returns slope [deg/scan], NaN with < 2 samples
-  double push_slope() const noexcept;  // the window's slope [deg/scan] as it is, NaN with < 2 samples
-  double short_slope() const noexcept;  // the reversal window's slope [deg/scan], NaN until it is full
-  double recent_slope(int k) const noexcept;  // least-squares slope of the newest k scans [deg/scan]
-  double& ring_back(int back) noexcept;  // the window's entry `back` scans before the newest
-  void refresh_sums() noexcept;         // s0_, s1_ rebuilt from the ring
-  // The f5-angle step [deg] the paper model predicts for a change of direction from `from` to `to`
-  // at angle [deg] (both branches at the lowest calibrated speed; f5 in holds).
-  double predicted_step(double angle, Direction from, Direction to) const noexcept;
-  // Model steps (CompensatorSettings::model_steps): tracks the f5 angle's noise, and when the
-  // newest block of the window stepped as predicted for a change of direction returns that
-  // direction (else
-  // phase_), the step taken out of the window.
-  Direction model_step() noexcept;
-  // The state of one chain of [gap] terms over one angle: the terms, the angle they were last
-  // advanced to and the voltage inverted then.
-  struct TermsChain {
-    GapCorrector terms;
-    double angle = std::numeric_limits<double>::quiet_NaN();  // the previous scan's angle [deg]
-    double u = std::numeric_limits<double>::quiet_NaN();      // the voltage inverted then [V]
-    void restart() noexcept {
-      terms.reset();
-      angle = u = std::numeric_limits<double>::quiet_NaN();
-    }
-  };
-  // A chain's voltage at this scan's angle, with velocity w [rad/s] and direction d: solved from
-  // its previous angle (f5 of v for the first) on the model linearised there (slope dA/dv
-  // `slope`), the terms exact (see terms_voltage in compensator.cpp).
-  double terms_voltage(const TermsChain& c, double v, double reference_v, double w, Direction d, double slope) const noexcept;
-  // The published chain's voltage: slope of the active model.
-  double terms_voltage(double v, double reference_v, double w, Direction d) const noexcept;
-  // f5 of v with the quiet chain's terms (voltage *g) taken off: the velocity source's angle.
-  double quiet_angle(double v, double reference_v, double* g) const noexcept;
-  // Commits this scan's quiet angle and the voltage f5 inverted (v - g) to the quiet chain; on the
-  // dynamic model with a play, the play's side follows that voltage's dynamic inverse (play_inverter_).
-  void commit_quiet(double angle, double u, double reference_v) noexcept;
-  // A scan the quiet chain does not commit: the windows that would span it restart.
-  void skip_quiet() noexcept;
-  // dA/dv [deg/V] of the active model at angle [deg] with velocity w and direction d.
-  double model_slope(double angle, double w, Direction d) const noexcept;
-  // The angle of normalised voltage v (the terms' voltage already subtracted) through the active
-  // model, the [gap] kinematics undone when there are terms; w and d the paper chain's.
+  // The active model's inverse of normalised voltage v (the terms' voltage already subtracted):
+  // eq. (11)/(12) at |w| (f5 in holds) or the dynamic inverse; the [gap] kinematics undone.
   double angle_of(double v, double reference_v, double w, Direction d, bool* clamped) noexcept;
 
   Calibration cal_;
   CompensatorSettings s_;
   bool dynamic_ = false;
   DynamicInverter inverter_;
-  // The dynamic model with a [gap] play: the model's inverse of the quiet chain's voltage, the angle
-  // the play's side is decided on. f5 (the quiet angle) lacks the structure's relaxation and stop
-  // operators: in the hold after a movement it falls back as the fibre relaxes, and a play fed it
-  // falls back with it; the published angle carries the direction-switched terms, late at every
-  // start and stop (docs/calibration.md, "[gap]", step 6).
-  DynamicInverter play_inverter_;
-  bool play_inverse_ = false;
   ReferenceGuard guard_;
-  int n_ = 1;
-  std::vector<double> ring_;
-  int head_ = 0, count_ = 0;
-  double s0_ = 0, s1_ = 0;   // sum y_j, sum j*y_j over the window (j = 0 oldest)
-  int m_ = 0;                // reversal window [scans], 0 = off (m_ <= n_: it reads the same ring)
-  std::int64_t since_refresh_ = 0;
-  Direction phase_ = Direction::kHold;
-  // Model steps: block length [scans] (0 = off), the offset taken out of the angles the window is
-  // fed since the last clear, the mean square of the step statistic and how many scans it has
-  // seen, and the scans until the long window may again change a direction that a step decided
-  // (until then it still holds angles from before the step).
-  int step_m_ = 0;
-  std::vector<double> step_scratch_;  // the newest 4 blocks, newest first (model_step())
-  double step_offset_ = 0;
-  double stat_var_ = 0;
-  std::int64_t stat_count_ = 0;
-  int step_hold_ = 0;
-  bool gap_pending_ = false;
-  bool terms_ = false;  // [gap] terms run
-  // Two copies of the same terms. `terms_chain_` is advanced with the published fibre angle (the
-  // active model's inverse). `quiet_chain_` is advanced with f5 of the voltage after its own terms:
-  // the sensor's velocity, hence the direction, is estimated on that angle, which never depends on
-  // the branch the paper chain picked; on the paper chain its terms also give the published angle's
-  // voltage, whose own angle overshoots at every late direction decision (docs/calibration.md,
-  // "[gap]", steps 2 and 4). `terms_chain_` notches the voltage and undoes the kinematics, with the
-  // velocity extrapolation's slope and the play's side of the quiet chain's (step 6 there).
-  // The acceleration term lives in the quiet chain alone and both take its voltage from there: the
-  // published angle goes through the active model's inverse, whose bend-lag inverse (dynamic
-  // model, theta_f + tau_b theta_f') differentiates it once more, so an acceleration estimated on
-  // that angle and subtracted before it is a closed loop through a third derivative; a blind
-  // recording's hold (tau_b 56 ms, 0.0053 V s^2/rad) rang to 300 deg RMSE. The quiet angle goes
-  // through no inverse but f5 (GapCorrector::advance makes it open-loop in the term itself).
-  TermsChain terms_chain_, quiet_chain_;
-  bool quiet_committed_ = false;  // the quiet chain has this scan's angle (its kinematics are current)
-  // The terms' slope dg/dA is a difference over this step [deg] (their bases are smooth or
-  // piecewise linear in A: stop and play operators).
-  static constexpr double kTermsSlopeStepDeg = 1e-3;
-  // 1 + s g' below this (the terms cancelling most of the model's slope) is held here.
-  static constexpr double kMinTermsDivisor = 0.25;
-  // The solve for this scan's angle (terms_voltage): at most this many Newton steps to a bracket,
-  // and as many regula falsi steps within it, down to kTermsTolDeg. Piecewise linear terms close
-  // in a few; the bound keeps a scan's work fixed.
-  static constexpr int kTermsSearchSteps = 12;
-  static constexpr double kTermsTolDeg = 1e-6;
+  VelocityWindow window_;
+  StepDetector steps_;
+  DirectionDetector direction_;
+  TermChains terms_;
+  bool scans_lost_ = false;  // reset() was called: the next output carries quality::kScansLost
 };
 
 }  // namespace pof::core

@@ -385,9 +385,9 @@ Trial run_trial(std::uint64_t seed, int count, bool short_session, const std::fi
   sim::Scenario s = draw_trial_sensor(t, rng, short_session, opt_sensor_spread, dynamic_share);
   t.hidden = hide_random(s, count, rng, t.covered);
   // A bend lag is theta - tau theta' + tau^2 theta'' - ...: its second order is an acceleration
-  // term of gain slope * tau^2, the lag's own physics where it is named (seed 1007's short
-  // session, a 58 ms lag: found -0.00349 V s^2/rad, the lag's term -0.00357). Covered after the
-  // draw, so an acceleration dependence may still be hidden on such a fibre (and is then a hit).
+  // term of gain slope * tau^2, the lag's own physics where it is named (a found term matches it:
+  // docs/gap.md, section 4, "Confusable pairs"). Covered after the draw, so an acceleration
+  // dependence may still be hidden on such a fibre (and is then a hit).
   if (t.dynamic.contains("bend_lag_s")) t.covered.emplace_back("acceleration_dependence");
   t.csv = (dir / ("blind_" + std::to_string(seed) + ".csv")).string();
   const io::Recording rec = simulate(s, seed);

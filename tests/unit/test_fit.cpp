@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <random>
 #include <vector>
 
@@ -216,4 +217,23 @@ TEST(Fit, OneSignedLeastSquaresTakesTheBetterSign) {
   EXPECT_LT((b - want).norm(), 1e-9) << b.transpose();
   // No group: plain least squares.
   EXPECT_LT((one_signed_least_squares(G, g, 0, 0) - g).norm(), 1e-9);
+}
+
+// The damped step: the first scale the trial takes, halving from 1; none taken is empty.
+TEST(Fit, HalvingSearchTakesTheFirstScaleAccepted) {
+  std::vector<double> tried;
+  const auto taken = pof::core::halving_search([&](double scale) -> std::optional<double> {
+    tried.push_back(scale);
+    if (scale < 0.2) return 10 * scale;
+    return std::nullopt;
+  });
+  ASSERT_TRUE(taken.has_value());
+  EXPECT_EQ(*taken, 1.25);
+  EXPECT_EQ(tried, (std::vector<double>{1, 0.5, 0.25, 0.125}));
+  tried.clear();
+  EXPECT_FALSE(pof::core::halving_search([&](double scale) -> std::optional<double> {
+    tried.push_back(scale);
+    return std::nullopt;
+  }, 3));
+  EXPECT_EQ(tried, (std::vector<double>{1, 0.5, 0.25, 0.125}));
 }

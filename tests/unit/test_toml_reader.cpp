@@ -8,6 +8,7 @@
 
 #include "pof/base/errors.hpp"
 #include "pof/base/exit_codes.hpp"
+#include "pof/base/format.hpp"
 #include "pof/base/toml_reader.hpp"
 
 namespace {
@@ -236,4 +237,15 @@ TEST(TomlReader, SyntaxErrorsNameTheLineAndStayShort) {
   EXPECT_EQ(e.rfind("f.toml:2: TOML syntax error", 0), 0u) << e;
   EXPECT_LT(e.size(), 300u) << e;
   EXPECT_THROW((void)pof::read_toml_file("/nonexistent/x.toml", "test file"), pof::NoInputError);
+}
+
+// The number formats every message and file uses (pof/base/format.hpp).
+TEST(Format, NumbersAsText) {
+  EXPECT_EQ(pof::format_number(0.1), "0.1");
+  EXPECT_EQ(pof::format_number(1e300), "1e+300");
+  EXPECT_EQ(pof::format_significant(2.0 / 3.0, 6), "0.666667");
+  EXPECT_EQ(pof::format_significant(0.1, 17), "0.10000000000000001");
+  EXPECT_EQ(pof::format_fixed(3.14159, 2), "3.14");
+  EXPECT_EQ(pof::format_fixed(-0.5, 0), "-0");
+  EXPECT_EQ(std::stod(pof::format_significant(1.0 / 3.0, 17)), 1.0 / 3.0);
 }

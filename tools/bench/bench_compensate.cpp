@@ -130,7 +130,7 @@ BENCHMARK(BM_OnlineCompensatorStepDynamic)->Arg(0)->Arg(1);
 // the paper's chain (arg 0) or the fitted dynamic model (arg 1): the notch, seven voltage terms
 // (two Prony-like and three stop-operator bases among them), the delay's extrapolation and the
 // play. Compare with BM_OnlineCompensatorStep and BM_OnlineCompensatorStepDynamic/0.
-pof::core::GapModel all_appliable_terms() {
+pof::core::GapModel every_online_term() {
   auto term = [](const char* effect, double theta, std::vector<double> c) {
     pof::core::GapTerm t;
     t.effect = effect;
@@ -156,7 +156,7 @@ pof::core::GapModel all_appliable_terms() {
 
 void BM_OnlineCompensatorStepGap(benchmark::State& state) {
   auto cal = state.range(0) == 1 ? dynamic_calibration(false) : calibration();
-  cal.gap = all_appliable_terms();
+  cal.gap = every_online_term();
   pof::core::OnlineCompensator comp(cal);
   run_steps(state, comp);
 }

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "pof/base/format.hpp"
 #include "pof/bus/fingerprint.hpp"
 #include "pof/angle_t.hpp"
 #include "pof/compensator_status_t.hpp"
@@ -33,13 +34,8 @@
 namespace pof::cli {
 namespace {
 
-// Shortest text that reads back to the same float/double.
-std::string num(double v) {
-  if (std::isnan(v)) return "nan";
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.9g", v);
-  return buf;
-}
+// Text that reads back to the same float (9 significant digits); every NaN as "nan".
+std::string num(double v) { return std::isnan(v) ? "nan" : format_significant(v, 9); }
 
 // A text field as one CSV cell (RFC 4180): quoted when it holds a comma, quote or line break, so a
 // state text or a reload error cannot shift the columns.

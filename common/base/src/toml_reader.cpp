@@ -142,12 +142,6 @@ std::optional<std::string> nearest(std::string_view unknown, const std::vector<s
 
 }  // namespace
 
-std::string format_number(double v) {
-  char buf[32];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  return std::string(buf, r.ptr);
-}
-
 toml::table parse_toml(std::string_view text, const std::string& source) {
   try {
     return toml::parse(text, std::string_view{source});

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "pof/base/errors.hpp"
+#include "pof/base/format.hpp"
 #include "pof/base/text_file.hpp"
 #include "pof/base/toml_reader.hpp"
 #include "pof/io/atomic_file.hpp"
@@ -24,9 +25,7 @@ namespace pof::io {
 namespace {
 
 std::string num(double v) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", v);
-  std::string s = buf;
+  std::string s = format_significant(v, 17);
   // TOML needs a '.' or exponent for a float; "4" would read back as an integer (accepted, but
   // keep the file's types honest).
   if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
@@ -68,12 +67,25 @@ std::vector<double> numbers(TomlSection& s, std::string_view key, std::size_t ma
   return a.values<double>(each);
 }
 
+// Two arrays that pair up element by element (thresholds and their weights, time constants and
+// their gains): at most N each, copied into `first` and `second`. A length mismatch is reported on
+// `second_key` as "expected one <one_per> (<count>)". Returns the number of pairs.
+template <std::size_t N>
+int paired_numbers(TomlSection& s, std::string_view first_key, const TomlCheck<double>& each, std::array<double, N>& first,
+                   std::string_view second_key, std::array<double, N>& second, std::string_view one_per) {
+  const auto a = numbers(s, first_key, N, each);
+  const auto b = numbers(s, second_key, N);
+  if (a.size() != b.size())
+    s.fail(second_key, "expected one " + std::string(one_per) + " (" + std::to_string(a.size()) + ")");
+  std::copy(a.begin(), a.end(), first.begin());
+  std::copy(b.begin(), b.end(), second.begin());
+  return static_cast<int>(a.size());
+}
+
 // [dynamic]: every key checked, array lengths consistent, then the model's own validity rule
 // (one weight sign, positive thresholds and time constants) reported on the key it concerns.
 pof::core::DynamicModel read_dynamic(TomlSection& d) {
   using pof::core::kMaxDegree;
-  using pof::core::kMaxOperators;
-  using pof::core::kMaxPronyTerms;
   pof::core::DynamicModel m;
   m.degree = d.get<int>("degree", toml_check::integer_in(1, kMaxDegree));
   m.angle_centre_deg = d.get<double>("angle_centre_deg");
@@ -85,23 +97,13 @@ pof::core::DynamicModel read_dynamic(TomlSection& d) {
   if (poly.size() != static_cast<std::size_t>(m.degree + 1))
     d.fail("poly", "expected degree + 1 = " + std::to_string(m.degree + 1) + " coefficients, got " + std::to_string(poly.size()));
   std::copy(poly.begin(), poly.end(), m.poly.begin());
-  const auto r = numbers(d, "thresholds_deg", kMaxOperators,
-                         [](double v) { return v > 0 ? std::string{} : std::string("a threshold > 0 deg"); });
-  const auto c = numbers(d, "weights_v_per_deg", kMaxOperators);
-  if (r.size() != c.size()) d.fail("weights_v_per_deg", "expected one weight per threshold (" + std::to_string(r.size()) + ")");
-  m.n_operators = static_cast<int>(r.size());
-  std::copy(r.begin(), r.end(), m.threshold_deg.begin());
-  std::copy(c.begin(), c.end(), m.weight_v_per_deg.begin());
+  m.n_operators = paired_numbers(d, "thresholds_deg", [](double v) { return v > 0 ? std::string{} : std::string("a threshold > 0 deg"); },
+                                 m.threshold_deg, "weights_v_per_deg", m.weight_v_per_deg, "weight per threshold");
   m.rate_gain_s_per_rad = d.get<double>("rate_gain_s_per_rad");
   m.speed_filter_s = d.get<double>("speed_filter_s", toml_check::positive());
   m.speed_limit_rad_s = d.get<double>("speed_limit_rad_s", toml_check::positive());
-  const auto tau = numbers(d, "prony_tau_s", kMaxPronyTerms,
-                           [](double v) { return v > 0 ? std::string{} : std::string("a time constant > 0 s"); });
-  const auto g = numbers(d, "prony_gain_v_per_deg", kMaxPronyTerms);
-  if (tau.size() != g.size()) d.fail("prony_gain_v_per_deg", "expected one gain per time constant (" + std::to_string(tau.size()) + ")");
-  m.n_prony = static_cast<int>(tau.size());
-  std::copy(tau.begin(), tau.end(), m.prony_tau_s.begin());
-  std::copy(g.begin(), g.end(), m.prony_gain_v_per_deg.begin());
+  m.n_prony = paired_numbers(d, "prony_tau_s", [](double v) { return v > 0 ? std::string{} : std::string("a time constant > 0 s"); },
+                             m.prony_tau_s, "prony_gain_v_per_deg", m.prony_gain_v_per_deg, "gain per time constant");
   // Files written before the bend lag existed have neither key: no lag.
   m.bend_lag_s = d.get_or("bend_lag_s", m.bend_lag_s);
   m.lag_window_s = d.get_or("lag_window_s", m.lag_window_s, toml_check::positive());

@@ -7,18 +7,14 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include "pof/base/format.hpp"
 #include "pof/core/normalise.hpp"
 
 namespace pof::core {
 
 namespace {
 
-std::string num(double x, int digits) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*g", digits, x);
-  return buf;
-}
-std::string signed_term(double x, int digits) { return (x < 0 ? " - " : " + ") + num(std::abs(x), digits); }
+std::string signed_term(double x, int digits) { return (x < 0 ? " - " : " + ") + format_significant(std::abs(x), digits); }
 
 // Finite (x, y) pairs of samples [b, e) where mask holds, appended.
 void append_finite(std::vector<double>& xs, std::vector<double>& ys, const Eigen::VectorXd& x,
@@ -73,7 +69,7 @@ CalibrationResult calibrate(const Eigen::VectorXd& t_s, const Eigen::VectorXd& s
   }
   if (hv.size() < 3)
     throw CalibrationError("calibration: found " + std::to_string(hv.size()) + " hold(s) of at least " +
-                           num(s.min_hold_s, 3) + " s; the quasi-static fit (f5) needs at least 3 (protocol: 0-90 deg in 5 deg steps, 10 s holds)");
+                           format_significant(s.min_hold_s, 3) + " s; the quasi-static fit (f5) needs at least 3 (protocol: 0-90 deg in 5 deg steps, 10 s holds)");
   r.quasi_static.hold_v = as_vec(hv);
   r.quasi_static.hold_angle_deg = as_vec(ha);
   r.quasi_static.angle_of_v = fit_line(r.quasi_static.hold_v, r.quasi_static.hold_angle_deg);
@@ -136,7 +132,7 @@ CalibrationResult calibrate(const Eigen::VectorXd& t_s, const Eigen::VectorXd& s
   if (r.tests.size() < 2)
     throw CalibrationError("calibration: found " + std::to_string(r.tests.size()) +
                            " velocity test(s) with both a flexion and an extension sweep of at least " +
-                           num(s.min_dynamic_sweep_deg, 3) + " deg; f1 and f2 need at least 2 velocities");
+                           format_significant(s.min_dynamic_sweep_deg, 3) + " deg; f1 and f2 need at least 2 velocities");
 
   // --- f1: h = c1 exp(c2 w).
   const auto nt = static_cast<Eigen::Index>(r.tests.size());
@@ -200,8 +196,8 @@ CalibrationResult calibrate(const Eigen::VectorXd& t_s, const Eigen::VectorXd& s
 }
 
 std::string format_combined_equation(const CombinedEquation& eq, Direction d) {
-  const std::string e = "e^(" + num(eq.c2, 4) + " w)";
-  return std::string(d == Direction::kExtension ? "alpha_e" : "alpha_f") + " = (" + num(eq.a1, 4) + " " + e +
+  const std::string e = "e^(" + format_significant(eq.c2, 4) + " w)";
+  return std::string(d == Direction::kExtension ? "alpha_e" : "alpha_f") + " = (" + format_significant(eq.a1, 4) + " " + e +
          signed_term(eq.a0, 5) + ") Vmeas" + signed_term(eq.b1, 4) + " " + e + signed_term(eq.b0, 6);
 }
 

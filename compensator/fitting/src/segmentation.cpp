@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "pof/core/offline.hpp"
 
 namespace pof::core {
 
@@ -28,13 +29,10 @@ void coalesce(std::vector<Run>& runs) {
   runs.swap(out);
 }
 
+// The median step [s], 1 where there is none (fewer than 2 scans, or a median step not > 0).
 double median_dt(const Eigen::VectorXd& t) {
-  if (t.size() < 2) return 1.0;
-  std::vector<double> d(static_cast<std::size_t>(t.size() - 1));
-  for (Eigen::Index i = 1; i < t.size(); ++i) d[static_cast<std::size_t>(i - 1)] = t(i) - t(i - 1);
-  auto mid = d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2);
-  std::nth_element(d.begin(), mid, d.end());
-  return *mid > 0 ? *mid : 1.0;
+  const double dt = median_step_s(t);
+  return dt > 0 ? dt : 1.0;
 }
 
 }  // namespace

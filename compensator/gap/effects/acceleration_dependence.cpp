@@ -4,6 +4,7 @@
 #include <numbers>
 
 #include "effect.hpp"
+#include "pof/core/units.hpp"
 
 namespace pof::gap {
 namespace {
@@ -13,7 +14,7 @@ namespace {
 Eigen::MatrixXd columns(double h_s, const Context& cx, const Kinematics& k) {
   const double dt = cx.s->dt;
   const auto h = std::max<Eigen::Index>(1, static_cast<Eigen::Index>(std::lround(h_s / dt)));
-  const Eigen::VectorXd w = local_slope(k.angle, dt, h) * (std::numbers::pi / 180.0);
+  const Eigen::VectorXd w = local_slope(k.angle, dt, h) * core::kRadPerDeg;
   Eigen::MatrixXd C(cx.s->n, 1);
   C.col(0) = local_slope(w, dt, h);
   return C;

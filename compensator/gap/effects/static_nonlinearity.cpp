@@ -12,7 +12,7 @@ namespace {
 // S-shaped linearity error of a precision potentiometer, which needs up to u^5.
 Eigen::MatrixXd columns(double, const Context& cx, const Kinematics& k) {
   Eigen::MatrixXd C(cx.s->n, 4);
-  const Eigen::ArrayXd u = (k.angle.array() - 45.0) / 45.0;
+  const Eigen::ArrayXd u = k.angle.array().unaryExpr(&core::static_nonlinearity_u);
   C.col(0) = u.square().matrix();
   C.col(1) = u.cube().matrix();
   C.col(2) = u.square().square().matrix();
@@ -27,7 +27,7 @@ nlohmann::json physical(double, const Eigen::VectorXd& b, const Context& cx) {
   // The largest deviation from the chord over 0..90 deg (what the paper's linearity bounds).
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   for (int a = 0; a <= 90; ++a) {
-    const double u = (a - 45.0) / 45.0;
+    const double u = core::static_nonlinearity_u(a);
     const double err = e(0) * u * u + e(1) * u * u * u + e(2) * u * u * u * u + e(3) * u * u * u * u * u;
     const double chord = (e(0) + e(2)) + (e(1) + e(3)) * u;
     lo = std::min(lo, err - chord);

@@ -7,13 +7,17 @@
 #include <deque>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <string>
+#include <utility>
 
 #include "pof/core/calibration.hpp"
 #include "pof/core/compensator.hpp"
 #include "pof/core/dynamic_model.hpp"
+#include "pof/core/fit.hpp"
 #include "pof/core/gap_terms.hpp"
 #include "pof/core/model.hpp"
+#include "pof/core/units.hpp"
 
 namespace pof::gap {
 
@@ -53,18 +57,16 @@ namespace {
 VectorXd causal_acceleration(const VectorXd& angle_deg, int n, double dt) {
   const std::vector<double> w = core::acceleration_weights(n, dt);
   VectorXd a = VectorXd::Zero(angle_deg.size());
-  for (Index k = n; k < angle_deg.size(); ++k) {
-    double s = 0;
-    for (int i = 0; i < n; ++i) s += w[static_cast<std::size_t>(i)] * angle_deg(k - 1 - i);
-    a(k) = s * (std::numbers::pi / 180.0);
-  }
+  for (Index k = n; k < angle_deg.size(); ++k)
+    a(k) = core::acceleration_estimate(w, [&](std::size_t back) { return angle_deg(k - 1 - static_cast<Index>(back)); }) *
+           core::kRadPerDeg;
   return a;
 }
 
 // Gauss-Newton rounds of the structure beside the terms (the first takes the step of the fit
-// applied_fit is given), and the relative decrease of the residual under which they stop. On
-// blind recording 213 the residual fell 86 -> 3.4 (V^2 over the recording) in 8 rounds, the last
-// two by 0.1 % and less.
+// applied_fit is given), and the relative decrease of the residual under which they stop: the
+// decrease shrinks from round to round, so a round that buys < 0.1 % ends them, and the cap only
+// bounds the cost (rounds counted on a blind recording: docs/gap.md, section 5, applied_fit).
 constexpr int kMaxStructureRounds = 12;
 constexpr double kStructureRoundGain = 1e-3;
 
@@ -87,29 +89,29 @@ AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& afte
   // The search moves the structure by first-order steps beside the terms (a few, undamped), the
   // last of them in `after`. Along a direction the voltage barely tells from a term (the paper
   // structure's hysteresis against a relaxation or a memory term that draws the same loop) a
-  // first-order step runs to branches ~100 deg off f5, and moved_structure halves it back within
-  // its bounds (to 1/16 on blind recording 213). Beside a structure moved that little, the terms
-  // are refitted to the share of the effect the baseline had not already absorbed in its
-  // hysteresis: there the relaxation's gain came out at a third of the sensor's and the
-  // compensated angle at 1.04 deg RMSE. So the structure goes on by damped Gauss-Newton:
-  // relinearised where the last step landed, structure and terms fitted jointly, and the step
-  // halved until the residual the terms leave at the moved structure decreases (a round without a
-  // decrease ends the search; undamped, the steps oscillated: blind 290's residual went 6.9 -> 36
-  // -> 12 -> 31 and its angle 0.48 -> 0.94 deg). On 213: 0.37 deg, against 0.35 for the same
-  // sensor drawn without the relaxation.
+  // first-order step runs to branches far off f5, and moved_structure halves it back within its
+  // bounds, often to a small fraction. Beside a structure moved that little, the terms are
+  // refitted to the share of the effect the baseline had not already absorbed in its hysteresis,
+  // not to the sensor's whole effect, and the compensated angle keeps much of its error. So the
+  // structure goes on by damped Gauss-Newton: relinearised where the last step landed, structure
+  // and terms fitted jointly, and the step halved until the residual the terms leave at the moved
+  // structure decreases (a round without a decrease ends the search). Undamped, the steps
+  // oscillate along the same near-degenerate direction. Measured on blind recordings: docs/gap.md,
+  // section 5 (applied_fit).
   Search at = sx;
   double residual = terms_residual(at, st);
   VectorXd step = after.fit.beta_full;
   for (int round = 0; round < kMaxStructureRounds; ++round) {
     if (round > 0) step = fit_state(at, st).fit.beta_full;
     const double before = residual;
-    double scale = 1;
-    for (int halving = 0; halving <= 8 && !(residual < before); ++halving, scale /= 2) {
+    auto taken = core::halving_search([&](double scale) -> std::optional<std::pair<Search, double>> {
       Search moved_at = moved(at, scale * step);
-      if (const double r = terms_residual(moved_at, st); r < before) {
-        residual = r;
-        at = std::move(moved_at);
-      }
+      if (const double r = terms_residual(moved_at, st); r < before) return std::pair{std::move(moved_at), r};
+      return std::nullopt;
+    });
+    if (taken) {
+      at = std::move(taken->first);
+      residual = taken->second;
     }
     if (!(residual < (1 - kStructureRoundGain) * before)) break;
   }
@@ -145,9 +147,9 @@ AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& afte
   // The search's acceleration column is centred (+-h on the reference angle); the compensator's
   // estimate is causal and, to keep its noise bounded, often longer, so it lags by half its window
   // and a scan. Fitted on the centred column, the coefficient is the physical one, and applied
-  // with that lag it pulls the angle the wrong way wherever the acceleration changes within it (a
-  // blind recording's gait cycles: +-5 deg). So its column is the compensator's own estimate on
-  // the angle it estimates it on, with the window the compensator will take for the coefficient
+  // with that lag it pulls the angle the wrong way wherever the acceleration changes within it (in
+  // gait cycles: +-5 deg). So its column is the compensator's own estimate on the angle it
+  // estimates it on, with the window the compensator will take for the coefficient
   // fitted on it (the coefficient sets the window and the other terms' voltage the angle: fitted
   // four rounds; each fold's compensator takes the window its own coefficient sets, which may
   // differ by a scan).
@@ -259,7 +261,7 @@ void score_blocks(HeldOut& h, const VectorXd& a, const VectorXd& ref, const cv::
 }
 
 // The compensator's angle with the state's terms (those `use` keeps; the state holds none the
-// compensator refuses, see appliable_state), fold by fold with the model fitted on the other
+// compensator refuses, see online_part), fold by fold with the model fitted on the other
 // folds, scored on the held-out blocks.
 HeldOut held_out(const io::Recording& rec, const Search& sx, const State& st, const AppliedFit& after,
                  const Applied& use, const VectorXd& a0) {
@@ -314,8 +316,8 @@ core::Calibration calibration_of(const Structure& m, const Signals& s) {
   return cal;
 }
 
-Appliable appliable_state(const State& st, const CurrentFit& cur, const Context& cx, double rate_hz) {
-  Appliable out;
+OnlinePart online_part(const State& st, const CurrentFit& cur, const Context& cx, double rate_hz) {
+  OnlinePart out;
   std::vector<bool> keep(st.terms.size(), true);
   for (const core::GapProblem& p : core::gap_problems(gap_model_of(st, cur.fit.beta_full, cx), rate_hz)) {
     if (p.term == 0 || !keep[p.term - 1]) continue;  // 1-based; a term named twice counts once

@@ -37,13 +37,13 @@ AppliedFit applied_baseline(const Search& sx, const Structure& m);
 /// (core::gap_problems, judged at the search's fit `cur`: a drift, a trend over this recording, has
 /// no online form), and the refused effects' ids, each named once. The model applied is fitted
 /// without them (applied_fit on `state`): fitted beside a drift column and then applied without
-/// it, the structure lost the share of the trend its own offset had taken, and the angle got worse
-/// than the baseline's (blind recordings: up to 34 %).
-struct Appliable {
+/// it, the structure loses the share of the trend its own offset had taken, and the angle gets
+/// worse than the baseline's (measured: docs/gap.md, section 5, "model.toml").
+struct OnlinePart {
   State state;
   std::vector<std::string> refused;
 };
-Appliable appliable_state(const State& st, const CurrentFit& cur, const Context& cx, double rate_hz);
+OnlinePart online_part(const State& st, const CurrentFit& cur, const Context& cx, double rate_hz);
 
 /// Which of a state's effects are applied: the kinematic ones and each voltage term (in order).
 struct Applied {
@@ -55,7 +55,7 @@ struct Applied {
 /// (the dynamic model when it is the baseline) and, fold by fold, with the model fitted on the other folds (`after`, the fit of state `st` at
 /// sx's baseline: baseline moved and terms with the fold's coefficients), and scores each fold's held-out block against the reference
 /// angle: RMSE before and after, per fold and overall. `st` holds only terms the compensator
-/// applies (appliable_state); those it refused are named in "not_applied". Then each effect is left out in
+/// applies (online_part); those it refused are named in "not_applied". Then each effect is left out in
 /// turn; those whose online application makes the held-out angle worse are returned in `written`
 /// as not to be written to model.toml, and listed in "left_out_of_model"; "model_toml_nested"
 /// makes that choice (and model.toml's fallback to the baseline) for each block from the other

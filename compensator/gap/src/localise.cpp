@@ -8,6 +8,8 @@
 
 #include <unsupported/Eigen/FFT>
 
+#include "pof/base/format.hpp"
+
 namespace pof::gap {
 
 using Eigen::Index;
@@ -38,14 +40,6 @@ const char* phase_words(Phase p) {
     case Phase::kCount: break;
   }
   return "?";
-}
-
-std::string fmt(double x, int prec = 2) {
-  std::ostringstream o;
-  o.setf(std::ios::fixed);
-  o.precision(prec);
-  o << x;
-  return o.str();
 }
 
 struct Acc {
@@ -227,18 +221,18 @@ Localisation localise(const VectorXd& r, const Signals& s, const Kinematics& k, 
   // the sentence
   std::ostringstream o;
   const auto& tp = pa[top_phase];
-  o << "RMS " << fmt(rms_all) << " deg; largest in " << phase_words(static_cast<Phase>(top_phase)) << " (RMS "
-    << fmt(tp.rms()) << " deg, mean " << fmt(tp.mean()) << " deg, " << fmt(100.0 * static_cast<double>(tp.n) / N, 0)
+  o << "RMS " << format_fixed(rms_all, 2) << " deg; largest in " << phase_words(static_cast<Phase>(top_phase)) << " (RMS "
+    << format_fixed(tp.rms(), 2) << " deg, mean " << format_fixed(tp.mean(), 2) << " deg, " << format_fixed(100.0 * static_cast<double>(tp.n) / N, 0)
     << " % of scans)";
-  o << "; by angle at " << 10 * top_a << "-" << 10 * (top_a + 1) << " deg (RMS " << fmt(ab[top_a].rms()) << " deg)";
-  o << "; by velocity at " << vnames[top_v] << " rad/s (RMS " << fmt(vb[top_v].rms()) << " deg)";
+  o << "; by angle at " << 10 * top_a << "-" << 10 * (top_a + 1) << " deg (RMS " << format_fixed(ab[top_a].rms(), 2) << " deg)";
+  o << "; by velocity at " << vnames[top_v] << " rad/s (RMS " << format_fixed(vb[top_v].rms(), 2) << " deg)";
   const double trend = tmeans.back() - tmeans.front();
   if (std::abs(trend) > 0.5 * rms_all && rms_all > 0)
-    o << "; trend over time from " << fmt(tmeans.front()) << " to " << fmt(tmeans.back()) << " deg";
+    o << "; trend over time from " << format_fixed(tmeans.front(), 2) << " to " << format_fixed(tmeans.back(), 2) << " deg";
   if (peak_frac > 0.2)
-    o << "; spectral peak at " << fmt(static_cast<double>(pk) * df, 2) << " Hz (" << fmt(100 * peak_frac, 0) << " % of power)";
+    o << "; spectral peak at " << format_fixed(static_cast<double>(pk) * df, 2) << " Hz (" << format_fixed(100 * peak_frac, 0) << " % of power)";
   if (!top_in.empty())
-    o << "; strongest correlation with " << top_in << " (r = " << fmt(top_r) << " at lag " << fmt(top_lag) << " s)";
+    o << "; strongest correlation with " << top_in << " (r = " << format_fixed(top_r, 2) << " at lag " << format_fixed(top_lag, 2) << " s)";
   L.sentence = o.str();
   return L;
 }

@@ -2,6 +2,7 @@
 #include "search.hpp"
 
 #include "pof/core/dynamic_fit.hpp"
+#include "pof/core/fit.hpp"
 #include "pof/core/model.hpp"
 
 #include <algorithm>
@@ -75,11 +76,11 @@ VectorXd dynamic_moved_by(const core::DynamicModel& fitted, VectorXd b, const Ve
 // most land at zero): a free step over all of them gives every zero weight a value of either sign,
 // no such step was ever invertible, and the structure did not move online while the held-out fit
 // counted its move. An effect fitted beside that move then came on top of an operator that had
-// already taken it (a blind recording's found 1 deg backlash beside a 0.5 deg operator: 0.32 deg
-// RMSE online against 0.10 without it; a stop operator of threshold b/2 at the line's slope is a
-// belt play of width b). So, as in the fit's own active set, the weights the fit left at zero stay
-// there and the others move, held at zero where a step would take one across (both as fitted to
-// the recording: the design's columns are the same for every state of the search).
+// already taken it (a stop operator of threshold b/2 at the line's slope is a belt play of width
+// b, so a backlash found beside it is applied twice online; measured: docs/gap.md, section 1, "The
+// dynamic structure in the design"). So, as in the fit's own active set, the weights the fit left
+// at zero stay there and the others move, held at zero where a step would take one across (both
+// as fitted to the recording: the design's columns are the same for every state of the search).
 Index base_cols(const Context& cx) {
   if (!cx.dyn) return Index{core::kRefitParameters};
   return cx.dyn->degree + 1 + static_cast<Index>(active_operators(*cx.dyn_origin).size()) + cx.dyn->n_prony;
@@ -172,19 +173,20 @@ core::ModelCoefficients moved_model(const Context& cx, const VectorXd& beta) {
   //    estimate overshoots the reference's), and
   //  - its moving branches are within the fitted baseline's own hysteresis (its largest branch
   //    offset from f5, at least kMinStructureMoveDeg) of the baseline's: a move may change the
-  //    hysteresis by up to its size, not draw another sensor. Unbounded, a blind recording's
-  //    structure moved with a memory term to branches 49 deg off f5 at 1.5x its speeds (held-out
-  //    angle 8.8 deg RMSE against 0.78 for the baseline).
+  //    hysteresis by up to its size, not draw another sensor. An admissible chain still allows a
+  //    move together with a term that draws the same loop (a memory term against eqs. (11)/(12)):
+  //    the voltage fits offline while the branches lie far off f5, and the angle inverted online
+  //    is far worse than the baseline's (docs/gap.md, section 1, "Every structure stays invertible").
   const std::array<double, core::kRefitParameters> p0 = core::refit_parameters(cx.m);
   const double speed = 1.5 * cx.max_speed_rad_s;
-  double scale = 1;
-  for (int halving = 0; halving <= 8; ++halving, scale /= 2) {
+  const auto taken = core::halving_search([&](double scale) -> std::optional<core::ModelCoefficients> {
     std::array<double, core::kRefitParameters> p = p0;
     for (int i = 0; i < core::kRefitParameters; ++i) p[static_cast<std::size_t>(i)] += scale * beta(i);
     const core::ModelCoefficients m = core::with_refit_parameters(cx.m, p);
     if (core::chain_admissible(m, speed) && branch_distance(m, cx.origin, cx, speed).between <= cx.move_limit_deg) return m;
-  }
-  return cx.m;
+    return std::nullopt;
+  });
+  return taken.value_or(cx.m);
 }
 
 // The largest distance [deg] between two dynamic models' voltages over the recording's angle
@@ -220,12 +222,12 @@ bool dynamic_move_allowed(const core::DynamicModel& m, const Context& cx) {
   return core::dynamic_invertible(m, 1.0 / cx.s->dt) && dynamic_distance(m, *cx.dyn_origin, cx).between <= cx.move_limit_deg;
 }
 core::DynamicModel moved_dynamic(const Context& cx, const VectorXd& beta) {
-  double scale = 1;
-  for (int halving = 0; halving <= 8; ++halving, scale /= 2) {
-    const core::DynamicModel m = dynamic_moved_fully(cx, scale * beta);
+  auto taken = core::halving_search([&](double scale) -> std::optional<core::DynamicModel> {
+    core::DynamicModel m = dynamic_moved_fully(cx, scale * beta);
     if (dynamic_move_allowed(m, cx)) return m;
-  }
-  return *cx.dyn;
+    return std::nullopt;
+  });
+  return taken ? std::move(*taken) : *cx.dyn;
 }
 
 }  // namespace
@@ -273,8 +275,8 @@ namespace {
 // def.refine around best, kept inside the coarse grid's range: a refinement fills in between grid
 // values and never leaves the range the grid searches (creep's tau >= 1 s, a rate-dependent
 // hysteresis's velocity scale >= 0.02 rad/s, above the velocity estimate's noise; docs/gap.md,
-// section 3). Refined around a refined value, rate-dependent hysteresis walked to 0.014 rad/s: a
-// switch at every start and stop.
+// section 3, with the measured case). Refined around a refined value, the velocity scale could
+// walk below that floor, where the estimate's noise switches the term at every start and stop.
 std::vector<double> refined_within(const EffectDef& def, double best, const std::vector<double>& grid) {
   std::vector<double> out;
   if (def.refine == nullptr || grid.empty()) return out;
@@ -368,19 +370,19 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
   cr.n_params = def.linear + (has_theta ? 1 : 0);
   // Interference may be found again at another frequency; every other effect enters once.
   if (st.has(e) && e != core::Effect::kPeriodicInterference) {
-    cr.applicable = false;
+    cr.eligible = false;
     cr.note = "already in the model";
     return cr;
   }
   if (const std::string why = covered_by_baseline(e, sx.cx); !why.empty()) {
-    cr.applicable = false;
+    cr.eligible = false;
     cr.note = why;
     return cr;
   }
   if (def.not_identifiable != nullptr) {
     const std::string_view why = def.not_identifiable(sx.cx);
     if (!why.empty()) {
-      cr.applicable = false;
+      cr.eligible = false;
       cr.note = std::string(why);
       return cr;
     }

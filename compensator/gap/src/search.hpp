@@ -83,9 +83,9 @@ Search moved(const Search& sx, const Eigen::VectorXd& beta);
 /// Why effect e is no candidate on this baseline, or "": the dynamic model's stop operators are a
 /// memory hysteresis, its Prony terms a relaxation, its polynomial a static nonlinearity. Beside
 /// them such a term draws the same curve: the fit splits it between the two, and a move of the
-/// structure shortened by its bounds (moved_dynamic) leaves the term's share applied alone. On a
-/// blind recording a creep term beside the Prony terms made the online angle 0.91 deg RMSE
-/// against 0.26 without it.
+/// structure shortened by its bounds (moved_dynamic) leaves the term's share applied alone, which
+/// makes the online angle worse than no term (docs/gap.md, section 1, "The dynamic structure in the
+/// design").
 std::string covered_by_baseline(core::Effect e, const Context& cx);
 
 
@@ -114,7 +114,7 @@ void refit_rate_gain(Search& sx, const State& st);
 
 struct CandidateResult {
   core::Effect effect;
-  bool applicable = true;
+  bool eligible = true;  // tried on this recording (else `note` says why not)
   std::string note;
   std::vector<double> grid;
   cv::FoldFit fit;

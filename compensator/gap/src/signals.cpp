@@ -10,6 +10,7 @@
 #include <string>
 
 #include "pof/base/errors.hpp"
+#include "pof/core/units.hpp"
 
 namespace pof::gap {
 
@@ -122,8 +123,8 @@ VectorXd local_slope(const VectorXd& x, double dt, Index half) {
   // first (last) full window, held: a window shrunk to stay centred differentiates the noise of a
   // few scans (at the end, two: the potentiometer's noise times 1/dt), and differentiated twice it
   // gave an acceleration column 10-30 times the drive's largest at the recording's first and last
-  // 50 ms, which those scans' least-squares weight made the acceleration term's fit follow (gain
-  // 13 % short on a blind recording, and a 3 ms time_delay to make up for it).
+  // 50 ms, whose least-squares weight pulls the acceleration term's gain short, and a spurious
+  // time_delay then makes up for the rest (measured: docs/gap.md, Limitations).
   if (n < 2) {
     out.setZero();
     return out;
@@ -162,10 +163,9 @@ namespace {
 // holds does not flicker into "moving".
 void differentiate(Kinematics& k, double dt) {
   auto half_of = [dt](double s) { return std::max<Index>(1, static_cast<Index>(std::lround(s / dt))); };
-  constexpr double kRad = std::numbers::pi / 180.0;
   const Index n = k.angle.size();
-  k.w = local_slope(k.angle, dt, half_of(0.05)) * kRad;
-  const VectorXd w_quiet = local_slope(k.angle, dt, half_of(0.125)) * kRad;
+  k.w = local_slope(k.angle, dt, half_of(0.05)) * core::kRadPerDeg;
+  const VectorXd w_quiet = local_slope(k.angle, dt, half_of(0.125)) * core::kRadPerDeg;
   k.acc = local_slope(k.w, dt, half_of(0.05));
   k.quiet_hold.resize(static_cast<std::size_t>(n));
   for (Index i = 0; i < n; ++i) k.quiet_hold[static_cast<std::size_t>(i)] = std::abs(w_quiet(i)) < 0.5 * kHoldSpeedRadS;
@@ -215,10 +215,11 @@ void apply_backlash(Kinematics& k, double width_deg, double dt) {
   // reference's departure (docs/gap.md, section 3): the departure gives the time t_r at which the
   // joint had crossed and its speed v1 then, the approach gives the shape of the turn, and the
   // joint's travel over the crossing has that shape, starts at speed 0 and covers b by t_r.
-  // A crossing at the mean speed of the departure's first 0.3 s (the earlier rule) was half as
-  // long as a gait's turn and left 0.3 deg errors at every one, which a -9 ms time_delay then
-  // took up. A flip of the velocity's sign with no departure of the reference (potentiometer noise
-  // in a long hold) is not a reversal: the joint keeps its side of the band.
+  // A crossing at a constant speed (the departure's mean over its first 0.3 s) is too short for a
+  // turn that starts from rest, half as long as a gait's, and the error it leaves at every reversal
+  // is taken up by a spurious time_delay (measured: docs/gap.md, section 3, "The joint behind a
+  // belt's play"). A flip of the velocity's sign with no departure of the reference
+  // (potentiometer noise in a long hold) is not a reversal: the joint keeps its side of the band.
   const Index n = k.angle.size();
   const double half = width_deg / 2;
   const VectorXd ref = k.angle;

@@ -7,6 +7,8 @@
 #include <optional>
 #include <sstream>
 
+#include "pof/base/format.hpp"
+
 namespace pof::gap {
 
 using Eigen::Index;
@@ -17,14 +19,6 @@ using nlohmann::json;
 double Steps::gap_deg(double cv_rss) const { return std::sqrt(cv_rss / static_cast<double>(s->n)) * c9; }
 
 VectorXd Steps::to_deg(const VectorXd& r) const { return -r * c9; }
-
-std::string fmt(double x, int prec) {
-  std::ostringstream o;
-  o.setf(std::ios::fixed);
-  o.precision(prec);
-  o << x;
-  return o.str();
-}
 
 namespace {
 
@@ -83,9 +77,11 @@ struct Assessment {
 };
 
 // The smallest held-out reduction of the residual's fast part an effect with slow random columns
-// must reach (EffectDef::fast_part_s). On the blind recordings (BENCHMARKS.md, "Model gap") a
-// coupling that is there explained 4.5-36 % of it where it was named, and the couplings named by
-// chance beside a creep or a relaxation spectrum (seeds 213, 232) -0.1 to 0.3 %.
+// must reach (EffectDef::fast_part_s). A coupling that is there acts at every time scale the
+// source's power moves on, so it explains part of the fast residual too; a slow column that only
+// correlates by chance with a slow leftover (a creep's or a relaxation's tail; Granger and Newbold
+// 1974) explains about none of it. 1 % lies between the two on the blind recordings (docs/gap.md,
+// section 4, "Slow random columns").
 constexpr double kMinFastPartReduction = 0.01;
 
 // The held-out reduction of the residual's part faster than span_s by columns C's part faster than
@@ -122,7 +118,7 @@ Assessment assess(const Search& sx, const State& st, const CandidateResult& w, I
   if (!key.empty() && a.parameters.contains(key) && a.parameters.contains(key + "_se")) {
     const double x = a.parameters[key].get<double>(), se = a.parameters[key + "_se"].get<double>();
     a.significant = std::abs(x) > 2.0 * se;
-    a.significance = key + " = " + fmt(x, 4) + " +- " + fmt(se, 4) + (a.significant ? " (> 2 SE)" : ": within 2 SE of zero");
+    a.significance = key + " = " + format_fixed(x, 4) + " +- " + format_fixed(se, 4) + (a.significant ? " (> 2 SE)" : ": within 2 SE of zero");
   }
   if (a.significant && def.inadmissible != nullptr) {
     const std::string why = def.inadmissible(a.parameters);
@@ -137,11 +133,11 @@ Assessment assess(const Search& sx, const State& st, const CandidateResult& w, I
     const MatrixXd C = def.columns(th_full, at.cx, baseline_kinematics(at.cx, st.delay_s, st.backlash_deg));
     const double red = fast_part_reduction(C, before, def.fast_part_s, sx);
     a.fast_part_reduction = red;
-    const std::string said = "the residual's part faster than " + fmt(def.fast_part_s, 0) + " s: held-out reduction " +
-                             fmt(100 * red, 2) + " %";
+    const std::string said = "the residual's part faster than " + format_fixed(def.fast_part_s, 0) + " s: held-out reduction " +
+                             format_fixed(100 * red, 2) + " %";
     if (red < kMinFastPartReduction) {
       a.significant = false;
-      a.significance = said + ", below " + fmt(100 * kMinFastPartReduction, 0) + " % (a slow correlation alone, which chance gives)";
+      a.significance = said + ", below " + format_fixed(100 * kMinFastPartReduction, 0) + " % (a slow correlation alone, which chance gives)";
     } else {
       a.significance += (a.significance.empty() ? "" : "; ") + said;
     }
@@ -201,7 +197,7 @@ void grow(Grown& g, const Steps& ctx) {
     for (std::size_t i = 0; i < cands.size(); ++i) {
       const CandidateResult& c = cands[i];
       const std::string id(core::to_string(c.effect));
-      if (!c.applicable) { scores[id] = {{"applicable", false}, {"note", c.note}}; continue; }
+      if (!c.eligible) { scores[id] = {{"applicable", false}, {"note", c.note}}; continue; }
       const double red = 1.0 - std::sqrt(c.fit.cv_rss / rss0);
       const double dbic = n_eff * std::log(c.fit.cv_rss / rss0) + c.n_params * std::log(n_eff);
       scores[id] = {{"heldout_gap_deg", gap_deg(c.fit.cv_rss)}, {"reduction_pct", 100 * red}, {"delta_bic", dbic},
@@ -219,7 +215,7 @@ void grow(Grown& g, const Steps& ctx) {
       const auto simpler = effect_def(cands[i].effect).generalises;
       if (!simpler) return i;
       const auto si = static_cast<std::size_t>(*simpler);
-      if (!cands[si].applicable) return i;
+      if (!cands[si].eligible) return i;
       const double red_over = 1.0 - std::sqrt(cands[i].fit.cv_rss / cands[si].fit.cv_rss);
       const double dbic_over = n_eff * std::log(cands[i].fit.cv_rss / cands[si].fit.cv_rss) +
                                (cands[i].n_params - cands[si].n_params) * std::log(n_eff);
@@ -245,8 +241,8 @@ void grow(Grown& g, const Steps& ctx) {
       if (!order.empty()) {
         const CandidateResult& b = cands[order.front().second];
         const double red = 1.0 - std::sqrt(b.fit.cv_rss / rss0);
-        say("step " + std::to_string(step) + ": best " + std::string(core::to_string(b.effect)) + " (" + fmt(100 * red, 1) +
-            " %, dBIC " + fmt(order.front().first, 1) + "): not significant, stopping");
+        say("step " + std::to_string(step) + ": best " + std::string(core::to_string(b.effect)) + " (" + format_fixed(100 * red, 1) +
+            " %, dBIC " + format_fixed(order.front().first, 1) + "): not significant, stopping");
         g.last_rejected = {{"effect", std::string(core::to_string(b.effect))}, {"reduction_pct", 100 * red},
                                           {"delta_bic", order.front().first}, {"all", scores}};
       }
@@ -257,8 +253,8 @@ void grow(Grown& g, const Steps& ctx) {
     const std::string wid(core::to_string(w.effect));
     const double red = 1.0 - std::sqrt(w.fit.cv_rss / rss0);
     const double wbic = scores[wid]["delta_bic"].get<double>();
-    say("step " + std::to_string(step) + ": " + wid + " (held-out gap " + fmt(gap_deg(rss0)) + " -> " +
-        fmt(gap_deg(w.fit.cv_rss)) + " deg, " + fmt(100 * red, 1) + " %, dBIC " + fmt(wbic, 1) + "): accepted");
+    say("step " + std::to_string(step) + ": " + wid + " (held-out gap " + format_fixed(gap_deg(rss0), 3) + " -> " +
+        format_fixed(gap_deg(w.fit.cv_rss), 3) + " deg, " + format_fixed(100 * red, 1) + " %, dBIC " + format_fixed(wbic, 1) + "): accepted");
 
     // Where: the part of the residual this effect explains, localised.
     const VectorXd explained = to_deg(VectorXd(cur.cv_resid - chosen->after));

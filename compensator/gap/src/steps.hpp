@@ -50,7 +50,4 @@ Grown baseline_alone(Search from, const Steps& ctx);
 /// Adds effects while one passes the acceptance rule (at most opt.max_steps).
 void grow(Grown& g, const Steps& ctx);
 
-/// x with `prec` decimals (progress lines and reasons).
-std::string fmt(double x, int prec = 3);
-
 }  // namespace pof::gap

@@ -6,10 +6,11 @@
 
 #include <Eigen/Dense>
 
+#include "pof/core/units.hpp"
+
 namespace pof::core {
 
 namespace {
-constexpr double kRadPerDeg = std::numbers::pi / 180.0;
 }  // namespace
 
 double DynamicModel::quasi_static_v(double theta_deg) const {

@@ -6,23 +6,20 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "pof/base/format.hpp"
 #include "pof/core/calibration.hpp"
+#include "pof/core/units.hpp"
 
 namespace pof::core {
 
 namespace {
 
 constexpr double kPi = std::numbers::pi;
-constexpr double kRadPerDeg = kPi / 180.0;
 // The reference mean's running sum is rebuilt this often against rounding drift (as the
 // compensator's velocity sums are).
 constexpr std::int64_t kRefreshScans = 4096;
 
-std::string num(double x) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%.6g", x);
-  return b;
-}
+std::string num(double x) { return format_significant(x, 6); }
 
 bool all_finite(const std::vector<double>& v) {
   return std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
@@ -165,9 +162,10 @@ int acceleration_window_scans(double coefficient_v, double theta_s, double c9, d
   // `pof gap` estimates the acceleration from the smoothed reference angle; online it comes from
   // the sensor's angle, whose white noise sigma the fit turns into an acceleration noise of
   // sigma 2 sqrt(norm) / dt^2. Times the term's gain [deg per rad/s^2] that is the angle noise the
-  // term adds: on a 0.95 deg/(rad/s^2) term over 0.05 s it was 58 sigma (a hold read +-8 deg). So
-  // the window is lengthened (up to kMaxAccelerationWindowS) until the term adds at most
-  // kMaxAccelerationNoiseGain x the angle's own noise; its lag grows with it.
+  // term adds: on a 0.95 deg/(rad/s^2) term over 0.05 s it is 58 sigma (docs/calibration.md,
+  // "[gap]", Approximations, Acceleration). So the window is lengthened (up to
+  // kMaxAccelerationWindowS) until the term adds at most kMaxAccelerationNoiseGain x the angle's
+  // own noise; its lag grows with it.
   const double dt = 1.0 / scan_rate_hz;
   const double gain_deg = std::abs(coefficient_v * c9) * kRadPerDeg;  // deg of angle per deg/s^2
   const int n_max = static_cast<int>(std::lround(2 * kMaxAccelerationWindowS * scan_rate_hz)) + 1;
@@ -286,10 +284,10 @@ double GapCorrector::voltage_at(double angle, double reference_v, double velocit
   if (!active_) return 0.0;
   double v = 0;
   // The polynomial is fitted over the recording's angles only: beyond them it is held at its edge
-  // value. Extrapolated, the quintic's u^5 turned an angle error after a reversal (a memory term
-  // whose elastic slope nearly cancels the model's) into a voltage that pushed the angle further:
-  // a blind recording's paper chain ran to 7900 deg.
-  const double u = (std::clamp(angle, static_lo_deg_, static_hi_deg_) - 45.0) / 45.0;
+  // value. Extrapolated, the quintic's u^5 grows fast enough to turn an angle error after a
+  // reversal (a memory term whose elastic slope nearly cancels the model's) into a voltage that
+  // pushes the angle further, and the angle runs away (docs/calibration.md, "[gap]", Approximations).
+  const double u = static_nonlinearity_u(std::clamp(angle, static_lo_deg_, static_hi_deg_));
   const double u2 = u * u;
   v += u2 * (static_[0] + u * (static_[1] + u * (static_[2] + u * static_[3])));
   if (started_) {
@@ -326,12 +324,11 @@ double GapCorrector::estimate_acceleration_voltage() const noexcept {
   for (const Acceleration& a : accel_) {
     if (hist_count_ < a.n) continue;  // no estimate until the window has filled
     // The quadratic fit's a = 2 c / dt^2 over the newest n committed angles [deg/s^2].
-    double s = 0;
-    int at = hist_head_;
-    for (int i = 0; i < a.n; ++i) {  // i scans back from the newest
-      s += a.weights[static_cast<std::size_t>(i)] * hist_[static_cast<std::size_t>(at)];
-      at = at == 0 ? size - 1 : at - 1;
-    }
+    const double s = acceleration_estimate(a.weights, [&](std::size_t back) {
+      const std::size_t at = (static_cast<std::size_t>(hist_head_) + static_cast<std::size_t>(size) - back) %
+                             static_cast<std::size_t>(size);
+      return hist_[at];
+    });
     v += a.coefficient * s * kRadPerDeg;
   }
   return v;
@@ -393,9 +390,9 @@ double GapCorrector::advance(double angle, double reference_v, double angle_per_
   kin_ = {angle, joint, joint};
   if (half_play_ > 0) {
     // The side is decided on the low-passed angle, the offset applied to the angle itself
-    // (kMemoryInputTauS). Fed the angle directly, the play rode the noise's peaks: over the blind
-    // benchmark's ten recordings with a 0.5-1.5 deg play, the median compensated reduction against
-    // the reference went 6.6 -> 32.9 % with the low-pass (docs/calibration.md, "[gap]").
+    // (kMemoryInputTauS). Fed the angle directly, the play rides the noise's peaks in every hold
+    // (the belt sees the joint, not the noise) and ends each hold up to the noise's peak off
+    // (measured on the blind benchmark: docs/calibration.md, "[gap]", Backlash).
     const double belt = std::isfinite(play_angle) ? play_angle + (joint - angle) : joint;
     play_input_ = play_started_ ? play_input_ + memory_smooth_ * (belt - play_input_) : belt;
     play_ = play_started_ ? play_operator(play_, play_input_, half_play_) : play_input_;

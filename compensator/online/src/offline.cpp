@@ -6,13 +6,18 @@
 
 namespace pof::core {
 
-double median_rate_hz(const Eigen::VectorXd& t) {
+double median_step_s(const Eigen::VectorXd& t) {
   if (t.size() < 2) return 0;
   std::vector<double> d(static_cast<std::size_t>(t.size() - 1));
   for (Eigen::Index i = 1; i < t.size(); ++i) d[static_cast<std::size_t>(i - 1)] = t(i) - t(i - 1);
   auto mid = d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2);
   std::nth_element(d.begin(), mid, d.end());
-  return *mid > 0 ? 1.0 / *mid : 0;
+  return *mid > 0 ? *mid : 0;
+}
+
+double median_rate_hz(const Eigen::VectorXd& t) {
+  const double dt = median_step_s(t);
+  return dt > 0 ? 1.0 / dt : 0;
 }
 
 OfflineResult compensate_recording(const Eigen::VectorXd& t_s, const Eigen::VectorXd& sensor_v,
@@ -36,10 +41,10 @@ OfflineResult compensate_recording(const Eigen::VectorXd& t_s, const Eigen::Vect
   r.velocity_rad_s.resize(n);
   r.phase.resize(static_cast<std::size_t>(n));
   r.quality.resize(static_cast<std::size_t>(n));
-  const double gap_s = 1.5 / settings.scan_rate_hz;
+  const double lost_after_s = 1.5 / settings.scan_rate_hz;
   const double nan = std::nan("");
   for (Eigen::Index i = 0; i < n; ++i) {
-    if (i > 0 && t_s(i) - t_s(i - 1) > gap_s) {
+    if (i > 0 && t_s(i) - t_s(i - 1) > lost_after_s) {
       comp.reset();
       ++r.resets;
     }

@@ -10,11 +10,13 @@
 
 #include "pof/base/errors.hpp"
 #include "pof/core/dynamic_model.hpp"
+#include "pof/core/effects.hpp"
+#include "pof/core/units.hpp"
 
 namespace pof::sim {
 
 namespace {
-constexpr double kDegPerRad = 180.0 / std::numbers::pi;
+using pof::core::kDegPerRad;
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 // Random streams (rng.hpp): one per source so that effects switch independently.
 constexpr std::uint64_t kStreamNoise = 1, kStreamDrift = 2, kStreamWander = 3;
@@ -191,7 +193,7 @@ void Simulator::step(Scan& out, EffectTrace* tr) {
   auto nonlinearity = [&se](double th) {
     // Deviation from the straight f5 line over 0-90 deg: a bow (zero at the ends, bow_v at 45 deg)
     // and an S (zero at 0, 45 and 90 deg, +-s_v at 45 -+ 26 deg).
-    const double u = (th - 45.0) / 45.0;
+    const double u = pof::core::static_nonlinearity_u(th);
     return se.static_nonlinearity.bow_v * (1.0 - u * u) + se.static_nonlinearity.s_v * 2.598076211353316 * u * (1.0 - u * u);
   };
   const double v_line = pof::core::quasi_static_voltage(se.model, theta_f);

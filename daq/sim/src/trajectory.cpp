@@ -7,12 +7,13 @@
 #include <numbers>
 
 #include "pof/base/errors.hpp"
+#include "pof/core/units.hpp"
 #include "pof/sim/rng.hpp"
 
 namespace pof::sim {
 
 namespace {
-constexpr double kDegPerRad = 180.0 / std::numbers::pi;
+using pof::core::kDegPerRad;
 constexpr std::uint64_t kStreamSubject = 101;
 // random_moves segment i draws from stream kStreamRandomMoves + i: adding or changing one such
 // segment does not change the draws of the subject segments or of another random_moves segment.

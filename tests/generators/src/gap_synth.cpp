@@ -13,13 +13,14 @@
 #include "pof/core/effects.hpp"
 #include "pof/core/model.hpp"
 #include "pof/core/paper_protocol.hpp"
+#include "pof/core/units.hpp"
 #include "pof/base/errors.hpp"
 
 namespace pof::gap {
 
 namespace {
 
-constexpr double kRad = std::numbers::pi / 180.0;
+using pof::core::kRadPerDeg;
 
 // The exoskeleton: velocity-limited, acceleration-limited moves (harmonic drive + DC motor).
 struct Knee {
@@ -33,11 +34,11 @@ struct Knee {
   }
   void move_to(double target, double wmax) {
     for (int guard = 0; guard < 10'000'000; ++guard) {
-      const double dist = (target - a) * kRad;
+      const double dist = (target - a) * kRadPerDeg;
       if (std::abs(dist) < 1e-6 && std::abs(w) < 1e-6) break;
       const double vdes = std::copysign(std::min(wmax, std::sqrt(2 * acc_max * std::abs(dist))), dist);
       w += std::clamp(vdes - w, -acc_max * dt, acc_max * dt);
-      double na = a + w * dt / kRad;
+      double na = a + w * dt / kRadPerDeg;
       if ((target - a) * (target - na) <= 0) { na = target; w = 0; }
       a = na;
       angle.push_back(a);
@@ -97,7 +98,7 @@ io::Recording synthesise(const SynthConfig& cfg, std::uint64_t seed) {
   Eigen::VectorXd w(n), acc(n);
   for (Eigen::Index i = 0; i < n; ++i) {
     const Eigen::Index a = std::max<Eigen::Index>(0, i - 1), b = std::min(n - 1, i + 1);
-    w(i) = (ang(b) - ang(a)) * kRad / (static_cast<double>(b - a) * dt);
+    w(i) = (ang(b) - ang(a)) * kRadPerDeg / (static_cast<double>(b - a) * dt);
   }
   for (Eigen::Index i = 0; i < n; ++i) {
     const Eigen::Index a = std::max<Eigen::Index>(0, i - 5), b = std::min(n - 1, i + 5);
@@ -133,7 +134,7 @@ io::Recording synthesise(const SynthConfig& cfg, std::uint64_t seed) {
       const double d = ang(i) - ang(i - 1);
       if (d != 0) z += (std::copysign(mem_a, d) - z) * (1.0 - std::exp(-std::abs(d) / 5.0));
     }
-    const double u = (ang(i) - 45.0) / 45.0;
+    const double u = pof::core::static_nonlinearity_u(ang(i));
     // The angle the fibre "sees": viscoelastic memory, static nonlinearity, acceleration term.
     const double seen = ang(i) + creep_g * (x - ang(i)) + relax + k2 * (u * u + 0.5 * u * u * u) + acc_g * acc(i);
     const double aw = std::abs(w(i));

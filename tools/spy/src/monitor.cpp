@@ -107,33 +107,26 @@ void Monitor::on_message(std::string_view channel, const void* data, std::size_t
   c.type = bus::message_type_of(data, size);
   bool ok = true;
   int64_t seq = 0;
+  // Every pofkit message carries a seq: decode into `slot` and take it.
+  const auto take = [&](auto& slot) {
+    if (!decode_into(slot, data, size)) return false;
+    seq = slot->seq;
+    return true;
+  };
   switch (c.type) {
-    case bus::MessageType::kRawBlock:
-      ok = decode_into(c.raw, data, size);
-      if (ok) seq = c.raw->seq;
-      break;
-    case bus::MessageType::kAngle:
-      ok = decode_into(c.angle, data, size);
-      if (ok) seq = c.angle->seq;
-      break;
+    case bus::MessageType::kRawBlock: ok = take(c.raw); break;
+    case bus::MessageType::kAngle: ok = take(c.angle); break;
     case bus::MessageType::kCycleStats: {
       std::optional<pof::cycle_stats_t> s;
-      ok = decode_into(s, data, size);
+      ok = take(s);
       if (ok) {
-        seq = s->seq;
         c.stats.push_back(*s);
         if (c.stats.size() > kStatsKept) c.stats.pop_front();
       }
       break;
     }
-    case bus::MessageType::kDaqStatus:
-      ok = decode_into(c.status, data, size);
-      if (ok) seq = c.status->seq;
-      break;
-    case bus::MessageType::kCompensatorStatus:
-      ok = decode_into(c.compensator, data, size);
-      if (ok) seq = c.compensator->seq;
-      break;
+    case bus::MessageType::kDaqStatus: ok = take(c.status); break;
+    case bus::MessageType::kCompensatorStatus: ok = take(c.compensator); break;
     case bus::MessageType::kUnknown:
       return;
   }

@@ -21,6 +21,8 @@
 
 #include <toml++/toml.h>
 
+#include "pof/base/format.hpp"  // format_number, used with every message here
+
 namespace pof {
 
 /// Parses TOML text. `source` names the document in every message and is stored in each node
@@ -84,8 +86,6 @@ TomlCheck<double> number_in(double lo, double hi);        // "a number in [lo, h
 TomlCheck<std::int64_t> integer_in(std::int64_t lo, std::int64_t hi);  // "an integer in [lo, hi]"
 }  // namespace toml_check
 
-/// A number as messages write it: the shortest text that reads back to the same double.
-std::string format_number(double v);
 
 class TomlArray;
 

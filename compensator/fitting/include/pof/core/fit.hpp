@@ -3,11 +3,23 @@
 // (f2, f3, f4, f5) and the exponential f1. Every fit reports its residuals and the standard errors
 // of its parameters (ordinary least squares: cov = s^2 (J^T J)^-1, s^2 = SSR / (n - p)).
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
 
 namespace pof::core {
+
+/// A step shortened until it is taken: trial(scale) for scale = 1, 1/2, ..., 2^-max_halvings, the
+/// first result it gives (a trial returns an empty std::optional to refuse a scale); empty when
+/// every scale was refused. The fits' damped steps (`pof gap`'s structure moves) all go this way.
+template <class Trial>
+auto halving_search(Trial&& trial, int max_halvings = 8) -> decltype(trial(1.0)) {
+  double scale = 1;
+  for (int halving = 0; halving <= max_halvings; ++halving, scale /= 2)
+    if (auto taken = trial(scale)) return taken;
+  return {};
+}
 
 /// y = slope * x + intercept.
 struct LinearFit {

@@ -47,4 +47,9 @@ constexpr std::optional<Effect> effect_of(std::string_view id) {
   return std::nullopt;
 }
 
+/// The angle of static_nonlinearity's polynomial, u = (angle - 45) / 45: -1 at 0 deg, +1 at 90 deg.
+/// One definition for the simulator, `pof gap` and the compensator, since a static_nonlinearity
+/// term's coefficients mean something only on this u (docs/calibration.md, "[gap]").
+constexpr double static_nonlinearity_u(double angle_deg) { return (angle_deg - 45.0) / 45.0; }
+
 }  // namespace pof::core

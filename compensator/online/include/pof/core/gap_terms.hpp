@@ -94,6 +94,15 @@ inline constexpr double kMaxAccelerationNoiseGain = 0.5;
 /// committed angles, a = 2 c / dt^2. Its weights: a = sum over i of weight[i] x A(k - i) [deg/s^2
 /// per deg], i scans back from the newest angle.
 std::vector<double> acceleration_weights(int n, double dt_s);
+/// The acceleration estimate with those weights [deg/s^2]: sum over i of weights[i] x
+/// angle_back(i), angle_back(i) the committed angle i scans back from the newest [deg]. The one
+/// estimator: the compensator's online and `pof gap`'s column of it.
+template <class AngleBack>
+double acceleration_estimate(const std::vector<double>& weights, AngleBack&& angle_back) {
+  double s = 0;
+  for (std::size_t i = 0; i < weights.size(); ++i) s += weights[i] * angle_back(i);
+  return s;
+}
 /// The n the corrector uses for a term of coefficient coefficient_v [V s^2/rad] and half-window
 /// theta_s on a line of c9 [deg/V] at scan_rate_hz: 2 theta fs + 1 (at least 3), lengthened until
 /// the term adds at most kMaxAccelerationNoiseGain x the angle's own white noise (at most

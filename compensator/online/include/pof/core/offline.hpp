@@ -21,15 +21,17 @@ struct OfflineResult {
   CycleStats overall;
   ErrorProfile profile;
   int cycles_dropped = 0;
-  int resets = 0;          // estimator resets at time gaps
+  int resets = 0;          // estimator resets at lost scans
   double scan_rate_hz = 0; // from the median scan interval
 };
 
-/// Median scan rate [Hz] of a time column (0 with fewer than 2 scans).
+/// Median time step [s] of a time column (0 with fewer than 2 scans or a median step not > 0).
+double median_step_s(const Eigen::VectorXd& t_s);
+/// Median scan rate [Hz] of a time column, 1 / median_step_s() (0 with fewer than 2 scans).
 double median_rate_hz(const Eigen::VectorXd& t_s);
 
 /// settings.scan_rate_hz is replaced by the recording's median rate. A time step longer than 1.5
-/// nominal intervals is a gap: the estimator is reset (quality::kGap on the next scan).
+/// nominal intervals means lost scans: the estimator is reset (quality::kScansLost on the next scan).
 /// angle_ref_deg may be empty (no statistics then). progress(i, n) is called every 4096 scans.
 OfflineResult compensate_recording(const Eigen::VectorXd& t_s, const Eigen::VectorXd& sensor_v,
                                    const Eigen::VectorXd& reference_v, const Eigen::VectorXd& angle_ref_deg,

@@ -249,8 +249,17 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   say("compensating the held-out blocks with the baseline and with the found model");
   try {
     const std::vector<bool> transition = transition_scans(k0, s.dt, core::CompensatorSettings{}.velocity_window_s);
-    res.compensated = compensated_rmse(rec, fin, baseline_model, st_applied, applied, online.refused, transition,
-                                      &written, &comp_before, &comp_after);
+    CompensatedScores scores = compensated_rmse({.rec = rec,
+                                                 .sx = fin,
+                                                 .before = baseline_model,
+                                                 .st = st_applied,
+                                                 .after = applied,
+                                                 .not_applied = online.refused,
+                                                 .transition = transition});
+    res.compensated = std::move(scores.report);
+    written = std::move(scores.written);
+    comp_before = std::move(scores.angle_before);
+    comp_after = std::move(scores.angle_after);
   } catch (const std::exception& e) {
     // The compensator refused a model (std::invalid_argument from its constructor): the analysis
     // stands, model.toml holds the baseline, and the report says why.

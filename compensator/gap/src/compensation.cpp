@@ -331,84 +331,106 @@ OnlinePart online_part(const State& st, const CurrentFit& cur, const Context& cx
   return out;
 }
 
-nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, const Structure& before,
-                                const State& st, const AppliedFit& after, const std::vector<std::string>& not_applied,
-                                const std::vector<bool>& transition, Applied* written, VectorXd* angle_before,
-                                VectorXd* angle_after) {
-  const Signals& s = *sx.cx.s;
-  const double rate = 1.0 / s.dt;
-  const core::Calibration base = calibration_of(before, s);
-  const VectorXd a0 = compensate(rec, base, rate);
-  HeldOut base_blocks;
-  score_blocks(base_blocks, a0, rec.angle_ref_deg, sx.blocks);
-  const double before_deg = base_blocks.rmse_without_block(sx.blocks.size());  // every block
-  Applied all;
-  all.terms.assign(st.terms.size(), true);
-  const HeldOut with_all = held_out(rec, sx, st, after, all, a0);
+namespace {
 
-  // Each accepted effect left out in turn: one whose online application makes the held-out angle
-  // worse (by > 2 %) is not written to model.toml (it stays named in the report), and if what is
-  // kept is not better than the baseline, model.toml holds the baseline. Made on every block, the
-  // choice has seen the blocks it is scored on, so rmse_written_deg is optimistic; the nested
-  // figure makes the same choice for each block from the other blocks alone and scores it on that
-  // block, which removes that choice's optimism (not the search's: its effects were accepted on
-  // every block, and the baseline the choice may fall back to is fitted on every block).
-  struct Without {
-    std::string effect;
-    void (*clear)(Applied&, std::size_t);
-    std::size_t term;
-    HeldOut h;
-  };
+// One effect left out of the compensator's model: its name in the report, how to take it out of
+// an Applied, and the held-out angle without it.
+struct Without {
+  std::string effect;
+  void (*clear)(Applied&, std::size_t);
+  std::size_t term;
+  HeldOut h;
+};
+
+// The held-out angle with every effect of the state applied and with each left out in turn (the
+// kinematics first, then the terms in order): what the choice of model.toml's effects reads.
+struct EffectRuns {
+  Applied all;
+  HeldOut with_all;
   std::vector<Without> without;
-  auto add_without = [&](std::string effect, void (*clear)(Applied&, std::size_t), std::size_t term) {
-    Applied a = all;
-    clear(a, term);
-    without.push_back({std::move(effect), clear, term, held_out(rec, sx, st, after, a, a0)});
-  };
-  if (st.delay_s != 0) add_without("time_delay", [](Applied& a, std::size_t) { a.delay = false; }, 0);
-  if (st.backlash_deg > 0) add_without("backlash", [](Applied& a, std::size_t) { a.backlash = false; }, 0);
-  for (std::size_t t = 0; t < st.terms.size(); ++t)
-    add_without(std::string(core::to_string(st.terms[t].effect)), [](Applied& a, std::size_t i) { a.terms[i] = false; }, t);
-  // The effects kept when the choice may see the blocks other than `skip` (blocks.size(): all).
-  auto choose = [&](std::size_t skip) {
-    Applied keep = all;
+
+  /// The effects kept when the choice may see the blocks other than `skip` (blocks.size(): all):
+  /// one whose absence makes that angle better by > 2 % is left out.
+  [[nodiscard]] Applied keep(std::size_t skip) const {
+    Applied kept = all;
     const double with = with_all.rmse_without_block(skip);
     for (const Without& w : without)
-      if (w.h.rmse_without_block(skip) < 0.98 * with) w.clear(keep, w.term);
-    return keep;
+      if (w.h.rmse_without_block(skip) < 0.98 * with) w.clear(kept, w.term);
+    return kept;
+  }
+
+  /// The effects left out on every block, for the report ("left_out_of_model").
+  [[nodiscard]] nlohmann::json left_out() const {
+    nlohmann::json left_out = nlohmann::json::array();
+    for (const Without& w : without)
+      if (w.h.rmse_deg < 0.98 * with_all.rmse_deg)
+        left_out.push_back({{"effect", w.effect}, {"rmse_with_deg", with_all.rmse_deg}, {"rmse_without_deg", w.h.rmse_deg}});
+    return left_out;
+  }
+};
+
+EffectRuns effect_runs(const CompensationInputs& in, const VectorXd& a0) {
+  EffectRuns e;
+  e.all.terms.assign(in.st.terms.size(), true);
+  e.with_all = held_out(in.rec, in.sx, in.st, in.after, e.all, a0);
+  auto add_without = [&](std::string effect, void (*clear)(Applied&, std::size_t), std::size_t term) {
+    Applied a = e.all;
+    clear(a, term);
+    e.without.push_back({std::move(effect), clear, term, held_out(in.rec, in.sx, in.st, in.after, a, a0)});
   };
-  auto same = [](const Applied& a, const Applied& b) { return a.delay == b.delay && a.backlash == b.backlash && a.terms == b.terms; };
-  std::deque<std::pair<Applied, HeldOut>> runs;  // the held-out angle of each set of kept effects, run once
-  auto run_of = [&](const Applied& keep) -> const HeldOut& {
-    if (same(keep, all)) return with_all;
-    for (const auto& [a, h] : runs)
+  if (in.st.delay_s != 0) add_without("time_delay", [](Applied& a, std::size_t) { a.delay = false; }, 0);
+  if (in.st.backlash_deg > 0) add_without("backlash", [](Applied& a, std::size_t) { a.backlash = false; }, 0);
+  for (std::size_t t = 0; t < in.st.terms.size(); ++t)
+    add_without(std::string(core::to_string(in.st.terms[t].effect)), [](Applied& a, std::size_t i) { a.terms[i] = false; }, t);
+  return e;
+}
+
+bool same(const Applied& a, const Applied& b) { return a.delay == b.delay && a.backlash == b.backlash && a.terms == b.terms; }
+
+// The held-out angle of each set of kept effects, each set run once (the nested choice often
+// keeps the same set for several blocks).
+class KeptRuns {
+ public:
+  KeptRuns(const CompensationInputs& in, const EffectRuns& e, const VectorXd& a0) : in_(in), e_(e), a0_(a0) {}
+
+  const HeldOut& of(const Applied& keep) {
+    if (same(keep, e_.all)) return e_.with_all;
+    for (const auto& [a, h] : runs_)
       if (same(a, keep)) return h;
-    runs.emplace_back(keep, held_out(rec, sx, st, after, keep, a0));
-    return runs.back().second;
-  };
-  const Applied keep = choose(sx.blocks.size());
-  nlohmann::json left_out = nlohmann::json::array();
-  for (const Without& w : without)
-    if (w.h.rmse_deg < 0.98 * with_all.rmse_deg)
-      left_out.push_back({{"effect", w.effect}, {"rmse_with_deg", with_all.rmse_deg}, {"rmse_without_deg", w.h.rmse_deg}});
-  const double written_deg = run_of(keep).rmse_deg;
-  const bool found = !st.terms.empty() || st.delay_s != 0 || st.backlash_deg > 0;
+    runs_.emplace_back(keep, held_out(in_.rec, in_.sx, in_.st, in_.after, keep, a0_));
+    return runs_.back().second;
+  }
+
+ private:
+  const CompensationInputs& in_;
+  const EffectRuns& e_;
+  const VectorXd& a0_;
+  std::deque<std::pair<Applied, HeldOut>> runs_;  // a deque: the references handed out stay valid
+};
+
+// model.toml's held-out RMSE with its choice (the effects kept, or the baseline) made for each
+// block from the other blocks alone and scored on that block.
+double nested_rmse(const CompensationInputs& in, const EffectRuns& e, KeptRuns& runs, const HeldOut& base_blocks) {
+  const bool found = !in.st.terms.empty() || in.st.delay_s != 0 || in.st.backlash_deg > 0;
   double ss_nested = 0;
   Index n_nested = 0;
-  for (std::size_t f = 0; f < sx.blocks.size(); ++f) {
+  for (std::size_t f = 0; f < in.sx.blocks.size(); ++f) {
     // With nothing found, model.toml is the baseline; otherwise as analysis.cpp decides on all blocks.
-    const HeldOut& h = run_of(choose(f));
+    const HeldOut& h = runs.of(e.keep(f));
     const bool baseline_f = !found || !(h.rmse_without_block(f) < base_blocks.rmse_without_block(f));
     ss_nested += baseline_f ? base_blocks.ss[f] : h.ss[f];
     n_nested += baseline_f ? base_blocks.count[f] : h.count[f];
   }
-  const double nested_deg = n_nested > 0 ? std::sqrt(ss_nested / static_cast<double>(n_nested))
-                                         : std::numeric_limits<double>::quiet_NaN();
-  // Outside the transitions (see compensation.hpp); every scan belongs to one held-out block.
+  return n_nested > 0 ? std::sqrt(ss_nested / static_cast<double>(n_nested)) : std::numeric_limits<double>::quiet_NaN();
+}
+
+// The RMSEs before (a0) and after (a1) outside the transitions (see compensation.hpp); every
+// scan belongs to one held-out block.
+nlohmann::json steady_scores(const VectorXd& a0, const VectorXd& a1, const VectorXd& ref, const std::vector<bool>& transition) {
   double sb = 0, sa = 0, st_all = 0;
   Index ns = 0;
   for (Index i = 0; i < a0.size(); ++i) {
-    const double eb = a0(i) - rec.angle_ref_deg(i), ea = with_all.angle(i) - rec.angle_ref_deg(i);
+    const double eb = a0(i) - ref(i), ea = a1(i) - ref(i);
     if (!std::isfinite(eb) || !std::isfinite(ea)) continue;
     st_all += eb * eb;
     if (transition[static_cast<std::size_t>(i)]) continue;
@@ -418,34 +440,63 @@ nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, cons
   }
   const double steady_before = ns > 0 ? std::sqrt(sb / static_cast<double>(ns)) : std::numeric_limits<double>::quiet_NaN();
   const double steady_after = ns > 0 ? std::sqrt(sa / static_cast<double>(ns)) : std::numeric_limits<double>::quiet_NaN();
-  nlohmann::json steady = {
-      {"rmse_before_deg", steady_before},
-      {"rmse_after_deg", steady_after},
-      {"reduction_pct", steady_before > 0 ? 100.0 * (1.0 - steady_after / steady_before) : 0.0},
-      {"share_of_scans", static_cast<double>(ns) / static_cast<double>(a0.size())},
-      {"transition_share_of_squared_error_before", st_all > 0 ? 1.0 - sb / st_all : 0.0},
-      {"how", "the scans more than 0.5 s (the compensator's velocity window) after every start, stop and reversal "
-              "of the reference"}};
-  if (written != nullptr) *written = keep;
-  if (angle_before != nullptr) *angle_before = a0;
-  if (angle_after != nullptr) *angle_after = with_all.angle;
-  return {{"rmse_before_deg", before_deg},
-          {"rmse_after_deg", with_all.rmse_deg},
-          {"reduction_pct", before_deg > 0 ? 100.0 * (1.0 - with_all.rmse_deg / before_deg) : 0.0},
-          {"folds", with_all.folds},
-          {"not_applied", not_applied},
-          {"left_out_of_model", left_out},
-          {"rmse_written_deg", written_deg},
-          {"model_toml_nested",
-           {{"rmse_deg", nested_deg},
-            {"reduction_pct", before_deg > 0 ? 100.0 * (1.0 - nested_deg / before_deg) : 0.0},
-            {"how", "for each held-out block, the effects model.toml would keep (and whether it would hold the "
-                    "baseline) chosen on the other blocks alone, scored on that block: without the optimism of "
-                    "rmse_written_deg's choice"}}},
-          {"steady", steady},
-          {"how", "core::OnlineCompensator over the recording (velocity from the sensor); before: the baseline "
-                  "fitted to the recording; after: per fold, the model fitted on the other folds, scored on the "
-                  "held-out block against angle_ref_deg"}};
+  return {{"rmse_before_deg", steady_before},
+          {"rmse_after_deg", steady_after},
+          {"reduction_pct", steady_before > 0 ? 100.0 * (1.0 - steady_after / steady_before) : 0.0},
+          {"share_of_scans", static_cast<double>(ns) / static_cast<double>(a0.size())},
+          {"transition_share_of_squared_error_before", st_all > 0 ? 1.0 - sb / st_all : 0.0},
+          {"how", "the scans more than 0.5 s (the compensator's velocity window) after every start, stop and reversal "
+                  "of the reference"}};
+}
+
+}  // namespace
+
+CompensatedScores compensated_rmse(const CompensationInputs& in) {
+  const Signals& s = *in.sx.cx.s;
+  const double rate = 1.0 / s.dt;
+  const core::Calibration base = calibration_of(in.before, s);
+  const VectorXd a0 = compensate(in.rec, base, rate);
+  HeldOut base_blocks;
+  score_blocks(base_blocks, a0, in.rec.angle_ref_deg, in.sx.blocks);
+  const double before_deg = base_blocks.rmse_without_block(in.sx.blocks.size());  // every block
+
+  // Each accepted effect left out in turn: one whose online application makes the held-out angle
+  // worse (by > 2 %) is not written to model.toml (it stays named in the report), and if what is
+  // kept is not better than the baseline, model.toml holds the baseline. Made on every block, the
+  // choice has seen the blocks it is scored on, so rmse_written_deg is optimistic; the nested
+  // figure makes the same choice for each block from the other blocks alone and scores it on that
+  // block, which removes that choice's optimism (not the search's: its effects were accepted on
+  // every block, and the baseline the choice may fall back to is fitted on every block).
+  // docs/gap.md, section 5, "What model.toml holds".
+  const EffectRuns effects = effect_runs(in, a0);
+  const HeldOut& with_all = effects.with_all;
+  KeptRuns runs(in, effects, a0);
+  CompensatedScores out;
+  out.written = effects.keep(in.sx.blocks.size());
+  const nlohmann::json left_out = effects.left_out();
+  const double written_deg = runs.of(out.written).rmse_deg;
+  const double nested_deg = nested_rmse(in, effects, runs, base_blocks);
+  const nlohmann::json steady = steady_scores(a0, with_all.angle, in.rec.angle_ref_deg, in.transition);
+  out.angle_before = a0;
+  out.angle_after = with_all.angle;
+  out.report = {{"rmse_before_deg", before_deg},
+                {"rmse_after_deg", with_all.rmse_deg},
+                {"reduction_pct", before_deg > 0 ? 100.0 * (1.0 - with_all.rmse_deg / before_deg) : 0.0},
+                {"folds", with_all.folds},
+                {"not_applied", in.not_applied},
+                {"left_out_of_model", left_out},
+                {"rmse_written_deg", written_deg},
+                {"model_toml_nested",
+                 {{"rmse_deg", nested_deg},
+                  {"reduction_pct", before_deg > 0 ? 100.0 * (1.0 - nested_deg / before_deg) : 0.0},
+                  {"how", "for each held-out block, the effects model.toml would keep (and whether it would hold the "
+                          "baseline) chosen on the other blocks alone, scored on that block: without the optimism of "
+                          "rmse_written_deg's choice"}}},
+                {"steady", steady},
+                {"how", "core::OnlineCompensator over the recording (velocity from the sensor); before: the baseline "
+                        "fitted to the recording; after: per fold, the model fitted on the other folds, scored on the "
+                        "held-out block against angle_ref_deg"}};
+  return out;
 }
 
 }  // namespace pof::gap

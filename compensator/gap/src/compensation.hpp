@@ -51,25 +51,45 @@ struct Applied {
   std::vector<bool> terms;
 };
 
-/// Runs core::OnlineCompensator over the recording with the baseline (`before`: its all-data fit)
-/// (the dynamic model when it is the baseline) and, fold by fold, with the model fitted on the other folds (`after`, the fit of state `st` at
-/// sx's baseline: baseline moved and terms with the fold's coefficients), and scores each fold's held-out block against the reference
+/// What compensated_rmse scores: the recording, the search whose folds and signals it uses, the
+/// baseline (`before`: its all-data fit; the dynamic model when it is the baseline), the state's
+/// part the compensator applies (`st`, online_part) and its fit (`after`: the baseline moved and
+/// the terms' coefficients per fold), the refused effects' ids, and the scans near the reference's
+/// transitions (transition_scans).
+struct CompensationInputs {
+  const io::Recording& rec;
+  const Search& sx;
+  const Structure& before;
+  const State& st;
+  const AppliedFit& after;
+  const std::vector<std::string>& not_applied;
+  const std::vector<bool>& transition;
+};
+
+/// The report's "compensated" section, which of the state's effects model.toml may hold, and the
+/// compensator's angle over the recording with the baseline and (block by block, the model fitted
+/// on the other blocks) with every effect applied.
+struct CompensatedScores {
+  nlohmann::json report;
+  Applied written;
+  Eigen::VectorXd angle_before, angle_after;
+};
+
+/// Runs core::OnlineCompensator over the recording with the baseline and, fold by fold, with the
+/// model fitted on the other folds, and scores each fold's held-out block against the reference
 /// angle: RMSE before and after, per fold and overall. `st` holds only terms the compensator
-/// applies (online_part); those it refused are named in "not_applied". Then each effect is left out in
-/// turn; those whose online application makes the held-out angle worse are returned in `written`
-/// as not to be written to model.toml, and listed in "left_out_of_model"; "model_toml_nested"
-/// makes that choice (and model.toml's fallback to the baseline) for each block from the other
-/// blocks alone and scores it on that block.
+/// applies; those it refused are named in "not_applied". Then each effect is left out in turn;
+/// those whose online application makes the held-out angle worse are left out of `written` (not to
+/// be written to model.toml) and listed in "left_out_of_model"; "model_toml_nested" makes that
+/// choice (and model.toml's fallback to the baseline) for each block from the other blocks alone
+/// and scores it on that block (docs/gap.md, section 5, "What model.toml holds").
 ///
 /// The same RMSEs are also reported without the scans of `transition` ("steady"): the paper
 /// model's inverse decides flexion, extension or hold from a velocity estimate that needs its
 /// window to see a start, stop or reversal, and until then reads the wrong branch (the step
 /// model's spikes). Those errors are the baseline's, the same before and after, and no effect
 /// term acts on them; the steady figures show what the found model changes everywhere else.
-nlohmann::json compensated_rmse(const io::Recording& rec, const Search& sx, const Structure& before,
-                                const State& st, const AppliedFit& after, const std::vector<std::string>& not_applied,
-                                const std::vector<bool>& transition, Applied* written, Eigen::VectorXd* angle_before,
-                                Eigen::VectorXd* angle_after);
+CompensatedScores compensated_rmse(const CompensationInputs& in);
 
 /// The calibration the compensator runs for a structure: the dynamic model, when there is one,
 /// active (inverted online), the paper structure otherwise; range and normalisation from s.

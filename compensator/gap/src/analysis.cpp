@@ -109,18 +109,22 @@ json Result::to_json() const {
   return j;
 }
 
-Result analyse(const io::Recording& rec, const Options& opt) {
-  auto say = [&](const std::string& m) { if (opt.progress) opt.progress(m); };
-  const Signals s = make_signals(rec);
+namespace {
+
+// `pof gap` reads the recording as the calibration protocol makes it: holds and movements both
+// (the baseline's line and loop, and every effect's evidence).
+void require_holds_and_movements(const io::Recording& rec, const Signals& s, const Kinematics& k0) {
   const std::string src = rec.source.empty() ? std::string("recording") : rec.source;
-  const Kinematics k0 = make_kinematics(s.angle, s.dt, 0.0);
   const Index moving = (k0.s_move.array() != 0).count();
   if (moving < s.n / 20 || moving > s.n - s.n / 20)
     throw pof::DataError(src + ": `pof gap` needs both holds and movements (the calibration protocol); " +
                          std::to_string(moving) + " of " + std::to_string(s.n) + " scans move");
+}
 
-  say("baseline: fitting the paper's model structure to the recording (calibration, then every coefficient)");
-  const Baseline base = fit_baseline(rec, s, k0);
+// Where the search from the paper structure starts: that structure as fitted here, the
+// recording's range and speed (which bound the structure's moves) and the held-out blocks
+// (docs/gap.md, section 4, "Folds").
+Search paper_search(const Signals& s, const Kinematics& k0, const Baseline& base, const Options& opt) {
   Search sx0;
   sx0.cx.s = &s;
   sx0.cx.m = sx0.cx.origin = base.model;
@@ -130,200 +134,284 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   sx0.blocks = cv::make_blocks(k0, std::max(2, opt.folds), s.dt, opt.block_s);
   sx0.cx.max_speed_rad_s = k0.w.cwiseAbs().maxCoeff();
   sx0.cx.move_limit_deg = structure_move_limit(sx0.cx);
-  const std::vector<Phase> phases = classify_phases(k0, s.dt);
-  Steps ctx;
-  ctx.s = &s;
-  ctx.k0 = &k0;
-  ctx.phases = &phases;
-  ctx.opt = &opt;
-  ctx.c9 = std::abs(base.model.c9);  // gaps in degrees at the paper fit's sensitivity, for every step
-  ctx.say = say;
+  return sx0;
+}
 
-  Result res;
-  res.recording = {{"scans", s.n}, {"rate_hz", 1.0 / s.dt}, {"duration_s", sx0.cx.duration_s},
-                   {"reference_level_v", s.reference_level_v}, {"folds", sx0.blocks.size()}};
-  json folds = json::array();  // per fold, its blocks as [first, last] scan times
+// gap.json's "recording": its size and rate, and per fold its blocks as [first, last] scan times.
+json recording_json(const Signals& s, const Search& sx0) {
+  json recording = {{"scans", s.n}, {"rate_hz", 1.0 / s.dt}, {"duration_s", sx0.cx.duration_s},
+                    {"reference_level_v", s.reference_level_v}, {"folds", sx0.blocks.size()}};
+  json folds = json::array();
   for (const auto& fold : sx0.blocks.folds) {
     json spans = json::array();
     for (const cv::Span& sp : fold) spans.push_back({s.t(sp.start), s.t(sp.start + sp.len - 1)});
     folds.push_back(spans);
   }
-  res.recording["fold_blocks_s"] = folds;
+  recording["fold_blocks_s"] = folds;
+  return recording;
+}
 
-  // The paper structure first; then the second baseline, the dynamic model fitted to the recording
-  // (docs/gap.md, section 1). Two explanations are compared by their final held-out gap with every
-  // accepted effect charged the acceptance rule's margin (gap / (1 - min_reduction)^steps, the
-  // reduction an effect had to buy to be accepted): the same loop told by stop operators and
-  // Prony terms in the structure, or by memory and creep terms on the paper's steps, is one
-  // explanation, and the shorter one is preferred unless the longer is better by what its extra
-  // effects cost. A paper-structure sensor with a creep keeps the paper structure and names the
-  // creep; a fibre whose memory and relaxation are its own gets the dynamic model and no effect.
-  const double margin = 1.0 - opt.min_reduction;
-  auto charged = [&](const Grown& g) { return g.final_gap / std::pow(margin, static_cast<double>(g.steps.size())); };
-  say("baseline: the paper's structure");
-  Grown chosen = baseline_alone(sx0, ctx);
-  say("baseline: held-out gap " + format_fixed(chosen.baseline_gap, 3) + " deg");
-  grow(chosen, ctx);
-  json choice = {{"paper", {{"heldout_gap_deg", chosen.baseline_gap}, {"final_gap_deg", chosen.final_gap},
-                            {"steps", chosen.steps.size()}, {"charged_gap_deg", charged(chosen)}}}};
-  if (base.dynamic) {
-    Search sd = sx0;
-    sd.cx.dyn = sd.cx.dyn_origin = base.dynamic;
-    sd.cx.move_limit_deg = structure_move_limit(sd.cx);
-    Grown dyn = baseline_alone(sd, ctx);
-    choice["dynamic"] = {{"heldout_gap_deg", dyn.baseline_gap}};
-    // Searched from when its structure alone beats the paper structure alone, or is not worse than
-    // the paper structure's charged final gap, by the margin either way: a dynamic structure
-    // missing one effect can lose to the paper structure with three, and win once it has that one.
-    if (dyn.baseline_gap < margin * chosen.baseline_gap || dyn.baseline_gap * margin < charged(chosen)) {
-      say("baseline: the dynamic model (held-out gap " + format_fixed(dyn.baseline_gap, 3) + " deg; the paper structure with its " +
-          "effects " + format_fixed(chosen.final_gap, 3) + " deg): searching from it too");
-      grow(dyn, ctx);
-      choice["dynamic"]["final_gap_deg"] = dyn.final_gap;
-      choice["dynamic"]["steps"] = dyn.steps.size();
-      choice["dynamic"]["charged_gap_deg"] = charged(dyn);
-      if (charged(dyn) < charged(chosen)) {
-        choice["why"] = "the dynamic model with its effects has the lower held-out gap, each effect charged " +
-                        format_fixed(100 * opt.min_reduction, 0) + " %";
-        chosen = std::move(dyn);
-      } else {
-        choice["why"] = "the paper structure with its effects has the lower (or equal) held-out gap, each effect charged " +
-                        format_fixed(100 * opt.min_reduction, 0) + " %";
-      }
-    } else {
-      choice["dynamic"]["not_searched"] = "its structure alone does not beat the paper structure alone, and is worse than the "
-                                          "paper structure's charged final gap, by " + format_fixed(100 * opt.min_reduction, 0) + " %";
-    }
+// The search kept and how it was chosen (gap.json's baseline.choice).
+struct Chosen {
+  Grown grown;
+  json choice;
+};
+
+// A search's final held-out gap with every accepted effect charged the acceptance rule's margin:
+// gap / (1 - min_reduction)^steps, the reduction an effect had to buy to be accepted.
+double charged(const Grown& g, double margin) { return g.final_gap / std::pow(margin, static_cast<double>(g.steps.size())); }
+
+// The second search, from the dynamic model: run when its structure alone beats the paper
+// structure alone, or is not worse than the paper structure's charged final gap, by the margin
+// either way (a dynamic structure missing one effect can lose to the paper structure with three,
+// and win once it has that one); kept when charged less.
+void consider_dynamic(Chosen& c, const Search& sx0, const Baseline& base, const Steps& ctx, double margin) {
+  const Options& opt = *ctx.opt;
+  Grown& chosen = c.grown;
+  json& choice = c.choice;
+  Search sd = sx0;
+  sd.cx.dyn = sd.cx.dyn_origin = base.dynamic;
+  sd.cx.move_limit_deg = structure_move_limit(sd.cx);
+  Grown dyn = baseline_alone(sd, ctx);
+  choice["dynamic"] = {{"heldout_gap_deg", dyn.baseline_gap}};
+  if (!(dyn.baseline_gap < margin * chosen.baseline_gap || dyn.baseline_gap * margin < charged(chosen, margin))) {
+    choice["dynamic"]["not_searched"] = "its structure alone does not beat the paper structure alone, and is worse than the "
+                                        "paper structure's charged final gap, by " + format_fixed(100 * opt.min_reduction, 0) + " %";
+    return;
   }
-  const Search& fin = chosen.sx;
-  choice["chosen"] = fin.cx.dyn ? "dynamic" : "paper";
-  const Structure baseline_model = chosen.baseline;
+  ctx.say("baseline: the dynamic model (held-out gap " + format_fixed(dyn.baseline_gap, 3) + " deg; the paper structure with its " +
+          "effects " + format_fixed(chosen.final_gap, 3) + " deg): searching from it too");
+  grow(dyn, ctx);
+  choice["dynamic"]["final_gap_deg"] = dyn.final_gap;
+  choice["dynamic"]["steps"] = dyn.steps.size();
+  choice["dynamic"]["charged_gap_deg"] = charged(dyn, margin);
+  if (charged(dyn, margin) < charged(chosen, margin)) {
+    choice["why"] = "the dynamic model with its effects has the lower held-out gap, each effect charged " +
+                    format_fixed(100 * opt.min_reduction, 0) + " %";
+    chosen = std::move(dyn);
+  } else {
+    choice["why"] = "the paper structure with its effects has the lower (or equal) held-out gap, each effect charged " +
+                    format_fixed(100 * opt.min_reduction, 0) + " %";
+  }
+}
+
+// The paper structure's search first; then the one from the second baseline, the dynamic model
+// fitted to the recording (docs/gap.md, section 1, "Which baseline"). Two explanations are
+// compared by their charged final gap: the same loop told by stop operators and Prony terms in the
+// structure, or by memory and creep terms on the paper's steps, is one explanation, and the
+// shorter one is preferred unless the longer is better by what its extra effects cost.
+Chosen choose_search(const Search& sx0, const Baseline& base, const Steps& ctx) {
+  const double margin = 1.0 - ctx.opt->min_reduction;
+  ctx.say("baseline: the paper's structure");
+  Chosen c{.grown = baseline_alone(sx0, ctx), .choice = json()};
+  Grown& chosen = c.grown;
+  ctx.say("baseline: held-out gap " + format_fixed(chosen.baseline_gap, 3) + " deg");
+  grow(chosen, ctx);
+  c.choice = {{"paper", {{"heldout_gap_deg", chosen.baseline_gap}, {"final_gap_deg", chosen.final_gap},
+                         {"steps", chosen.steps.size()}, {"charged_gap_deg", charged(chosen, margin)}}}};
+  if (base.dynamic) consider_dynamic(c, sx0, base, ctx, margin);
+  c.choice["chosen"] = chosen.sx.cx.dyn ? "dynamic" : "paper";
+  return c;
+}
+
+// The chosen baseline in the report: its structure and held-out gap, the lag it names itself,
+// and where its residual lies; the steps of its search.
+void report_baseline(Result& res, const Baseline& base, const Chosen& c, const Steps& ctx) {
+  const Grown& chosen = c.grown;
+  const Structure& baseline_model = chosen.baseline;
   res.baseline_gap_deg = chosen.baseline_gap;
   res.steps = chosen.steps;
-  if (fin.cx.dyn) {
-    if (std::optional<Step> lag = named_bend_lag(base.detail["dynamic"], chosen.baseline_gap, opt, res.steps))
+  if (chosen.sx.cx.dyn) {
+    if (std::optional<Step> lag = named_bend_lag(base.detail["dynamic"], chosen.baseline_gap, *ctx.opt, res.steps))
       res.in_baseline.push_back(std::move(*lag));
   }
   if (!chosen.last_rejected.is_null()) res.whiteness["last_rejected"] = chosen.last_rejected;
-  {
-    const Localisation loc = localise(ctx.to_deg(chosen.baseline_resid), s, k0, phases);
-    res.baseline = base.detail;
-    res.baseline["choice"] = choice;
-    res.baseline["structure"] = choice["chosen"];
-    if (baseline_model.dynamic) res.baseline["dynamic"]["model"] = io::dynamic_model_json(*baseline_model.dynamic);
-    res.baseline["c9_deg_per_v"] = base.model.c9;
-    res.baseline["c10_deg"] = base.model.c10;
-    res.baseline["heldout_gap_deg"] = res.baseline_gap_deg;
-    res.baseline["where"] = loc.sentence;
-    res.baseline["localisation"] = loc.detail;
-  }
-  const VectorXd resid_baseline = ctx.to_deg(chosen.baseline_resid);
-  const VectorXd model_baseline = s.v - chosen.baseline_resid;
-  const VectorXd& strict_resid = chosen.strict_resid;
-  const State& st = chosen.st;
-  const CurrentFit& cur = chosen.cur;
+  const Localisation loc = localise(ctx.to_deg(chosen.baseline_resid), *ctx.s, *ctx.k0, *ctx.phases);
+  res.baseline = base.detail;
+  res.baseline["choice"] = c.choice;
+  res.baseline["structure"] = c.choice["chosen"];
+  if (baseline_model.dynamic) res.baseline["dynamic"]["model"] = io::dynamic_model_json(*baseline_model.dynamic);
+  res.baseline["c9_deg_per_v"] = base.model.c9;
+  res.baseline["c10_deg"] = base.model.c10;
+  res.baseline["heldout_gap_deg"] = res.baseline_gap_deg;
+  res.baseline["where"] = loc.sentence;
+  res.baseline["localisation"] = loc.detail;
+}
+
+// What the search left: its final gap, and how white its strict held-out residual rf [deg] is
+// and where it lies.
+void report_residual(Result& res, const Grown& chosen, const VectorXd& rf, const Steps& ctx) {
   res.final_gap_deg = chosen.final_gap;
+  const Whiteness wh = whiteness(rf);
+  for (auto it = wh.detail.begin(); it != wh.detail.end(); ++it) res.whiteness[it.key()] = it.value();
+  res.unexplained = wh.unexplained;
+  res.whiteness["final_where"] = localise(rf, *ctx.s, *ctx.k0, *ctx.phases).sentence;
+}
 
-  const VectorXd rf = ctx.to_deg(strict_resid);
-  {
-    const Whiteness wh = whiteness(rf);
-    for (auto it = wh.detail.begin(); it != wh.detail.end(); ++it) res.whiteness[it.key()] = it.value();
-    res.unexplained = wh.unexplained;
-    res.whiteness["final_where"] = localise(rf, s, k0, phases).sentence;
-  }
-
-  // ---- the loop closed: the compensator's angle with and without the found model --------------
-  VectorXd comp_before, comp_after;
+// The loop closed: the model the compensator is given, which of its effects model.toml holds,
+// and the compensator's angle with the baseline and with that model (docs/gap.md, section 5,
+// "The loop closed").
+struct LoopClosed {
+  OnlinePart online;  // online.state: the part of the state the compensator applies
+  AppliedFit applied;
   Applied written;
-  // What the compensator refuses is neither applied nor written (model.toml must be a file
-  // pof-compensatord loads), and the model applied is fitted without it; it stays named in the
-  // report (compensated.not_applied).
-  const OnlinePart online = online_part(st, cur, fin.cx, 1.0 / s.dt);
-  const State& st_applied = online.state;
-  // With nothing to apply, the model applied is the baseline as it is (not the structure moved on
-  // alone: that would score a refit, not a found effect).
-  // (A conditional between fit_state's result and `cur` would copy `cur`'s design matrix.)
-  const AppliedFit applied = st_applied.size() == 0                     ? applied_baseline(fin, baseline_model)
-                             : st_applied.terms.size() == st.terms.size() ? applied_fit(fin, st_applied, cur)
-                                                                          : applied_fit(fin, st_applied, fit_state(fin, st_applied));
-  say("compensating the held-out blocks with the baseline and with the found model");
+  VectorXd comp_before, comp_after;
+};
+
+// The model applied. With nothing to apply, the baseline as it is (not the structure moved on
+// alone: that would score a refit, not a found effect).
+// (A conditional between fit_state's result and `cur` would copy `cur`'s design matrix.)
+AppliedFit applied_model(const Grown& chosen, const State& st_applied) {
+  const Search& fin = chosen.sx;
+  return st_applied.size() == 0                           ? applied_baseline(fin, chosen.baseline)
+         : st_applied.terms.size() == chosen.st.terms.size() ? applied_fit(fin, st_applied, chosen.cur)
+                                                             : applied_fit(fin, st_applied, fit_state(fin, st_applied));
+}
+
+// What the compensator refuses is neither applied nor written (model.toml must be a file
+// pof-compensatord loads), and the model applied is fitted without it; it stays named in the
+// report (compensated.not_applied). The scores go to res.compensated.
+LoopClosed close_the_loop(Result& res, const io::Recording& rec, const Grown& chosen, const Steps& ctx) {
+  const Signals& s = *ctx.s;
+  LoopClosed lc;
+  lc.online = online_part(chosen.st, chosen.cur, chosen.sx.cx, 1.0 / s.dt);
+  const State& st_applied = lc.online.state;
+  lc.applied = applied_model(chosen, st_applied);
+  ctx.say("compensating the held-out blocks with the baseline and with the found model");
   try {
-    const std::vector<bool> transition = transition_scans(k0, s.dt, core::CompensatorSettings{}.velocity_window_s);
+    const std::vector<bool> transition = transition_scans(*ctx.k0, s.dt, core::CompensatorSettings{}.velocity_window_s);
     CompensatedScores scores = compensated_rmse({.rec = rec,
-                                                 .sx = fin,
-                                                 .before = baseline_model,
+                                                 .sx = chosen.sx,
+                                                 .before = chosen.baseline,
                                                  .st = st_applied,
-                                                 .after = applied,
-                                                 .not_applied = online.refused,
+                                                 .after = lc.applied,
+                                                 .not_applied = lc.online.refused,
                                                  .transition = transition});
     res.compensated = std::move(scores.report);
-    written = std::move(scores.written);
-    comp_before = std::move(scores.angle_before);
-    comp_after = std::move(scores.angle_after);
+    lc.written = std::move(scores.written);
+    lc.comp_before = std::move(scores.angle_before);
+    lc.comp_after = std::move(scores.angle_after);
   } catch (const std::exception& e) {
     // The compensator refused a model (std::invalid_argument from its constructor): the analysis
     // stands, model.toml holds the baseline, and the report says why.
     res.compensated = {{"error", std::string("the compensator could not run the found model: ") + e.what()}};
-    written.terms.assign(st_applied.terms.size(), false);
-    comp_before = comp_after = VectorXd::Constant(s.n, std::numeric_limits<double>::quiet_NaN());
+    lc.written.terms.assign(st_applied.terms.size(), false);
+    lc.comp_before = lc.comp_after = VectorXd::Constant(s.n, std::numeric_limits<double>::quiet_NaN());
   }
+  return lc;
+}
 
-  // ---- improved model, fitted on all the data (what model.toml holds) ----------------------------
-  // If even the effects kept make the compensator's held-out angle worse than the baseline does,
-  // model.toml holds the baseline: a file that degrades the controller's angle helps no one (the
-  // effects stay named in gap.json and the report).
+// Whether model.toml holds the baseline: if even the effects kept make the compensator's held-out
+// angle worse than the baseline does (a file that degrades the controller's angle helps no one;
+// the effects stay named in gap.json and the report). Said in compensated.model_toml; the
+// baseline's figure becomes rmse_written_deg and nothing is written.
+bool choose_baseline_file(Result& res, LoopClosed& lc) {
   const bool write_baseline =
       !res.steps.empty() && (res.compensated.contains("error") || !(res.compensated["rmse_written_deg"].get<double>() <
                                                                     res.compensated["rmse_before_deg"].get<double>()));
-  res.compensated["model_toml"] = !write_baseline         ? "found model"
-                                  : st_applied.size() == 0 ? "baseline (the compensator can apply none of the effects found)"
-                                                           : "baseline (the found model made the held-out angle worse)";
+  res.compensated["model_toml"] = !write_baseline                ? "found model"
+                                  : lc.online.state.size() == 0 ? "baseline (the compensator can apply none of the effects found)"
+                                                                : "baseline (the found model made the held-out angle worse)";
   if (write_baseline) {
     // rmse_written_deg is what model.toml holds: the baseline's now (the kept terms' was not lower).
     res.compensated["rmse_written_deg"] = res.compensated["rmse_before_deg"];
-    written.delay = written.backlash = false;
-    written.terms.assign(written.terms.size(), false);
+    lc.written.delay = lc.written.backlash = false;
+    lc.written.terms.assign(lc.written.terms.size(), false);
   }
-  {
-    const Structure mm = write_baseline ? baseline_model : applied.structure();
-    const core::GapModel g = gap_model_of(st_applied, applied.beta_full, applied.cx);
-    json terms = json::array();
-    for (std::size_t i = 0; i < g.terms.size(); ++i) {
-      if (!written.terms[i]) continue;  // its online application made the held-out angle worse
-      const core::GapTerm& t = g.terms[i];
-      json term = {{"effect", t.effect}, {"theta", t.theta}, {"coefficients_v", t.coefficients_v}};
-      if (!t.thresholds_deg.empty()) term["thresholds_deg"] = t.thresholds_deg;
-      if (!t.time_constants_s.empty()) term["time_constants_s"] = t.time_constants_s;
-      json p = json::object();
-      for (const auto& [k, v] : t.parameters) p[k] = v;
-      term["parameters"] = p;
-      terms.push_back(term);
-    }
-    res.model = coefficients_json(mm.paper);
-    res.model["structure"] = mm.dynamic ? "dynamic" : "paper";
-    if (mm.dynamic) res.model["dynamic"] = io::dynamic_model_json(*mm.dynamic);
-    res.dynamic_model = mm.dynamic;
-    res.model.update({{"reference_level_v", s.reference_level_v}, {"delay_s", written.delay ? st_applied.delay_s : 0.0},
-                      {"backlash_deg", written.backlash ? st_applied.backlash_deg : 0.0}, {"duration_s", fin.cx.duration_s},
-                      {"terms", terms}, {"left_out", res.compensated.value("left_out_of_model", json::array())}});
-    describe_range(res.model, s, k0);
-  }
+  return write_baseline;
+}
 
-  // ---- plot series (at most ~40k rows) ----------------------------------------------------------
-  const Index stride = std::max<Index>(1, s.n / 40000);
-  const VectorXd model_final = s.v - strict_resid;
-  for (Index i = 0; i < s.n; i += stride) {
-    res.series.t.push_back(s.t(i));
-    res.series.angle.push_back(s.angle(i));
-    res.series.w.push_back(k0.w(i));
-    res.series.v.push_back(s.v(i));
-    res.series.model_baseline.push_back(model_baseline(i));
-    res.series.model_final.push_back(model_final(i));
-    res.series.resid_baseline_deg.push_back(resid_baseline(i));
-    res.series.resid_final_deg.push_back(rf(i));
-    res.series.angle_comp_before.push_back(comp_before(i));
-    res.series.angle_comp_after.push_back(comp_after(i));
+// The terms model.toml holds: those written, with the coefficients fitted on all the data.
+json written_terms(const LoopClosed& lc) {
+  const core::GapModel g = gap_model_of(lc.online.state, lc.applied.beta_full, lc.applied.cx);
+  json terms = json::array();
+  for (std::size_t i = 0; i < g.terms.size(); ++i) {
+    if (!lc.written.terms[i]) continue;  // its online application made the held-out angle worse
+    const core::GapTerm& t = g.terms[i];
+    json term = {{"effect", t.effect}, {"theta", t.theta}, {"coefficients_v", t.coefficients_v}};
+    if (!t.thresholds_deg.empty()) term["thresholds_deg"] = t.thresholds_deg;
+    if (!t.time_constants_s.empty()) term["time_constants_s"] = t.time_constants_s;
+    json p = json::object();
+    for (const auto& [k, v] : t.parameters) p[k] = v;
+    term["parameters"] = p;
+    terms.push_back(term);
   }
+  return terms;
+}
+
+// The improved model, fitted on all the data (what model.toml holds): the structure (the baseline
+// when write_baseline), the kinematics and terms written, and the recording's range.
+void describe_model(Result& res, const LoopClosed& lc, const Grown& chosen, bool write_baseline, const Steps& ctx) {
+  const Signals& s = *ctx.s;
+  const State& st_applied = lc.online.state;
+  const Structure mm = write_baseline ? chosen.baseline : lc.applied.structure();
+  const json terms = written_terms(lc);
+  res.model = coefficients_json(mm.paper);
+  res.model["structure"] = mm.dynamic ? "dynamic" : "paper";
+  if (mm.dynamic) res.model["dynamic"] = io::dynamic_model_json(*mm.dynamic);
+  res.dynamic_model = mm.dynamic;
+  res.model.update({{"reference_level_v", s.reference_level_v}, {"delay_s", lc.written.delay ? st_applied.delay_s : 0.0},
+                    {"backlash_deg", lc.written.backlash ? st_applied.backlash_deg : 0.0}, {"duration_s", chosen.sx.cx.duration_s},
+                    {"terms", terms}, {"left_out", res.compensated.value("left_out_of_model", json::array())}});
+  describe_range(res.model, s, *ctx.k0);
+}
+
+// The plotted series, every stride-th scan (at most ~40k rows); rf: the final residual [deg].
+Series plot_series(const Grown& chosen, const VectorXd& rf, const LoopClosed& lc, const Steps& ctx) {
+  const Signals& s = *ctx.s;
+  const Kinematics& k0 = *ctx.k0;
+  const VectorXd resid_baseline = ctx.to_deg(chosen.baseline_resid);
+  const VectorXd model_baseline = s.v - chosen.baseline_resid;
+  const Index stride = std::max<Index>(1, s.n / 40000);
+  const VectorXd model_final = s.v - chosen.strict_resid;
+  Series series;
+  for (Index i = 0; i < s.n; i += stride) {
+    series.t.push_back(s.t(i));
+    series.angle.push_back(s.angle(i));
+    series.w.push_back(k0.w(i));
+    series.v.push_back(s.v(i));
+    series.model_baseline.push_back(model_baseline(i));
+    series.model_final.push_back(model_final(i));
+    series.resid_baseline_deg.push_back(resid_baseline(i));
+    series.resid_final_deg.push_back(rf(i));
+    series.angle_comp_before.push_back(lc.comp_before(i));
+    series.angle_comp_after.push_back(lc.comp_after(i));
+  }
+  return series;
+}
+
+}  // namespace
+
+// The workflow of docs/gap.md: the baselines fitted, a search from each and the choice between
+// them (sections 1, 3-4), the compensated angle and the model written (section 5).
+Result analyse(const io::Recording& rec, const Options& opt) {
+  auto say = [&](const std::string& m) { if (opt.progress) opt.progress(m); };
+  const Signals s = make_signals(rec);
+  const Kinematics k0 = make_kinematics(s.angle, s.dt, 0.0);
+  require_holds_and_movements(rec, s, k0);
+
+  say("baseline: fitting the paper's model structure to the recording (calibration, then every coefficient)");
+  const Baseline base = fit_baseline(rec, s, k0);
+  const Search sx0 = paper_search(s, k0, base, opt);
+  const std::vector<Phase> phases = classify_phases(k0, s.dt);
+  const Steps ctx{.s = &s,
+                  .k0 = &k0,
+                  .phases = &phases,
+                  .opt = &opt,
+                  .c9 = std::abs(base.model.c9),  // gaps in degrees at the paper fit's sensitivity, for every step
+                  .say = say};
+
+  Result res;
+  res.recording = recording_json(s, sx0);
+  const Chosen chosen = choose_search(sx0, base, ctx);
+  report_baseline(res, base, chosen, ctx);
+  const VectorXd rf = ctx.to_deg(chosen.grown.strict_resid);
+  report_residual(res, chosen.grown, rf, ctx);
+
+  LoopClosed lc = close_the_loop(res, rec, chosen.grown, ctx);
+  const bool write_baseline = choose_baseline_file(res, lc);
+  describe_model(res, lc, chosen.grown, write_baseline, ctx);
+  res.series = plot_series(chosen.grown, rf, lc, ctx);
   say("done: held-out gap " + format_fixed(res.baseline_gap_deg, 3) + " -> " + format_fixed(res.final_gap_deg, 3) + " deg in " +
       std::to_string(res.steps.size()) + " step(s)");
   return res;

@@ -6,6 +6,8 @@
 #include <limits>
 #include <optional>
 #include <sstream>
+#include <string>
+#include <utility>
 
 #include "pof/base/format.hpp"
 
@@ -161,6 +163,193 @@ CurrentFit relinearise(Search& sx, const State& st) {
   return cur;
 }
 
+// Progress, to whoever listens (Steps::say may be empty).
+void say(const Steps& ctx, const std::string& m) {
+  if (ctx.say) ctx.say(m);
+}
+
+// One step's candidates against the current fit: each one's scores for the report, and the
+// ranking by held-out delta BIC (docs/gap.md, section 4, "Ranking and the acceptance rule").
+struct Ranking {
+  double n_eff = 0;  // effective sample size of the current held-out residual
+  double rss0 = 0;   // the current fit's held-out residual sum of squares
+  json scores = json::object();
+  std::vector<std::pair<double, std::size_t>> order;  // (delta BIC, candidate), best first
+};
+
+Ranking rank(const std::vector<CandidateResult>& cands, const CurrentFit& cur, const Steps& ctx) {
+  Ranking r;
+  r.n_eff = cv::effective_n(cur.cv_resid);
+  r.rss0 = cur.fit.cv_rss;
+  const double n_eff = r.n_eff, rss0 = r.rss0;
+  for (std::size_t i = 0; i < cands.size(); ++i) {
+    const CandidateResult& c = cands[i];
+    const std::string id(core::to_string(c.effect));
+    if (!c.eligible) { r.scores[id] = {{"applicable", false}, {"note", c.note}}; continue; }
+    const double red = 1.0 - std::sqrt(c.fit.cv_rss / rss0);
+    const double dbic = n_eff * std::log(c.fit.cv_rss / rss0) + c.n_params * std::log(n_eff);
+    r.scores[id] = {{"heldout_gap_deg", ctx.gap_deg(c.fit.cv_rss)}, {"reduction_pct", 100 * red}, {"delta_bic", dbic},
+                    {"parameters", c.n_params}};
+    if (std::isfinite(dbic)) r.order.emplace_back(dbic, i);  // (a residual of exactly 0 leaves nothing to rank)
+  }
+  std::sort(r.order.begin(), r.order.end());
+  return r;
+}
+
+// The acceptance rule: held-out RMS down by min_reduction and held-out BIC by min_delta_bic.
+bool passes(Ranking& r, const std::vector<CandidateResult>& cands, std::size_t i, const Options& opt) {
+  const double red = 1.0 - std::sqrt(cands[i].fit.cv_rss / r.rss0);
+  return red >= opt.min_reduction && -r.scores[std::string(core::to_string(cands[i].effect))]["delta_bic"].get<double>() > opt.min_delta_bic;
+}
+
+// Parsimony between nested effects: the general one must beat the simpler one it generalises
+// by the acceptance rule, as a further step on top of it would have to. The candidate to assess
+// in place of i.
+std::size_t parsimonious(Ranking& r, const std::vector<CandidateResult>& cands, std::size_t i, const Options& opt) {
+  const double n_eff = r.n_eff;
+  const auto simpler = effect_def(cands[i].effect).generalises;
+  if (!simpler) return i;
+  const auto si = static_cast<std::size_t>(*simpler);
+  if (!cands[si].eligible) return i;
+  const double red_over = 1.0 - std::sqrt(cands[i].fit.cv_rss / cands[si].fit.cv_rss);
+  const double dbic_over = n_eff * std::log(cands[i].fit.cv_rss / cands[si].fit.cv_rss) +
+                           (cands[i].n_params - cands[si].n_params) * std::log(n_eff);
+  if (red_over >= opt.min_reduction && -dbic_over > opt.min_delta_bic) return i;
+  r.scores[std::string(core::to_string(cands[i].effect))]["not_preferred_to"] = std::string(core::to_string(*simpler));
+  return si;
+}
+
+// The first candidate, best delta BIC first, that passes the rule and whose magnitude its
+// jackknife tells apart from zero (|x| > 2 SE: a 4 +- 3 ms delay is no finding). Those that pass
+// but are not told apart are said and marked in the scores.
+std::optional<Assessment> first_significant(Ranking& r, const std::vector<CandidateResult>& cands, const Grown& g, int step,
+                                            const Steps& ctx) {
+  const Options& opt = *ctx.opt;
+  std::vector<std::size_t> tried;
+  for (const auto& [dbic, i0] : r.order) {
+    if (!passes(r, cands, i0, opt)) break;
+    const std::size_t i = parsimonious(r, cands, i0, opt);
+    if (!passes(r, cands, i, opt) || std::find(tried.begin(), tried.end(), i) != tried.end()) continue;
+    tried.push_back(i);
+    Assessment a = assess(g.sx, g.st, cands[i], g.cur.d.X.cols(), g.cur.cv_resid);
+    if (a.significant) return a;
+    r.scores[std::string(core::to_string(cands[i].effect))]["not_significant"] = a.significance;
+    say(ctx, "step " + std::to_string(step) + ": " + std::string(core::to_string(cands[i].effect)) + " " + a.significance);
+  }
+  return std::nullopt;
+}
+
+// No candidate accepted: the search stops, and the best ranked is kept to say why.
+void record_stop(Grown& g, const Ranking& r, const std::vector<CandidateResult>& cands, int step, const Steps& ctx) {
+  if (r.order.empty()) return;
+  const CandidateResult& b = cands[r.order.front().second];
+  const double red = 1.0 - std::sqrt(b.fit.cv_rss / r.rss0);
+  say(ctx, "step " + std::to_string(step) + ": best " + std::string(core::to_string(b.effect)) + " (" + format_fixed(100 * red, 1) +
+               " %, dBIC " + format_fixed(r.order.front().first, 1) + "): not significant, stopping");
+  g.last_rejected = {{"effect", std::string(core::to_string(b.effect))}, {"reduction_pct", 100 * red},
+                     {"delta_bic", r.order.front().first}, {"all", r.scores}};
+}
+
+// The best ranked candidate other than the accepted effect, and its delta BIC ("" and 0: none).
+std::pair<std::string, double> runner_up_of(const Ranking& r, const std::vector<CandidateResult>& cands, core::Effect accepted) {
+  std::string runner_up;
+  double runner_bic = 0;
+  for (const auto& [dbic, i] : r.order)
+    if (cands[i].effect != accepted) { runner_up = std::string(core::to_string(cands[i].effect)); runner_bic = dbic; break; }
+  return {runner_up, runner_bic};
+}
+
+// The accepted effect as the report's step: its held-out gaps, where the part of the residual it
+// explains lies, its parameters and the evidence against the runner-up.
+Step accepted_step(const Ranking& r, const std::vector<CandidateResult>& cands, const Assessment& chosen, const CurrentFit& cur,
+                   int step, const Steps& ctx) {
+  const CandidateResult& w = *chosen.candidate;
+  const EffectDef& def = effect_def(w.effect);
+  const std::string wid(core::to_string(w.effect));
+  const double rss0 = r.rss0;
+  const double red = 1.0 - std::sqrt(w.fit.cv_rss / rss0);
+  const double wbic = r.scores[wid]["delta_bic"].get<double>();
+  say(ctx, "step " + std::to_string(step) + ": " + wid + " (held-out gap " + format_fixed(ctx.gap_deg(rss0), 3) + " -> " +
+               format_fixed(ctx.gap_deg(w.fit.cv_rss), 3) + " deg, " + format_fixed(100 * red, 1) + " %, dBIC " +
+               format_fixed(wbic, 1) + "): accepted");
+
+  // Where: the part of the residual this effect explains, localised.
+  const VectorXd explained = ctx.to_deg(VectorXd(cur.cv_resid - chosen.after));
+  const Localisation loc = localise(explained, *ctx.s, *ctx.k0, *ctx.phases);
+  const Localisation before_loc = localise(ctx.to_deg(cur.cv_resid), *ctx.s, *ctx.k0, *ctx.phases);
+  Step stp;
+  stp.effect = wid;
+  stp.gap_deg = ctx.gap_deg(w.fit.cv_rss);
+  stp.where = loc.sentence;
+  stp.parameters = chosen.parameters;
+  const auto [runner_up, runner_bic] = runner_up_of(r, cands, w.effect);
+  stp.evidence = {{"heldout_gap_before_deg", ctx.gap_deg(rss0)},
+                  {"heldout_gap_after_deg", stp.gap_deg},
+                  {"reduction_pct", 100 * red},
+                  {"delta_bic", wbic},
+                  {"n_eff", r.n_eff},
+                  {"meaning", std::string(def.meaning)},
+                  {"significance", chosen.significance},
+                  {"runner_up", runner_up},
+                  {"runner_up_delta_bic", runner_bic},
+                  {"residual_before_where", before_loc.sentence},
+                  {"phase_rms_before_deg", phase_rms(ctx.to_deg(cur.cv_resid), *ctx.phases)},
+                  {"phase_rms_after_deg", phase_rms(ctx.to_deg(chosen.after), *ctx.phases)},
+                  {"explained_localisation", loc.detail},
+                  {"candidates", r.scores}};
+  if (chosen.fast_part_reduction) stp.evidence["fast_part_heldout_reduction_pct"] = 100 * *chosen.fast_part_reduction;
+  return stp;
+}
+
+// One relaxation spectrum, named once: a term of the simpler effect beside the one that
+// generalises it (creep beside viscoelastic_relaxation, in either order) is one more time
+// constant of the general one, and the step that added it is named so ("term" keeps what it
+// added). Two names would claim two mechanisms where the catalogue tells them apart only by
+// the number of time constants (docs/gap.md, section 4, "Nested effects").
+void name_spectrum_once(Step& stp, std::vector<Step>& steps, const State& st, core::Effect added) {
+  const EffectDef& def = effect_def(added);
+  const std::string wid(core::to_string(added));
+  for (const Term& t : st.terms)
+    if (effect_def(t.effect).generalises == added) {
+      stp.evidence["term"] = wid;
+      stp.effect = std::string(core::to_string(t.effect));
+    }
+  if (def.generalises && st.has(*def.generalises))
+    for (Step& earlier : steps)
+      if (earlier.effect == core::to_string(*def.generalises)) {
+        earlier.evidence["term"] = earlier.effect;
+        earlier.effect = wid;
+      }
+}
+
+// The accepted effect joins the state at its all-data theta and the candidate's baseline; the
+// rate gain (dynamic baseline) and the terms' thetas are re-chosen beside it and the state
+// relinearised for the next ranking (docs/gap.md, section 4, "Add and refit").
+void adopt(Grown& g, const Assessment& chosen, const Steps& ctx) {
+  const CandidateResult& w = *chosen.candidate;
+  Search& sx = g.sx;
+  State& st = g.st;
+  const double th_full = w.grid.empty() ? 0.0 : w.grid[w.fit.full_idx];
+  st = st.with(w.effect, th_full);
+  sx.cx.m = w.base.paper;
+  sx.cx.dyn = w.base.dynamic;
+  bool gain_moved = false;
+  if (sx.cx.dyn) {
+    const double before = sx.cx.dyn->rate_gain_s_per_rad;
+    refit_rate_gain(sx, st);
+    gain_moved = sx.cx.dyn->rate_gain_s_per_rad != before;
+    g.steps.back().evidence["dynamic_rate_gain_s_per_rad"] = {{"before", before}, {"after", sx.cx.dyn->rate_gain_s_per_rad}};
+  }
+  // A term's theta was chosen beside the others and the rate gain as they stood: re-chosen when
+  // either has changed.
+  if (st.size() > 1 || gain_moved) refit_thetas(sx, st, chosen.after);
+  // The next ranking compares candidates with the state refitted the same way they are (accepted
+  // nonlinear parameters fixed); the reported gaps stay the strict per-fold ones.
+  g.cur = relinearise(sx, st);
+  g.steps.back().evidence["heldout_gap_refitted_deg"] = ctx.gap_deg(g.cur.fit.cv_rss);
+  g.strict_resid = chosen.after;
+}
+
 }  // namespace
 
 Grown baseline_alone(Search from, const Steps& ctx) {
@@ -175,151 +364,22 @@ Grown baseline_alone(Search from, const Steps& ctx) {
   return g;
 }
 
+// Each step: every candidate fitted, ranked, the first significant one that passes the rule
+// accepted and reported, and the state refitted with it (docs/gap.md, section 4).
 void grow(Grown& g, const Steps& ctx) {
-  const Options& opt = *ctx.opt;
-  const Signals& s = *ctx.s;
-  const Kinematics& k0 = *ctx.k0;
-  const std::vector<Phase>& phases = *ctx.phases;
-  auto say = [&](const std::string& m) { if (ctx.say) ctx.say(m); };
-  auto gap_deg = [&](double cv_rss) { return ctx.gap_deg(cv_rss); };
-  auto to_deg = [&](const VectorXd& r) { return ctx.to_deg(r); };
-  Search& sx = g.sx;
-  State& st = g.st;
-  CurrentFit& cur = g.cur;
-  VectorXd& strict_resid = g.strict_resid;
-  for (int step = 1; step <= opt.max_steps; ++step) {
-    say("step " + std::to_string(step) + ": fitting " + std::to_string(core::kEffectCount) + " candidate effects");
-    const std::vector<CandidateResult> cands = evaluate_all(sx, st, cur, opt.threads);
-    const double n_eff = cv::effective_n(cur.cv_resid);
-    const double rss0 = cur.fit.cv_rss;
-    json scores = json::object();
-    std::vector<std::pair<double, std::size_t>> order;  // (delta BIC, candidate), best first
-    for (std::size_t i = 0; i < cands.size(); ++i) {
-      const CandidateResult& c = cands[i];
-      const std::string id(core::to_string(c.effect));
-      if (!c.eligible) { scores[id] = {{"applicable", false}, {"note", c.note}}; continue; }
-      const double red = 1.0 - std::sqrt(c.fit.cv_rss / rss0);
-      const double dbic = n_eff * std::log(c.fit.cv_rss / rss0) + c.n_params * std::log(n_eff);
-      scores[id] = {{"heldout_gap_deg", gap_deg(c.fit.cv_rss)}, {"reduction_pct", 100 * red}, {"delta_bic", dbic},
-                    {"parameters", c.n_params}};
-      if (std::isfinite(dbic)) order.emplace_back(dbic, i);  // (a residual of exactly 0 leaves nothing to rank)
-    }
-    std::sort(order.begin(), order.end());
-    auto passes = [&](std::size_t i) {
-      const double red = 1.0 - std::sqrt(cands[i].fit.cv_rss / rss0);
-      return red >= opt.min_reduction && -scores[std::string(core::to_string(cands[i].effect))]["delta_bic"].get<double>() > opt.min_delta_bic;
-    };
-    // Parsimony between nested effects: the general one must beat the simpler one it generalises
-    // by the acceptance rule, as a further step on top of it would have to.
-    auto parsimonious = [&](std::size_t i) {
-      const auto simpler = effect_def(cands[i].effect).generalises;
-      if (!simpler) return i;
-      const auto si = static_cast<std::size_t>(*simpler);
-      if (!cands[si].eligible) return i;
-      const double red_over = 1.0 - std::sqrt(cands[i].fit.cv_rss / cands[si].fit.cv_rss);
-      const double dbic_over = n_eff * std::log(cands[i].fit.cv_rss / cands[si].fit.cv_rss) +
-                               (cands[i].n_params - cands[si].n_params) * std::log(n_eff);
-      if (red_over >= opt.min_reduction && -dbic_over > opt.min_delta_bic) return i;
-      scores[std::string(core::to_string(cands[i].effect))]["not_preferred_to"] = std::string(core::to_string(*simpler));
-      return si;
-    };
-    // The first candidate, best delta BIC first, that passes the rule and whose magnitude its
-    // jackknife tells apart from zero (|x| > 2 SE: a 4 +- 3 ms delay is no finding).
-    std::optional<Assessment> chosen;
-    std::vector<std::size_t> tried;
-    for (const auto& [dbic, i0] : order) {
-      if (!passes(i0)) break;
-      const std::size_t i = parsimonious(i0);
-      if (!passes(i) || std::find(tried.begin(), tried.end(), i) != tried.end()) continue;
-      tried.push_back(i);
-      Assessment a = assess(sx, st, cands[i], cur.d.X.cols(), cur.cv_resid);
-      if (a.significant) { chosen = std::move(a); break; }
-      scores[std::string(core::to_string(cands[i].effect))]["not_significant"] = a.significance;
-      say("step " + std::to_string(step) + ": " + std::string(core::to_string(cands[i].effect)) + " " + a.significance);
-    }
+  for (int step = 1; step <= ctx.opt->max_steps; ++step) {
+    say(ctx, "step " + std::to_string(step) + ": fitting " + std::to_string(core::kEffectCount) + " candidate effects");
+    const std::vector<CandidateResult> cands = evaluate_all(g.sx, g.st, g.cur, ctx.opt->threads);
+    Ranking r = rank(cands, g.cur, ctx);
+    const std::optional<Assessment> chosen = first_significant(r, cands, g, step, ctx);
     if (!chosen) {
-      if (!order.empty()) {
-        const CandidateResult& b = cands[order.front().second];
-        const double red = 1.0 - std::sqrt(b.fit.cv_rss / rss0);
-        say("step " + std::to_string(step) + ": best " + std::string(core::to_string(b.effect)) + " (" + format_fixed(100 * red, 1) +
-            " %, dBIC " + format_fixed(order.front().first, 1) + "): not significant, stopping");
-        g.last_rejected = {{"effect", std::string(core::to_string(b.effect))}, {"reduction_pct", 100 * red},
-                                          {"delta_bic", order.front().first}, {"all", scores}};
-      }
+      record_stop(g, r, cands, step, ctx);
       break;
     }
-    const CandidateResult& w = *chosen->candidate;
-    const EffectDef& def = effect_def(w.effect);
-    const std::string wid(core::to_string(w.effect));
-    const double red = 1.0 - std::sqrt(w.fit.cv_rss / rss0);
-    const double wbic = scores[wid]["delta_bic"].get<double>();
-    say("step " + std::to_string(step) + ": " + wid + " (held-out gap " + format_fixed(gap_deg(rss0), 3) + " -> " +
-        format_fixed(gap_deg(w.fit.cv_rss), 3) + " deg, " + format_fixed(100 * red, 1) + " %, dBIC " + format_fixed(wbic, 1) + "): accepted");
-
-    // Where: the part of the residual this effect explains, localised.
-    const VectorXd explained = to_deg(VectorXd(cur.cv_resid - chosen->after));
-    const Localisation loc = localise(explained, s, k0, phases);
-    const Localisation before_loc = localise(to_deg(cur.cv_resid), s, k0, phases);
-    Step stp;
-    stp.effect = wid;
-    stp.gap_deg = gap_deg(w.fit.cv_rss);
-    stp.where = loc.sentence;
-    stp.parameters = chosen->parameters;
-    std::string runner_up;
-    double runner_bic = 0;
-    for (const auto& [dbic, i] : order)
-      if (cands[i].effect != w.effect) { runner_up = std::string(core::to_string(cands[i].effect)); runner_bic = dbic; break; }
-    stp.evidence = {{"heldout_gap_before_deg", gap_deg(rss0)},
-                    {"heldout_gap_after_deg", stp.gap_deg},
-                    {"reduction_pct", 100 * red},
-                    {"delta_bic", wbic},
-                    {"n_eff", n_eff},
-                    {"meaning", std::string(def.meaning)},
-                    {"significance", chosen->significance},
-                    {"runner_up", runner_up},
-                    {"runner_up_delta_bic", runner_bic},
-                    {"residual_before_where", before_loc.sentence},
-                    {"phase_rms_before_deg", phase_rms(to_deg(cur.cv_resid), phases)},
-                    {"phase_rms_after_deg", phase_rms(to_deg(chosen->after), phases)},
-                    {"explained_localisation", loc.detail},
-                    {"candidates", scores}};
-    if (chosen->fast_part_reduction) stp.evidence["fast_part_heldout_reduction_pct"] = 100 * *chosen->fast_part_reduction;
-    // One relaxation spectrum, named once: a term of the simpler effect beside the one that
-    // generalises it (creep beside viscoelastic_relaxation, in either order) is one more time
-    // constant of the general one, and the step that added it is named so ("term" keeps what it
-    // added). Two names would claim two mechanisms where the catalogue tells them apart only by
-    // the number of time constants (docs/gap.md, section 4, "Nested effects").
-    for (const Term& t : st.terms)
-      if (effect_def(t.effect).generalises == w.effect) {
-        stp.evidence["term"] = wid;
-        stp.effect = std::string(core::to_string(t.effect));
-      }
-    if (def.generalises && st.has(*def.generalises))
-      for (Step& earlier : g.steps)
-        if (earlier.effect == core::to_string(*def.generalises)) {
-          earlier.evidence["term"] = earlier.effect;
-          earlier.effect = wid;
-        }
-    g.steps.push_back(stp);
-    const double th_full = w.grid.empty() ? 0.0 : w.grid[w.fit.full_idx];
-    st = st.with(w.effect, th_full);
-    sx.cx.m = w.base.paper;
-    sx.cx.dyn = w.base.dynamic;
-    bool gain_moved = false;
-    if (sx.cx.dyn) {
-      const double before = sx.cx.dyn->rate_gain_s_per_rad;
-      refit_rate_gain(sx, st);
-      gain_moved = sx.cx.dyn->rate_gain_s_per_rad != before;
-      g.steps.back().evidence["dynamic_rate_gain_s_per_rad"] = {{"before", before}, {"after", sx.cx.dyn->rate_gain_s_per_rad}};
-    }
-    // A term's theta was chosen beside the others and the rate gain as they stood: re-chosen when
-    // either has changed.
-    if (st.size() > 1 || gain_moved) refit_thetas(sx, st, chosen->after);
-    // The next ranking compares candidates with the state refitted the same way they are (accepted
-    // nonlinear parameters fixed); the reported gaps stay the strict per-fold ones.
-    cur = relinearise(sx, st);
-    g.steps.back().evidence["heldout_gap_refitted_deg"] = gap_deg(cur.fit.cv_rss);
-    strict_resid = chosen->after;
+    Step stp = accepted_step(r, cands, *chosen, g.cur, step, ctx);
+    name_spectrum_once(stp, g.steps, g.st, chosen->candidate->effect);
+    g.steps.push_back(std::move(stp));
+    adopt(g, *chosen, ctx);
   }
   g.final_gap = g.steps.empty() ? g.baseline_gap : g.steps.back().gap_deg;
 }

@@ -145,6 +145,7 @@ struct Prepared {
   double rate_hz = 200;
   int decim = 1;
   double angle_min = 0, angle_max = 90, speed_max = 0.5;
+  double sensitivity = 0;  // |dV/dtheta| of the least-squares line through the data [V/deg]
   std::vector<Index> fb, fe;
 };
 
@@ -227,9 +228,189 @@ std::string fmt_g(double x) {
   return b;
 }
 
+// What the recording must hold: holds (the line and the relaxation) and both directions (the loop).
+void require_protocol(const std::vector<Segment>& seg, const DynamicFitSettings& s) {
+  int holds = 0, flex = 0, ext = 0;
+  for (const Segment& g : seg) {
+    if (g.kind == Direction::kHold && g.duration_s() >= s.min_hold_s) ++holds;
+    if (g.kind == Direction::kFlexion && std::abs(g.amplitude_deg()) >= 5) ++flex;
+    if (g.kind == Direction::kExtension && std::abs(g.amplitude_deg()) >= 5) ++ext;
+  }
+  if (holds < 3)
+    throw DynamicFitError("dynamic fit: found " + std::to_string(holds) + " hold(s) of at least " + fmt_g(s.min_hold_s) +
+                          " s; the quasi-static line and the relaxation need at least 3 (the paper's quasi-static steps)");
+  if (flex == 0 || ext == 0)
+    throw DynamicFitError("dynamic fit: found " + std::to_string(flex) + " flexion and " + std::to_string(ext) +
+                          " extension movement(s) of at least 5 deg; the hysteresis loop needs both directions");
+}
+
+// The reference angle's range over the usable scans (into pr), and the quasi-static sensitivity:
+// |dV/dtheta| of the least-squares line through them.
+double range_and_sensitivity(Prepared& pr, const VectorXd& v, const VectorXd& ang) {
+  LineAccumulator line;
+  pr.angle_min = kInf;
+  pr.angle_max = -kInf;
+  for (Index i = 0; i < v.size(); ++i)
+    if (std::isfinite(v(i)) && std::isfinite(ang(i))) {
+      line.add(ang(i), v(i));
+      pr.angle_min = std::min(pr.angle_min, ang(i));
+      pr.angle_max = std::max(pr.angle_max, ang(i));
+    }
+  if (!line.ok() || !(pr.angle_max - pr.angle_min > 5))
+    throw DynamicFitError("dynamic fit: the reference angle spans less than 5 deg");
+  const double sensitivity = std::abs(line.slope());
+  if (!(sensitivity > 0)) throw DynamicFitError("dynamic fit: the sensor voltage does not change with the angle");
+  return sensitivity;
+}
+
+// The recording as the search reads it: rate and decimation, range, speed, sensitivity and the
+// held-out blocks. Throws DynamicFitError saying what the recording lacks.
+Prepared prepare(const VectorXd& t, const VectorXd& v, const VectorXd& ang, const DynamicFitSettings& s) {
+  const Index n = t.size();
+  if (v.size() != n || ang.size() != n) throw DynamicFitError("dynamic fit: the columns differ in length");
+  Prepared pr;
+  pr.rate_hz = median_rate_hz(t);
+  if (!(pr.rate_hz > 0)) throw DynamicFitError("dynamic fit: the time column does not increase");
+  pr.decim = std::max(1, static_cast<int>(std::lround(pr.rate_hz / s.fit_rate_hz)));
+  const std::vector<Segment> seg = segment(t, ang, s.segmentation);
+  require_protocol(seg, s);
+  pr.sensitivity = range_and_sensitivity(pr, v, ang);
+  double vmax = 0;
+  for (const Segment& g : seg) vmax = std::max(vmax, std::abs(g.velocity_rad_s));
+  pr.speed_max = std::max(0.05, vmax);
+  hold_blocks(seg, n, s.folds, pr.fb, pr.fe);
+  return pr;
+}
+
+bool same_structure(const DynamicCandidate& x, const DynamicCandidate& y) {
+  return x.degree == y.degree && x.n_operators == y.n_operators && x.n_prony == y.n_prony &&
+         x.rate_gain_s_per_rad == y.rate_gain_s_per_rad && x.bend_lag_s == y.bend_lag_s;
+}
+
+// The structures cross-validated so far (fit_dynamic's result lists them, in the order tried),
+// each scored once.
+class Scored {
+ public:
+  Scored(std::vector<DynamicCandidate>& all, const Prepared& pr, const DynamicFitSettings& s, const VectorXd& v,
+         const VectorXd& ang)
+      : all_(all), pr_(pr), s_(s), v_(v), ang_(ang) {}
+
+  // The rate gain scales the operators only (phi(w) S_i): with none it is no structure of its own,
+  // so it is scored once, at 0, and never wins a tie at a grid edge.
+  void try_structure(int deg, int ops, int k, double kappa, double lag = 0.0) {
+    if (ops == 0) kappa = 0.0;
+    const DynamicCandidate key{.degree = deg, .n_operators = ops, .n_prony = k, .rate_gain_s_per_rad = kappa, .bend_lag_s = lag};
+    for (const DynamicCandidate& c : all_)  // each structure is scored once
+      if (same_structure(c, key)) return;
+    all_.push_back(cross_validate(structure_of(pr_, s_, deg, ops, k, kappa, lag), pr_, v_, ang_, pr_.sensitivity));
+  }
+
+  // The admissible structure of lowest held-out error so far (nullptr: none). It points into the
+  // list, which every try_structure may grow: read it again after each batch.
+  [[nodiscard]] const DynamicCandidate* best() const {
+    const DynamicCandidate* b = nullptr;
+    for (const DynamicCandidate& c : all_)
+      if (c.admissible && std::isfinite(c.cv_rmse_v) && (b == nullptr || c.cv_rmse_v < b->cv_rmse_v)) b = &c;
+    return b;
+  }
+
+ private:
+  std::vector<DynamicCandidate>& all_;
+  const Prepared& pr_;
+  const DynamicFitSettings& s_;
+  const VectorXd& v_;
+  const VectorXd& ang_;
+};
+
+// The polynomial's degree: each degree with a middle structure, and alone (the polynomial alone
+// is invertible whenever it is monotone).
+int choose_degree(Scored& sc, const DynamicFitSettings& s) {
+  const int mid_ops = s.operator_counts[s.operator_counts.size() / 2];
+  const int mid_k = s.prony_counts[s.prony_counts.size() / 2];
+  for (int deg : s.degrees) {
+    sc.try_structure(deg, mid_ops, mid_k, 0.0);
+    sc.try_structure(deg, 0, 0, 0.0);
+  }
+  const DynamicCandidate* b = sc.best();
+  if (b == nullptr) throw DynamicFitError("dynamic fit: no quasi-static polynomial gives an invertible model on this recording");
+  return b->degree;
+}
+
+// The operator x Prony counts at the rate gain and lag of `start`.
+void try_counts(Scored& sc, const DynamicFitSettings& s, int deg, const DynamicCandidate& start) {
+  for (int ops : s.operator_counts)
+    for (int k : s.prony_counts) sc.try_structure(deg, ops, k, start.rate_gain_s_per_rad, start.bend_lag_s);
+  // Without operators the structure has no rate gain to offer them (it is pinned to 0), and
+  // operators may be invertible only with one (a loop that narrows or widens with speed): the
+  // operator counts are then also tried at every rate gain (at its Prony count and lag); the
+  // next round, if any is left, settles the rest.
+  if (start.n_operators == 0)
+    for (double kp : s.rate_gains_s_per_rad)
+      for (int ops : s.operator_counts) sc.try_structure(deg, ops, start.n_prony, kp, start.bend_lag_s);
+}
+
+// The bend lag jointly with the rate gain (both widen the loop with speed) at the best counts.
+void try_gains_and_lags(Scored& sc, const DynamicFitSettings& s, int deg) {
+  const DynamicCandidate counts = *sc.best();
+  for (double kp : s.rate_gains_s_per_rad) {
+    sc.try_structure(deg, counts.n_operators, counts.n_prony, kp, 0.0);
+    for (double lag : s.bend_lags_s) sc.try_structure(deg, counts.n_operators, counts.n_prony, kp, lag);
+  }
+}
+
+// Around the best lag, if any, at about a quarter of the grid's doubling, then at half that step.
+void refine_lag(Scored& sc, const DynamicFitSettings& s, int deg) {
+  if (!(sc.best()->bend_lag_s > 0)) return;
+  const DynamicCandidate g = *sc.best();
+  for (double f : {0.71, 0.84, 1.19, 1.41})
+    for (double kp : s.rate_gains_s_per_rad) sc.try_structure(deg, g.n_operators, g.n_prony, kp, g.bend_lag_s * f);
+  const DynamicCandidate h = *sc.best();
+  for (double f : {0.92, 1.09}) sc.try_structure(deg, h.n_operators, h.n_prony, h.rate_gain_s_per_rad, h.bend_lag_s * f);
+}
+
+// The structure chosen: the polynomial's degree with a middle structure, then coordinate descent
+// over the rest to a fixed point: the operator x Prony counts at the current rate gain and lag,
+// then the bend lag jointly with the rate gain at the current counts, refined to ~5 % around the
+// best; again until a round leaves the best structure unchanged (at most max_search_rounds;
+// docs/calibration.md, "The dynamic model"). One pass is not enough: a large lag makes every
+// structure with operators non-invertible at tau_b = 0 (the narrowest operator takes the lag's
+// loop), so counts chosen before the lag is found are wrong.
+DynamicCandidate search_structure(Scored& sc, const DynamicFitSettings& s) {
+  const int deg = choose_degree(sc, s);
+  const DynamicCandidate* b = sc.best();
+  for (int round = 0; round < s.max_search_rounds; ++round) {
+    const DynamicCandidate start = *b;
+    try_counts(sc, s, deg, start);
+    try_gains_and_lags(sc, s, deg);
+    refine_lag(sc, s, deg);
+    b = sc.best();
+    if (same_structure(*b, start)) break;
+  }
+  return *b;
+}
+
+// The chosen structure refitted on every scan (res.model) and its training error. Throws when
+// the fit is not invertible.
+void fit_chosen(DynamicFitResult& res, const Prepared& pr, const DynamicFitSettings& s, const VectorXd& v, const VectorXd& ang) {
+  const DynamicCandidate& b = res.chosen;
+  const DynamicModel st = structure_of(pr, s, b.degree, b.n_operators, b.n_prony, b.rate_gain_s_per_rad, b.bend_lag_s);
+  const Design d = build_design(st, v, ang, pr.rate_hz, pr.decim);
+  const MatrixXd G = d.X.transpose() * d.X;
+  const VectorXd g = d.X.transpose() * d.y;
+  double rss = 0;
+  const VectorXd beta = solve_signed(G, g, d.y.squaredNorm(), d, &rss);
+  res.model = with_coefficients(st, beta, d);
+  if (!invertible(res.model, pr.rate_hz))
+    throw DynamicFitError("dynamic fit: the fitted model is not invertible over the angle range (the hysteresis or relaxation terms outweigh the quasi-static slope)");
+  res.n_used = d.y.size();
+  res.train_rmse_v = std::sqrt(rss / static_cast<double>(std::max<Index>(1, d.y.size())));
+  res.train_rmse_deg = res.train_rmse_v / pr.sensitivity;
+}
+
 }  // namespace
 
-std::vector<double> operator_thresholds(int n, double min_deg, double max_deg) {
+std::vector<double> operator_thresholds(
+int n, double min_deg, double max_deg) {
   std::vector<double> r;
   max_deg = std::max(max_deg, min_deg);
   for (int i = 0; i < n; ++i)
@@ -269,137 +450,22 @@ void hold_blocks(const std::vector<Segment>& segments, Index n, int folds, std::
   }
 }
 
+// The recording checked and prepared, the structure searched by blocked cross-validation, and
+// the chosen one refitted on every scan (docs/calibration.md, "The dynamic model").
 DynamicFitResult fit_dynamic(const VectorXd& t, const VectorXd& v, const VectorXd& ang, const DynamicFitSettings& s) {
-  const Index n = t.size();
-  if (v.size() != n || ang.size() != n) throw DynamicFitError("dynamic fit: the columns differ in length");
-  Prepared pr;
-  pr.rate_hz = median_rate_hz(t);
-  if (!(pr.rate_hz > 0)) throw DynamicFitError("dynamic fit: the time column does not increase");
-  pr.decim = std::max(1, static_cast<int>(std::lround(pr.rate_hz / s.fit_rate_hz)));
-
-  // What the recording must hold: holds (the line and the relaxation) and both directions (the loop).
-  const std::vector<Segment> seg = segment(t, ang, s.segmentation);
-  int holds = 0, flex = 0, ext = 0;
-  for (const Segment& g : seg) {
-    if (g.kind == Direction::kHold && g.duration_s() >= s.min_hold_s) ++holds;
-    if (g.kind == Direction::kFlexion && std::abs(g.amplitude_deg()) >= 5) ++flex;
-    if (g.kind == Direction::kExtension && std::abs(g.amplitude_deg()) >= 5) ++ext;
-  }
-  if (holds < 3)
-    throw DynamicFitError("dynamic fit: found " + std::to_string(holds) + " hold(s) of at least " + fmt_g(s.min_hold_s) +
-                          " s; the quasi-static line and the relaxation need at least 3 (the paper's quasi-static steps)");
-  if (flex == 0 || ext == 0)
-    throw DynamicFitError("dynamic fit: found " + std::to_string(flex) + " flexion and " + std::to_string(ext) +
-                          " extension movement(s) of at least 5 deg; the hysteresis loop needs both directions");
-
-  // Range, speed and sensitivity of the data.
-  LineAccumulator line;
-  pr.angle_min = kInf;
-  pr.angle_max = -kInf;
-  for (Index i = 0; i < n; ++i)
-    if (std::isfinite(v(i)) && std::isfinite(ang(i))) {
-      line.add(ang(i), v(i));
-      pr.angle_min = std::min(pr.angle_min, ang(i));
-      pr.angle_max = std::max(pr.angle_max, ang(i));
-    }
-  if (!line.ok() || !(pr.angle_max - pr.angle_min > 5))
-    throw DynamicFitError("dynamic fit: the reference angle spans less than 5 deg");
-  const double sensitivity = std::abs(line.slope());
-  if (!(sensitivity > 0)) throw DynamicFitError("dynamic fit: the sensor voltage does not change with the angle");
-  double vmax = 0;
-  for (const Segment& g : seg) vmax = std::max(vmax, std::abs(g.velocity_rad_s));
-  pr.speed_max = std::max(0.05, vmax);
-  hold_blocks(seg, n, s.folds, pr.fb, pr.fe);
-
+  const Prepared pr = prepare(t, v, ang, s);
   DynamicFitResult res;
-  res.sensitivity_v_per_deg = sensitivity;
+  res.sensitivity_v_per_deg = pr.sensitivity;
   res.fold_begin = pr.fb;
   res.fold_end = pr.fe;
-  auto best_of = [&](const std::vector<DynamicCandidate>& cs) {
-    const DynamicCandidate* b = nullptr;
-    for (const DynamicCandidate& c : cs)
-      if (c.admissible && std::isfinite(c.cv_rmse_v) && (b == nullptr || c.cv_rmse_v < b->cv_rmse_v)) b = &c;
-    return b;
-  };
-  auto same = [](const DynamicCandidate& x, const DynamicCandidate& y) {
-    return x.degree == y.degree && x.n_operators == y.n_operators && x.n_prony == y.n_prony &&
-           x.rate_gain_s_per_rad == y.rate_gain_s_per_rad && x.bend_lag_s == y.bend_lag_s;
-  };
-  // The rate gain scales the operators only (phi(w) S_i): with none it is no structure of its own,
-  // so it is scored once, at 0, and never wins a tie at a grid edge.
-  auto try_structure = [&](int deg, int ops, int k, double kappa, double lag = 0.0) {
-    if (ops == 0) kappa = 0.0;
-    const DynamicCandidate key{.degree = deg, .n_operators = ops, .n_prony = k, .rate_gain_s_per_rad = kappa, .bend_lag_s = lag};
-    for (const DynamicCandidate& c : res.candidates)  // each structure is scored once
-      if (same(c, key)) return;
-    res.candidates.push_back(cross_validate(structure_of(pr, s, deg, ops, k, kappa, lag), pr, v, ang, sensitivity));
-  };
-  // The polynomial's degree with a middle structure, then coordinate descent over the rest to a
-  // fixed point: the operator x Prony counts at the current rate gain and lag, then the bend lag
-  // jointly with the rate gain (both widen the loop with speed) at the current counts, refined to
-  // ~5 % around the best; again until a round leaves the best structure unchanged (at most
-  // max_search_rounds; docs/calibration.md, "The dynamic model"). One pass is not enough: a large
-  // lag makes every structure with operators non-invertible at tau_b = 0 (the narrowest operator
-  // takes the lag's loop), so counts chosen before the lag is found are wrong. `b` points into
-  // res.candidates, which every try_structure may grow: it is read again after each batch.
-  const int mid_ops = s.operator_counts[s.operator_counts.size() / 2];
-  const int mid_k = s.prony_counts[s.prony_counts.size() / 2];
-  for (int deg : s.degrees) {
-    try_structure(deg, mid_ops, mid_k, 0.0);
-    try_structure(deg, 0, 0, 0.0);  // the polynomial alone: invertible whenever it is monotone
-  }
-  const DynamicCandidate* b = best_of(res.candidates);
-  if (b == nullptr) throw DynamicFitError("dynamic fit: no quasi-static polynomial gives an invertible model on this recording");
-  const int deg = b->degree;
-  for (int round = 0; round < s.max_search_rounds; ++round) {
-    const DynamicCandidate start = *b;
-    for (int ops : s.operator_counts)
-      for (int k : s.prony_counts) try_structure(deg, ops, k, start.rate_gain_s_per_rad, start.bend_lag_s);
-    // Without operators the structure has no rate gain to offer them (it is pinned to 0), and
-    // operators may be invertible only with one (a loop that narrows or widens with speed): the
-    // operator counts are then also tried at every rate gain (at its Prony count and lag); the
-    // next round, if any is left, settles the rest.
-    if (start.n_operators == 0)
-      for (double kp : s.rate_gains_s_per_rad)
-        for (int ops : s.operator_counts) try_structure(deg, ops, start.n_prony, kp, start.bend_lag_s);
-    b = best_of(res.candidates);
-    const DynamicCandidate counts = *b;
-    for (double kp : s.rate_gains_s_per_rad) {
-      try_structure(deg, counts.n_operators, counts.n_prony, kp, 0.0);
-      for (double lag : s.bend_lags_s) try_structure(deg, counts.n_operators, counts.n_prony, kp, lag);
-    }
-    b = best_of(res.candidates);
-    if (b->bend_lag_s > 0) {
-      // Around the best lag at about a quarter of the grid's doubling, then at half that step.
-      const DynamicCandidate g = *b;
-      for (double f : {0.71, 0.84, 1.19, 1.41})
-        for (double kp : s.rate_gains_s_per_rad) try_structure(deg, g.n_operators, g.n_prony, kp, g.bend_lag_s * f);
-      b = best_of(res.candidates);
-      const DynamicCandidate h = *b;
-      for (double f : {0.92, 1.09}) try_structure(deg, h.n_operators, h.n_prony, h.rate_gain_s_per_rad, h.bend_lag_s * f);
-      b = best_of(res.candidates);
-    }
-    if (same(*b, start)) break;
-  }
-  res.chosen = *b;
-
-  // The chosen structure on every scan.
-  const DynamicModel st = structure_of(pr, s, b->degree, b->n_operators, b->n_prony, b->rate_gain_s_per_rad, b->bend_lag_s);
-  const Design d = build_design(st, v, ang, pr.rate_hz, pr.decim);
-  const MatrixXd G = d.X.transpose() * d.X;
-  const VectorXd g = d.X.transpose() * d.y;
-  double rss = 0;
-  const VectorXd beta = solve_signed(G, g, d.y.squaredNorm(), d, &rss);
-  res.model = with_coefficients(st, beta, d);
-  if (!invertible(res.model, pr.rate_hz))
-    throw DynamicFitError("dynamic fit: the fitted model is not invertible over the angle range (the hysteresis or relaxation terms outweigh the quasi-static slope)");
-  res.n_used = d.y.size();
-  res.train_rmse_v = std::sqrt(rss / static_cast<double>(std::max<Index>(1, d.y.size())));
-  res.train_rmse_deg = res.train_rmse_v / sensitivity;
+  Scored scored(res.candidates, pr, s, v, ang);
+  res.chosen = search_structure(scored, s);
+  fit_chosen(res, pr, s, v, ang);
   return res;
 }
 
-std::vector<std::optional<DynamicModel>> fold_models(const DynamicFitResult& fit, const VectorXd& t, const VectorXd& v,
+std::vector<std::optional<DynamicModel>> fold_models(
+const DynamicFitResult& fit, const VectorXd& t, const VectorXd& v,
                                                      const VectorXd& ang, const DynamicFitSettings& s) {
   const double rate = median_rate_hz(t);
   if (!(rate > 0)) throw DynamicFitError("dynamic fit: the time column does not increase");

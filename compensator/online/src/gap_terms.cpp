@@ -31,6 +31,17 @@ std::string effect_list() {
   return s;
 }
 
+// A term's list of parameters that are each a threshold or a time (`key`, `needs` naming it in the
+// message for an empty one): at least one, at most `most`, each finite and > 0; "" when it is.
+std::string positive_list_problem(const std::vector<double>& v, const std::string& key, const std::string& needs, int most) {
+  if (v.empty()) return "needs its " + needs + " (at least one)";
+  if (v.size() > static_cast<std::size_t>(most))
+    return "at most " + std::to_string(most) + " " + key + ", got " + std::to_string(v.size());
+  for (const double x : v)
+    if (!(x > 0) || !std::isfinite(x)) return key + " must be finite and > 0, got " + num(x);
+  return {};
+}
+
 // The first reason the compensator cannot apply term t, or "" (the rate-independent checks, then
 // the Nyquist check when scan_rate_hz > 0).
 std::string term_problem(const GapTerm& t, double scan_rate_hz) {
@@ -54,20 +65,14 @@ std::string term_problem(const GapTerm& t, double scan_rate_hz) {
     return "thresholds_deg belongs to memory_hysteresis only";
   if (!t.time_constants_s.empty() && *e != Effect::kViscoelasticRelaxation)
     return "time_constants_s belongs to viscoelastic_relaxation only";
-  if (*e == Effect::kMemoryHysteresis) {
-    if (t.thresholds_deg.empty()) return "needs its stop operators' thresholds_deg (at least one)";
-    if (t.thresholds_deg.size() > static_cast<std::size_t>(kMaxOperators))
-      return "at most " + std::to_string(kMaxOperators) + " thresholds_deg, got " + std::to_string(t.thresholds_deg.size());
-    for (const double r : t.thresholds_deg)
-      if (!(r > 0) || !std::isfinite(r)) return "thresholds_deg must be finite and > 0, got " + num(r);
-  }
-  if (*e == Effect::kViscoelasticRelaxation) {
-    if (t.time_constants_s.empty()) return "needs its time_constants_s (at least one)";
-    if (t.time_constants_s.size() > static_cast<std::size_t>(kMaxPronyTerms))
-      return "at most " + std::to_string(kMaxPronyTerms) + " time_constants_s, got " + std::to_string(t.time_constants_s.size());
-    for (const double tau : t.time_constants_s)
-      if (!(tau > 0) || !std::isfinite(tau)) return "time_constants_s must be finite and > 0, got " + num(tau);
-  }
+  if (*e == Effect::kMemoryHysteresis)
+    if (std::string why = positive_list_problem(t.thresholds_deg, "thresholds_deg", "stop operators' thresholds_deg", kMaxOperators);
+        !why.empty())
+      return why;
+  if (*e == Effect::kViscoelasticRelaxation)
+    if (std::string why = positive_list_problem(t.time_constants_s, "time_constants_s", "time_constants_s", kMaxPronyTerms);
+        !why.empty())
+      return why;
   const std::size_t want = *basis_size(*e, t.thresholds_deg.size(), t.time_constants_s.size());
   if (t.coefficients_v.size() != want)
     return "expected " + std::to_string(want) + " coefficients_v (one per basis function), got " +

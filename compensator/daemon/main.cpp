@@ -58,6 +58,7 @@ std::int64_t clamp_count(std::uint64_t n) {
 struct Options {
   std::string cal;
   std::string sensor_id;
+  bool allow_other_sensor = false;
   std::string lcm_url;
   std::string pot_cal;
   std::string velocity_source = "sensor";
@@ -79,6 +80,7 @@ int run(const Options& o) {
 
   pof::compensatord::PipelineSettings ps;
   ps.sensor_id = o.sensor_id;
+  ps.allow_other_sensor = o.allow_other_sensor;
   ps.output_rate_hz = o.output_rate_hz;
   ps.compensator.scan_rate_hz = o.scan_rate_hz;
   ps.compensator.velocity_window_s = o.velocity_window_s;
@@ -214,6 +216,9 @@ int main(int argc, char** argv) {
   app.add_option("--cal", o.cal, "Calibration file (TOML, from `pof calibrate`); SIGHUP reloads it")
       ->required();
   app.add_option("--sensor-id", o.sensor_id, "Sensor id suffixing every channel, e.g. LEFT_KNEE -> POF_RAW_LEFT_KNEE");
+  app.add_flag("--allow-other-sensor", o.allow_other_sensor,
+               "Take a calibration whose sensor_id is another sensor's (refused otherwise: exit 78 at start, a counted "
+               "reload failure on SIGHUP)");
   app.add_option("--lcm-url", o.lcm_url, "LCM URL (default: $LCM_DEFAULT_URL, else udpm on this host, ttl=0)");
   app.add_option("--pot-cal", o.pot_cal, "Potentiometer calibration (TOML) when blocks carry `pot` volts and the calibration has none");
   app.add_option("--velocity-source", o.velocity_source, "Where velocity and direction come from: sensor | reference")

@@ -37,11 +37,20 @@ void sat_add(std::int64_t& counter, std::int64_t n) {
 constexpr std::int64_t kMaxUtime = std::int64_t{1} << 62;
 constexpr double kMinScanRateHz = 1e-3;
 
+// A calibration names the sensor it was made for (`pof calibrate --sensor-id`); the compensator of
+// another sensor refuses it, unless told to take it. Either side without an id names no sensor.
+void require_this_sensor(const io::CalibrationFile& cal, const std::string& path, const PipelineSettings& s) {
+  if (s.allow_other_sensor || cal.sensor_id.empty() || s.sensor_id.empty() || cal.sensor_id == s.sensor_id) return;
+  throw ConfigError(path + ": sensor_id '" + cal.sensor_id + "' is another sensor's calibration; this compensator is '" +
+                    s.sensor_id + "' (--sensor-id). Calibrate this sensor, or pass --allow-other-sensor to take it");
+}
+
 }  // namespace
 
 Pipeline::Pipeline(io::CalibrationFile cal, std::string cal_path, PipelineSettings s,
                    std::optional<core::PotentiometerCalibration> pot_override)
     : cal_(std::move(cal)), cal_path_(std::move(cal_path)), s_(std::move(s)), stats_(s_.statistics) {
+  require_this_sensor(cal_, cal_path_, s_);
   pot_ = pot_override ? pot_override : cal_.potentiometer;
   // Validate the settings now (setup time, where throwing is allowed) at the nominal rate.
   core::CompensatorSettings probe = s_.compensator;
@@ -51,6 +60,7 @@ Pipeline::Pipeline(io::CalibrationFile cal, std::string cal_path, PipelineSettin
 }
 
 void Pipeline::replace_calibration(io::CalibrationFile cal, std::string cal_path) {
+  require_this_sensor(cal, cal_path, s_);
   core::CompensatorSettings probe = s_.compensator;
   if (rate_ > 0) probe.scan_rate_hz = rate_;
   else if (probe.scan_rate_hz <= 0) probe.scan_rate_hz = 200.0;

@@ -27,6 +27,10 @@ namespace pof::compensatord {
 
 struct PipelineSettings {
   std::string sensor_id;
+  /// Take a calibration made for another sensor (its sensor_id differs from this one). Off: such
+  /// a file is refused at start and on reload, so swapped knees never give wrong angles of good
+  /// quality.
+  bool allow_other_sensor = false;
   /// Published angle rate [Hz]; 0 publishes every scan. Otherwise every k = round(scan rate /
   /// output rate) scans one angle_t carries the mean of those k scans (a boxcar: the lowest-latency
   /// linear filter that suppresses the noise it decimates, group delay (k-1)/2 scans); its utime

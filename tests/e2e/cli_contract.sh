@@ -45,6 +45,13 @@ sed 's/^reference_level_v = .*/reference_level_v = -5/' cal.toml >bad_cal.toml
 cmp -s cal.toml bad_cal.toml && fail "cal.toml has no reference_level_v line to spoil"
 expect_exit 78 "$BIN_DIR/pof-compensatord" --cal bad_cal.toml --duration 0.1
 grep -q "^pof-compensatord: error: bad_cal.toml.*reference_level_v" <<<"$err" || fail "pof-compensatord bad_cal.toml: $err"
+# Swapped knees: RIGHT_KNEE's calibration on LEFT_KNEE's compensator is refused (78), unless allowed.
+sed 's/^sensor_id = .*/sensor_id = "RIGHT_KNEE"/' cal.toml >right.toml
+cmp -s cal.toml right.toml && fail "cal.toml has no sensor_id line to change"
+expect_exit 78 "$BIN_DIR/pof-compensatord" --cal right.toml --sensor-id LEFT_KNEE --duration 0.1
+grep -q "^pof-compensatord: error: right.toml: sensor_id 'RIGHT_KNEE'.*'LEFT_KNEE'" <<<"$err" ||
+  fail "pof-compensatord with another sensor's calibration: $err"
+expect_exit 0 "$BIN_DIR/pof-compensatord" --cal right.toml --sensor-id LEFT_KNEE --allow-other-sensor --duration 0.1   --lcm-url "udpm://239.255.76.67:$((20000 + RANDOM % 30000))?ttl=0"
 
 # Signals (pof::service::SignalWaiter): SIGHUP does not stop pof-daqd (it has nothing to reload and
 # says so), SIGTERM stops it with exit 0. READY=1 is sent after the signals are blocked.

@@ -304,6 +304,48 @@ TEST_F(PipelineTest, ReloadSwapsTheCalibrationAndCountsFailures) {
   EXPECT_NE(st.last_error.find("quasi_static.c9"), std::string::npos);
 }
 
+// Swapped knees: a calibration made for another sensor is refused at start and on reload (the
+// old one stays, the failure is counted and named), unless the daemon is told to take it; a file
+// or a daemon without a sensor id names no sensor and is taken.
+TEST_F(PipelineTest, AnotherSensorsCalibrationIsRefused) {
+  PipelineSettings left;
+  left.sensor_id = "LEFT_KNEE";
+  pof::io::CalibrationFile right = paper_calibration();
+  right.sensor_id = "RIGHT_KNEE";
+  try {
+    Pipeline p(right, "right.toml", left);
+    FAIL() << "RIGHT_KNEE's calibration was taken by LEFT_KNEE's compensator";
+  } catch (const pof::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("right.toml: sensor_id 'RIGHT_KNEE'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("'LEFT_KNEE'"), std::string::npos) << e.what();
+  }
+  pof::io::CalibrationFile own = paper_calibration();
+  own.sensor_id = "LEFT_KNEE";
+  Pipeline p(own, "left.toml", left);
+  Collect out;
+  p.on_block((*blocks_)[0], 0, out);
+  try {
+    p.replace_calibration(right, "right.toml");
+    FAIL() << "a reload took RIGHT_KNEE's calibration";
+  } catch (const pof::ConfigError& e) {
+    p.note_reload_failure(e.what());
+  }
+  const auto st = p.status(0);
+  EXPECT_EQ(st.reloads, 0);
+  EXPECT_EQ(st.reload_failures, 1);
+  EXPECT_EQ(st.calibration_path, "left.toml");
+  EXPECT_EQ(st.calibration_sensor_id, "LEFT_KNEE");
+  EXPECT_NE(st.last_error.find("RIGHT_KNEE"), std::string::npos);
+  // Told to take it; and ids that name no sensor.
+  PipelineSettings any = left;
+  any.allow_other_sensor = true;
+  EXPECT_NO_THROW(Pipeline(right, "right.toml", any));
+  pof::io::CalibrationFile anonymous = paper_calibration();
+  anonymous.sensor_id.clear();
+  EXPECT_NO_THROW(Pipeline(anonymous, "anon.toml", left));
+  EXPECT_NO_THROW(Pipeline(right, "right.toml", PipelineSettings{}));
+}
+
 pof::io::CalibrationFile gap_calibration(double notch_hz) {
   pof::io::CalibrationFile f = paper_calibration();
   pof::core::GapModel g;

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <numeric>
 #include <random>
@@ -276,6 +277,15 @@ TEST(Compensator, RejectsSettingsThatCannotWork) {
   EXPECT_THROW(OnlineCompensator(paper_calibration(), s), std::invalid_argument);
   s.model_steps = false;  // not checked when off
   EXPECT_NO_THROW(OnlineCompensator(paper_calibration(), s));
+  // A window longer than an int can count is refused, not wrapped into a short one.
+  for (const double window_s : {5001.0, 1e9, 1e300, std::numeric_limits<double>::infinity()}) {
+    s = {};
+    s.velocity_window_s = window_s;
+    EXPECT_THROW(OnlineCompensator(paper_calibration(), s), std::invalid_argument) << window_s << " s";
+  }
+  s = {};
+  s.velocity_window_s = 5000.0;  // 1e6 scans at 200 Hz: the longest window
+  EXPECT_EQ(OnlineCompensator(paper_calibration(), s).window(), 1'000'000);
 }
 
 // The offline path (pof compensate) is the online one scan by scan; a time gap resets the

@@ -15,8 +15,11 @@ OnlineCompensator::OnlineCompensator(const Calibration& cal, const CompensatorSe
   if (!(s.hold_rad_s >= 0) || !(s.hold_rad_s < s.move_rad_s))
     throw std::invalid_argument("compensator: need 0 <= hold_rad_s < move_rad_s (the dead band)");
   if (!(cal.reference_level_v > 0)) throw std::invalid_argument("compensator: reference level must be > 0");
-  const int n = std::max(2, static_cast<int>(std::lround(s.velocity_window_s * s.scan_rate_hz)));
-  if (n > 1'000'000) throw std::invalid_argument("compensator: velocity window too long");
+  // Counted in double first: a window of 1e9 s at 200 Hz does not fit an int (it wrapped to a
+  // 2-scan window once).
+  const double scans = std::round(s.velocity_window_s * s.scan_rate_hz);
+  if (!(scans <= 1'000'000)) throw std::invalid_argument("compensator: velocity window too long");
+  const int n = std::max(2, static_cast<int>(scans));
   window_ = VelocityWindow(n);
   int reversal_scans = 0;
   if (s.reversal_window_s > 0) {

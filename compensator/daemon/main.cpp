@@ -42,6 +42,7 @@
 #include "pof/bus/url.hpp"
 #include "pof/io/calibration_file.hpp"
 #include "pof/base/errors.hpp"
+#include "pof/service/cli_checks.hpp"
 #include "pof/service/run_main.hpp"
 #include "pof/service/sd_notify.hpp"
 #include "pof/service/signals.hpp"
@@ -226,20 +227,20 @@ int main(int argc, char** argv) {
   app.add_option("--model", o.model, "Sensor model: file (the calibration's active_model), paper or dynamic")
       ->check(CLI::IsMember({"file", "paper", "dynamic"}))->capture_default_str();
   app.add_option("--output-rate", o.output_rate_hz, "Published angle rate [Hz] (boxcar decimation); 0 = every scan")
-      ->check(CLI::NonNegativeNumber)->capture_default_str();
+      ->check(pof::service::non_negative())->capture_default_str();
   app.add_option("--scan-rate", o.scan_rate_hz,
                  "Expected scan rate [Hz]: the calibration's [gap] terms are checked at it at start and on SIGHUP "
                  "(blocks carry their own rate; a block at a rate the terms cannot run at is rejected)")
-      ->check(CLI::PositiveNumber)->capture_default_str();
+      ->check(pof::service::positive())->capture_default_str();
   app.add_option("--velocity-window", o.velocity_window_s, "Velocity estimator window [s]")
-      ->check(CLI::PositiveNumber)->capture_default_str();
+      ->check(pof::service::positive())->capture_default_str();
   app.add_option("--reversal-window", o.reversal_window_s,
                  "Short window that detects reversals early [s] (0: direction from the velocity window alone)")
       ->check(CLI::Range(0.0, 10.0))->capture_default_str();
   app.add_flag("--no-model-steps", o.no_model_steps,
                "Paper model: do not read the start/stop/reversal steps eqs. (11)/(12) predict as changes of direction");
   app.add_option("--duration", o.duration_s, "Stop after this many seconds (tests, benchmarks); 0 = until SIGTERM")
-      ->check(CLI::NonNegativeNumber);
+      ->check(pof::service::non_negative(pof::service::kMaxSeconds));
   app.add_option("--queue-capacity", o.queue_capacity, "LCM subscription queue [messages] (transports other than udpm://)")
       ->check(CLI::Range(1, 1000000))->capture_default_str();
   app.add_option("--auth-key-file", o.auth_key_file,

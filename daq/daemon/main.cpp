@@ -28,6 +28,7 @@
 #include "pof/base/errors.hpp"
 #include "pof/base/toml_reader.hpp"
 #include "pof/daq/protocol/mcc_usb1208ls.hpp"
+#include "pof/service/cli_checks.hpp"
 #include "pof/service/run_main.hpp"
 #include "pof/service/signals.hpp"
 
@@ -72,7 +73,7 @@ int main(int argc, char** argv) {
                      bus::auth::kKeyFileEnv + ", else unauthenticated; docs/deployment.md)");
   app.add_option("-s,--set", sets, "override any key: section.key=value (repeatable)");
   app.add_option("--duration", duration_s, "stop after this many seconds (tests, benchmarks)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(pof::service::non_negative(pof::service::kMaxSeconds));
   app.add_flag("--print-config", print_config, "print the effective configuration and exit");
   app.add_flag("--probe", probe,
                "hardware bring-up: stream until the device's protocol variant is told (or --duration, "

@@ -19,6 +19,15 @@ for b in pof-daqd pof-compensatord; do
   expect_exit 0 "$BIN_DIR/$b" --help
   expect_exit 2 "$BIN_DIR/$b" --no-such-flag
 done
+# Numbers are finite (CLI11's own checks let nan and inf through: `--duration nan` never ended).
+for cmd in "pof-daqd --device sim:synthetic" "pof-compensatord --cal none.toml" "pof record -o x.lcmlog" "pof spy"; do
+  for v in nan inf -1; do
+    expect_exit 2 $BIN_DIR/$cmd --duration "$v"
+    grep -q -- "--duration" <<<"$err" || fail "$cmd --duration $v: the error does not name the option: $err"
+  done
+done
+expect_exit 2 "$BIN_DIR/pof-compensatord" --cal none.toml --velocity-window nan
+expect_exit 2 "$BIN_DIR/pof" record -o x.lcmlog --sync-interval inf
 
 # One table maps exceptions to exit codes in every binary (pof::service::run_main): the same kind of
 # bad configuration gives both daemons the same code, 78, and the line "<program>: error: <what>".

@@ -2,6 +2,7 @@
 // "<program>: error: <what>" line it prints (e2e scripts grep it).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <ios>
 #include <new>
@@ -13,6 +14,7 @@
 #include <CLI/CLI.hpp>
 
 #include "pof/base/errors.hpp"
+#include "pof/service/cli_checks.hpp"
 #include "pof/service/run_main.hpp"
 
 namespace {
@@ -174,4 +176,36 @@ TEST(RunMainCli, BodyAndSubcommandExceptionsGoThroughTheTable) {
   EXPECT_EQ(r.code, 0);
   EXPECT_TRUE(r.body_ran);
   EXPECT_EQ(r.err, "");
+}
+
+// The number checks every command line uses: NaN, infinity, the wrong sign and a value beyond the
+// bound are parse errors (exit 2) naming the option; CLI11's own checks let NaN and inf through.
+TEST(CliChecks, NumbersMustBeFiniteAndInRange) {
+  auto parse = [](const std::string& value, const CLI::Validator& check) {
+    CLI::App app{"t"};
+    double x = 0;
+    app.add_option("--x", x)->check(check);
+    std::vector<std::string> args{"--x", value};
+    std::reverse(args.begin(), args.end());  // CLI11 takes them last first
+    try {
+      app.parse(args);
+      return std::string("ok");
+    } catch (const CLI::ParseError& e) {
+      EXPECT_EQ(e.get_exit_code(), static_cast<int>(CLI::ExitCodes::ValidationError));
+      return std::string(e.what());
+    }
+  };
+  const CLI::Validator seconds = pof::service::non_negative(pof::service::kMaxSeconds);
+  EXPECT_EQ(parse("0", seconds), "ok");
+  EXPECT_EQ(parse("2.5", seconds), "ok");
+  for (const char* bad : {"nan", "-nan", "inf", "-1", "1e10", "x"}) {
+    const std::string why = parse(bad, seconds);
+    EXPECT_NE(why, "ok") << bad;
+    EXPECT_NE(why.find("--x"), std::string::npos) << why;
+  }
+  const CLI::Validator rate = pof::service::positive();
+  EXPECT_EQ(parse("200", rate), "ok");
+  for (const char* bad : {"0", "-200", "nan", "inf"}) EXPECT_NE(parse(bad, rate), "ok") << bad;
+  // What CLI11's own check lets through.
+  EXPECT_EQ(parse("nan", CLI::NonNegativeNumber), "ok");
 }

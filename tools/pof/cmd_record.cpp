@@ -21,6 +21,7 @@
 #include "pof/recorder/lcmlog_durable.hpp"
 #include "pof/recorder/pof_messages.hpp"
 #include "pof/recorder/session.hpp"
+#include "pof/service/cli_checks.hpp"
 #include "pof/service/sd_notify.hpp"
 #include "pof/service/signals.hpp"
 
@@ -220,19 +221,19 @@ void add_record(CLI::App& app) {
                   std::string("LCM URL (default $LCM_DEFAULT_URL or ") + pof::bus::kHostOnlyUrl + "); recv_buf_size is added");
   cmd->add_option("-c,--channels", a->channels, "Regex of the channels to record (whole name)")->capture_default_str();
   cmd->add_option("--rotate-mb", a->rotate_mb, "Start a new file before one exceeds this size [MiB] (0: never)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(pof::service::non_negative());
   cmd->add_option("--rotate-seconds", a->rotate_seconds, "Start a new file after this long [s] (0: never)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(pof::service::non_negative(pof::service::kMaxSeconds));
   cmd->add_option("--duration", a->duration_s, "Stop after this long [s] (0: until SIGINT/SIGTERM)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(pof::service::non_negative(pof::service::kMaxSeconds));
   cmd->add_option("--sync-interval", a->sync_interval_s, "fdatasync period [s]: the most a power loss can take")
-      ->check(CLI::PositiveNumber)
+      ->check(pof::service::positive(pof::service::kMaxSeconds))
       ->capture_default_str();
   cmd->add_option("--queue-capacity", a->queue_capacity, "LCM subscription queue [messages] (LCM's default is 30)")
-      ->check(CLI::PositiveNumber)
+      ->check(pof::service::positive())
       ->capture_default_str();
   cmd->add_option("--handoff-mb", a->handoff_mb, "Bound of the queue between the LCM and writer threads [MiB]")
-      ->check(CLI::PositiveNumber)
+      ->check(pof::service::positive())
       ->capture_default_str();
   cmd->add_option("--manifest-file", a->manifest_files,
                   "Calibration/configuration file to copy next to the log and list in the manifest (repeatable)");

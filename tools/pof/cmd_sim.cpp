@@ -19,6 +19,7 @@
 #include "pof/io/csv_writer.hpp"
 #include "pof/base/errors.hpp"
 #include "pof/io/lcmlog_writer.hpp"
+#include "pof/service/cli_checks.hpp"
 #include "pof/sim/scenario.hpp"
 #include "pof/sim/simulator.hpp"
 
@@ -164,9 +165,9 @@ void add_sim(CLI::App& app) {
         return ext == ".csv" || ext == ".lcmlog" ? std::string{} : std::string("expected a .csv or .lcmlog file name");
       });
   cmd->add_option("--seconds", opt->seconds, "Simulate this long [s] (default: the scenario's duration or trajectory)")
-      ->check(CLI::PositiveNumber);
+      ->check(pof::service::positive(pof::service::kMaxSeconds));
   cmd->add_option("--seed", opt->seed, "Random seed (same scenario + seed = same bytes)");
-  cmd->add_option("--rate", opt->rate, "Scan rate [Hz] (default: the scenario's daq.scan_rate_hz)")->check(CLI::PositiveNumber);
+  cmd->add_option("--rate", opt->rate, "Scan rate [Hz] (default: the scenario's daq.scan_rate_hz)")->check(pof::service::positive());
   cmd->add_option("--plot", opt->plot, "Also draw the loops and effect traces to this PNG");
   cmd->add_option("--trace", opt->trace, "Also write each scan's effect contributions (EffectTrace) to this CSV");
   cmd->add_option("--block-scans", opt->block_scans, "Scans per POF_RAW block in an LCM log")->check(CLI::Range(1, 100000));

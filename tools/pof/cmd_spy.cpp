@@ -23,6 +23,7 @@
 #include "pof/bus/url.hpp"
 #include "pof/base/errors.hpp"
 #include "pof/lcm/utime.hpp"
+#include "pof/service/cli_checks.hpp"
 #include "pof/service/signals.hpp"
 #include "pof/spy/monitor.hpp"
 
@@ -170,9 +171,9 @@ void add_spy(CLI::App& app) {
   cmd->add_option("--refresh", a->refresh_hz, "Screen refreshes per second")->check(CLI::Range(0.2, 50.0))->capture_default_str();
   cmd->add_flag("--once", a->once, "Listen for 1 s (or --duration), print one plain-text snapshot and exit");
   cmd->add_option("--duration", a->duration_s, "Listen this long [s], print one plain-text snapshot and exit")
-      ->check(CLI::PositiveNumber);
+      ->check(pof::service::positive(pof::service::kMaxSeconds));
   cmd->add_option("--queue-capacity", a->queue_capacity, "LCM subscription queue [messages] (transports other than udpm://)")
-      ->check(CLI::PositiveNumber)
+      ->check(pof::service::positive())
       ->capture_default_str();
   add_auth_options(cmd, a->auth);
   cmd->callback([a] { run_spy(*a); });

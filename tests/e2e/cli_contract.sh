@@ -28,6 +28,12 @@ for cmd in "pof-daqd --device sim:synthetic" "pof-compensatord --cal none.toml" 
 done
 expect_exit 2 "$BIN_DIR/pof-compensatord" --cal none.toml --velocity-window nan
 expect_exit 2 "$BIN_DIR/pof" record -o x.lcmlog --sync-interval inf
+# A FIFO as a file to read is refused at once (opening it waited for a writer, forever).
+mkfifo fifo.toml
+expect_exit 66 timeout 10 "$BIN_DIR/pof-daqd" --config fifo.toml --device sim:synthetic --duration 0.1
+grep -q "fifo.toml: is a FIFO" <<<"$err" || fail "pof-daqd --config FIFO: $err"
+expect_exit 66 timeout 10 "$BIN_DIR/pof-compensatord" --cal fifo.toml --duration 0.1
+grep -q "fifo.toml: is a FIFO" <<<"$err" || fail "pof-compensatord --cal FIFO: $err"
 
 # One table maps exceptions to exit codes in every binary (pof::service::run_main): the same kind of
 # bad configuration gives both daemons the same code, 78, and the line "<program>: error: <what>".

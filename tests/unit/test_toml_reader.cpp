@@ -2,6 +2,9 @@
 // typed values with file:line, ranges, unknown keys with a suggestion, schema_version.
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+
+#include <fstream>
 #include <functional>
 #include <string>
 #include <vector>
@@ -9,7 +12,9 @@
 #include "pof/base/errors.hpp"
 #include "pof/base/exit_codes.hpp"
 #include "pof/base/format.hpp"
+#include "pof/base/text_file.hpp"
 #include "pof/base/toml_reader.hpp"
+#include "temp_dir.hpp"
 
 namespace {
 
@@ -237,6 +242,23 @@ TEST(TomlReader, SyntaxErrorsNameTheLineAndStayShort) {
   EXPECT_EQ(e.rfind("f.toml:2: TOML syntax error", 0), 0u) << e;
   EXPECT_LT(e.size(), 300u) << e;
   EXPECT_THROW((void)pof::read_toml_file("/nonexistent/x.toml", "test file"), pof::NoInputError);
+}
+
+// A FIFO (or socket) given as a configuration or calibration file is refused at once, naming it:
+// opening one waited for a writer and stalled the reading loop. Devices read as before.
+TEST(TextFile, AFifoIsRefusedWithoutWaiting) {
+  pof::test::TempDir dir;
+  const std::string fifo = dir.path("cal.toml");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  try {
+    (void)pof::read_text_file(fifo, "calibration file");
+    FAIL() << "a FIFO was read";
+  } catch (const pof::NoInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("cal.toml: is a FIFO, expected a calibration file"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(pof::read_text_file("/dev/null", "configuration file"), "");
+  std::ofstream(dir.path("a.toml")) << "a = 1\n";
+  EXPECT_EQ(pof::read_text_file(dir.path("a.toml"), "test file"), "a = 1\n");
 }
 
 // The number formats every message and file uses (pof/base/format.hpp).

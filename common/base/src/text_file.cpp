@@ -12,14 +12,23 @@
 namespace pof {
 
 std::string read_text_file(const std::string& path, const std::string& what, std::size_t max_bytes) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  // Opened without blocking: opening a FIFO waits for a writer, which stalled the loop that reads
+  // (pof-daqd's start, pof-compensatord's reload on SIGHUP). Only then is its kind known.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
   if (fd < 0) throw NoInputError(path + ": cannot open " + what + ": " + std::strerror(errno));
   struct Closer {
     int fd;
     ~Closer() { ::close(fd); }
   } closer{fd};
   struct stat st {};
-  if (::fstat(fd, &st) == 0 && S_ISDIR(st.st_mode)) throw NoInputError(path + ": is a directory, expected a " + what);
+  if (::fstat(fd, &st) == 0) {
+    if (S_ISDIR(st.st_mode)) throw NoInputError(path + ": is a directory, expected a " + what);
+    if (S_ISFIFO(st.st_mode) || S_ISSOCK(st.st_mode))
+      throw NoInputError(path + ": is a " + (S_ISFIFO(st.st_mode) ? "FIFO" : "socket") + ", expected a " + what +
+                         " (a regular file: reading a pipe would wait on its writer)");
+  }
+  // Files and devices read as before: blocking (a device such as /dev/null ends at once).
+  if (const int flags = ::fcntl(fd, F_GETFL); flags >= 0) ::fcntl(fd, F_SETFL, flags & ~O_NONBLOCK);
   std::string text;
   for (;;) {
     const std::size_t at = text.size();

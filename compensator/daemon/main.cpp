@@ -216,7 +216,8 @@ int main(int argc, char** argv) {
   Options o;
   app.add_option("--cal", o.cal, "Calibration file (TOML, from `pof calibrate`); SIGHUP reloads it")
       ->required();
-  app.add_option("--sensor-id", o.sensor_id, "Sensor id suffixing every channel, e.g. LEFT_KNEE -> POF_RAW_LEFT_KNEE");
+  app.add_option("--sensor-id", o.sensor_id, "Sensor id suffixing every channel, e.g. LEFT_KNEE -> POF_RAW_LEFT_KNEE")
+      ->check(pof::service::sensor_id());
   app.add_flag("--allow-other-sensor", o.allow_other_sensor,
                "Take a calibration whose sensor_id is another sensor's (refused otherwise: exit 78 at start, a counted "
                "reload failure on SIGHUP)");

@@ -28,6 +28,13 @@ for cmd in "pof-daqd --device sim:synthetic" "pof-compensatord --cal none.toml" 
 done
 expect_exit 2 "$BIN_DIR/pof-compensatord" --cal none.toml --velocity-window nan
 expect_exit 2 "$BIN_DIR/pof" record -o x.lcmlog --sync-interval inf
+# A sensor id whose channels LCM would refuse (over 63 characters) or that is not upper case.
+expect_exit 2 "$BIN_DIR/pof-compensatord" --cal none.toml --sensor-id "$(printf 'K%.0s' $(seq 41))"
+grep -q -- "--sensor-id: expected at most 40 characters" <<<"$err" || fail "pof-compensatord --sensor-id of 41: $err"
+expect_exit 2 "$BIN_DIR/pof" calibrate none.csv -o x.toml --sensor-id left_knee
+expect_exit 78 "$BIN_DIR/pof-daqd" --config /dev/null -s schema_version=1 -s "lcm.sensor_id=$(printf 'K%.0s' $(seq 41))" \
+  --device sim:synthetic --duration 0.1
+grep -q "sensor_id.*at most 40 characters" <<<"$err" || fail "pof-daqd sensor_id of 41: $err"
 # A FIFO as a file to read is refused at once (opening it waited for a writer, forever).
 mkfifo fifo.toml
 expect_exit 66 timeout 10 "$BIN_DIR/pof-daqd" --config fifo.toml --device sim:synthetic --duration 0.1

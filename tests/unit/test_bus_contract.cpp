@@ -141,3 +141,17 @@ TEST(BusFingerprint, NamesEveryTypeOfOursAndNothingElse) {
   EXPECT_STREQ(pof::bus::message_type_name(MessageType::kDaqStatus), "daq_status_t");
   EXPECT_STREQ(pof::bus::message_type_name(MessageType::kUnknown), "?");
 }
+
+// A sensor id suffixes every channel: upper case, digits and '_', and short enough that the
+// longest channel fits LCM's 63 characters (a longer one was taken, then every publish refused).
+TEST(BusChannels, SensorIdsThatFitLcmsChannelNames) {
+  using pof::bus::sensor_id_problem;
+  EXPECT_EQ(sensor_id_problem(""), "");
+  EXPECT_EQ(sensor_id_problem("LEFT_KNEE"), "");
+  EXPECT_EQ(pof::bus::kMaxSensorIdChars, 40u);
+  const std::string longest(pof::bus::kMaxSensorIdChars, 'K');
+  EXPECT_EQ(sensor_id_problem(longest), "");
+  EXPECT_EQ(pof::bus::channel(pof::bus::Stream::kCompensatorStatus, longest).size(), pof::bus::kMaxChannelChars);
+  EXPECT_NE(sensor_id_problem(longest + "K"), "");
+  for (const char* bad : {"left_knee", "LEFT-KNEE", "LEFT.*", "LEFT KNEE"}) EXPECT_NE(sensor_id_problem(bad), "") << bad;
+}

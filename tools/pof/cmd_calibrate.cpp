@@ -31,6 +31,7 @@
 #include "pof/base/errors.hpp"
 #include "pof/io/recording_reader.hpp"
 #include "pof/io/report_json.hpp"
+#include "pof/service/cli_checks.hpp"
 #include "progress.hpp"
 
 namespace pof::cli {
@@ -207,7 +208,8 @@ void add_calibrate(CLI::App& app) {
   cmd->add_option("--report", o->report, "Directory for calibration.json, compensated.csv and PNG plots");
   cmd->add_option("--pot-cal", o->pot_cal, "TOML with a [potentiometer] section, for recordings with pot_v only");
   cmd->add_option("--channel", o->channel, "LCM channel of the raw blocks (default: the first POF_RAW*)");
-  cmd->add_option("--sensor-id", o->sensor_id, "Sensor/joint identifier stored in the file, e.g. LEFT_KNEE");
+  cmd->add_option("--sensor-id", o->sensor_id, "Sensor/joint identifier stored in the file, e.g. LEFT_KNEE")
+      ->check(pof::service::sensor_id());
   cmd->add_option("--min-hold", o->min_hold_s, "Shortest hold [s] used by the quasi-static fit")->check(CLI::Range(0.5, 600.0))->capture_default_str();
   cmd->add_option("--min-sweep", o->min_sweep_deg, "Smallest sweep [deg] counted as a dynamic test")->check(CLI::Range(2.0, 180.0))->capture_default_str();
   cmd->add_option("--model", o->model, "Model marked active: auto (the lower held-out error), paper or dynamic")

@@ -90,11 +90,8 @@ DaqConfig config_from_table(const toml::table& root, const std::string& source) 
     c.sensor_id = l.get_or("sensor_id", c.sensor_id);
     c.queue_blocks = l.get_or("queue_blocks", c.queue_blocks, integer_in(2, 65536));
     c.auth_key_file = l.get_or("auth_key_file", c.auth_key_file);
-    for (char ch : c.sensor_id) {
-      if (!((ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') || ch == '_')) {
-        l.fail("sensor_id", "expected upper-case letters, digits and '_', got '" + pof::excerpt(c.sensor_id) + "'");
-      }
-    }
+    if (const std::string why = bus::sensor_id_problem(c.sensor_id); !why.empty())
+      l.fail("sensor_id", why + ", got '" + pof::excerpt(c.sensor_id) + "'");
   });
   r.with_section("daemon", [&](pof::TomlSection& d) {
     c.retry_ms = d.get_or("retry_ms", c.retry_ms, integer_in(10, 600000));

@@ -10,6 +10,7 @@
 //   kCompensatorStatus  POF_COMPENSATOR_STATUS[_<ID>]       compensator_status_t    pof-compensatord
 //
 // Header-only C++17 (the SDK installs it, examples/cpp_client uses it).
+#include <cstddef>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -31,6 +32,24 @@ constexpr std::string_view stream_base(Stream s) {
     case Stream::kCompensatorStatus: return "POF_COMPENSATOR_STATUS";
   }
   return "";
+}
+
+/// LCM's longest channel name (lcm.h, LCM_MAX_CHANNEL_NAME_LENGTH): a longer one is refused at
+/// every publish.
+inline constexpr std::size_t kMaxChannelChars = 63;
+/// The longest sensor id: the longest channel, POF_COMPENSATOR_STATUS_<ID>, within LCM's limit.
+inline constexpr std::size_t kMaxSensorIdChars = kMaxChannelChars - stream_base(Stream::kCompensatorStatus).size() - 1;
+
+/// Why `id` cannot suffix pofkit's channels, "" when it can: upper-case letters, digits and '_'
+/// (channel names are upper case, and a subscriber's channel regex must not read it as one), at
+/// most kMaxSensorIdChars. The message ends before the value, which the caller quotes.
+inline std::string sensor_id_problem(std::string_view id) {
+  for (const char ch : id)
+    if (!((ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') || ch == '_')) return "expected upper-case letters, digits and '_'";
+  if (id.size() > kMaxSensorIdChars)
+    return "expected at most " + std::to_string(kMaxSensorIdChars) + " characters (POF_COMPENSATOR_STATUS_<id> must fit LCM's " +
+           std::to_string(kMaxChannelChars) + ")";
+  return {};
 }
 
 /// (kAngle, "LEFT_KNEE") -> "POF_ANGLE_LEFT_KNEE"; no suffix for an empty sensor id.

@@ -10,6 +10,7 @@
 #include <CLI/CLI.hpp>
 
 #include "pof/base/format.hpp"
+#include "pof/bus/channels.hpp"
 
 namespace pof::service {
 
@@ -40,6 +41,17 @@ inline CLI::Validator non_negative(double most = std::numeric_limits<double>::ma
 /// A finite number > 0 and <= most.
 inline CLI::Validator positive(double most = std::numeric_limits<double>::max()) {
   return detail::finite_number(false, most);
+}
+
+/// A sensor id that can suffix pofkit's channels (pof::bus::sensor_id_problem): a 60-character id
+/// was taken and then every publish refused.
+inline CLI::Validator sensor_id() {
+  return CLI::Validator(
+      [](std::string& id) -> std::string {
+        const std::string why = bus::sensor_id_problem(id);
+        return why.empty() ? why : why + ", got '" + id + "'";
+      },
+      "SENSOR_ID", "SENSOR_ID");
 }
 
 }  // namespace pof::service

@@ -285,6 +285,17 @@ TEST(BusAuthKey, HexOrRawKeysLoadAndGiveTheSameKey) {
   EXPECT_EQ(std::string(reinterpret_cast<const char*>(a->bytes()), 32), raw);
 }
 
+TEST(BusAuthKey, AnAllZeroKeyIsRefused) {
+  const pof::test::TempDir dir;
+  for (const std::string& zero : {std::string(64, '0') + "\n", std::string(32, '\0')}) {
+    const std::string p = key_file(dir, "zero.key", zero, 0600);
+    const std::string why = refusal(p);
+    EXPECT_NE(why.find("bus key file '" + p + "'"), std::string::npos) << why;
+    EXPECT_NE(why.find("all zeros"), std::string::npos) << why;
+    std::filesystem::remove(p);
+  }
+}
+
 TEST(BusAuthKey, MalformedKeysAreRefusedNamingTheFile) {
   const pof::test::TempDir dir;
   for (const std::string& bad : {kHex.substr(0, 62) + "\n", kHex + "0\n", kHex.substr(0, 63) + "g\n", kHex + "\n\n",

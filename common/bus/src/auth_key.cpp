@@ -164,6 +164,10 @@ std::shared_ptr<const Key> load_key_file(const std::string& path) {
     throw ConfigError(what + ": expected 32 bytes, or 64 hex digits and a line end (pof keygen writes one), got " +
                       std::string(n == sizeof buf ? "more than 66" : std::to_string(n)) + " bytes that are neither");
   const Wiped wipe_key{key->data(), key->size()};
+  // All zeros is the one key anyone would guess first (a file made by dd from /dev/zero, or
+  // 64 '0's typed in): it authenticates nothing.
+  if (sodium_is_zero(key->data(), key->size()) == 1)
+    throw ConfigError(what + ": the key is all zeros, which anyone can guess; pof keygen -o FILE writes a random one");
   return std::make_shared<const Key>(key->data(), key->size());
 }
 

@@ -3,26 +3,6 @@
 # fibre of the dynamic model's kind, for which model.toml makes the dynamic baseline active.
 source "$(dirname "$0")/lib.sh"
 
-# The DAQ noise and the calibration protocol (quasi-static steps up and down, four of table 1's
-# velocities) both sessions share.
-protocol() {
-  cat <<'TOML'
-[daq.noise]
-enabled = true
-sensor_v = 0.001
-reference_v = 0.001
-pot_v = 0.001
-[[trajectory]]
-kind = "quasi_static"
-step_deg = 15.0
-descending = true
-[[trajectory]]
-kind = "cycles"
-velocities_rad_s = [0.0898, 0.1726, 0.3415, 0.4304]
-pause_s = 2.0
-TOML
-}
-
 cat >creep.toml <<'TOML'
 schema_version = 1
 name = "e2e-creep"
@@ -30,7 +10,7 @@ name = "e2e-creep"
 enabled = true
 terms = [ { tau_s = 4.0, gain_v_per_deg = -0.0015 } ]
 TOML
-protocol >>creep.toml
+gap_protocol >>creep.toml
 expect_exit 0 "$BIN_DIR/pof" sim creep.toml -o creep.csv --seed 3
 expect_exit 0 "$BIN_DIR/pof" gap creep.csv --out report
 [ -z "$err" ] || fail "pof gap printed on stderr in a pipe (progress must be terminal-only): $err"
@@ -67,7 +47,7 @@ weights = [1.0, 1.0, 1.0]
 enabled = true
 terms = [ { tau_s = 3.0, gain_v_per_deg = -0.0008 } ]
 TOML
-protocol >>fibre.toml
+gap_protocol >>fibre.toml
 expect_exit 0 "$BIN_DIR/pof" sim fibre.toml -o fibre.csv --seed 4
 expect_exit 0 "$BIN_DIR/pof" gap fibre.csv --out fibre_report --no-plots
 grep -q '^active_model = "dynamic"' fibre_report/model.toml || fail "model.toml of a dynamic-kind fibre does not make the dynamic model active: $(grep active_model fibre_report/model.toml)"

@@ -56,23 +56,11 @@ PY
 cat >creep.toml <<'TOML'
 schema_version = 1
 name = "golden-creep"
-[daq.noise]
-enabled = true
-sensor_v = 0.001
-reference_v = 0.001
-pot_v = 0.001
 [sensor.creep]
 enabled = true
 terms = [ { tau_s = 4.0, gain_v_per_deg = -0.0015 } ]
-[[trajectory]]
-kind = "quasi_static"
-step_deg = 15.0
-descending = true
-[[trajectory]]
-kind = "cycles"
-velocities_rad_s = [0.0898, 0.1726, 0.3415, 0.4304]
-pause_s = 2.0
 TOML
+gap_protocol >>creep.toml
 "$POF" sim creep.toml -o creep.csv --seed 3 2>/dev/null
 "$POF" gap creep.csv --out gap --no-plots >/dev/null 2>&1 || fail "pof gap failed"
 # --- Every appliable [gap] term and both kinematic effects, on either model ------------------------

@@ -57,3 +57,23 @@ wait_until() { "$PY" "$POF_WAIT" until "$@"; }
 caught_up() {
   PYTHONPATH="$BIN_DIR/../python:$SOURCE_DIR/lcmtypes/python" "$PY" "$POF_WAIT" caught-up "$@"
 }
+
+# gap_protocol: the DAQ noise and calibration protocol (quasi-static steps up and down, four of
+# table 1's velocities) of the `pof gap` sessions the e2e scripts simulate, as scenario TOML.
+gap_protocol() {
+  cat <<'TOML'
+[daq.noise]
+enabled = true
+sensor_v = 0.001
+reference_v = 0.001
+pot_v = 0.001
+[[trajectory]]
+kind = "quasi_static"
+step_deg = 15.0
+descending = true
+[[trajectory]]
+kind = "cycles"
+velocities_rad_s = [0.0898, 0.1726, 0.3415, 0.4304]
+pause_s = 2.0
+TOML
+}

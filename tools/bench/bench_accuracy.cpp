@@ -20,6 +20,7 @@
 
 #include "pof/core/calibration.hpp"
 #include "pof/core/dynamic_fit.hpp"
+#include "pof/core/estimator_noise.hpp"
 #include "pof/core/model_selection.hpp"
 #include "pof/core/normalise.hpp"
 #include "pof/core/offline.hpp"
@@ -84,6 +85,31 @@ Errors errors(const Eigen::VectorXd& a, const Eigen::VectorXd& truth) {
   return {e.rmse_deg, e.p99_abs_deg};
 }
 
+void append(Eigen::VectorXd& to, const Eigen::VectorXd& x) {
+  Eigen::VectorXd y(to.size() + x.size());
+  y << to, x;
+  to = y;
+}
+
+// Scan-to-scan noise in holds of the true angle (it moved < 1e-6 deg): sqrt(mean (a_k - a_k-1)^2 / 2)
+// of an angle, over the same pairs as the sensor's own noise in degrees (its normalised voltage's
+// differences over the quasi-static slope there), both returned.
+struct HoldNoise {
+  double sum_angle = 0, sum_sensor = 0;
+  long pairs = 0;
+  void add(const Eigen::VectorXd& angle, const Eigen::VectorXd& v, const Eigen::VectorXd& truth, const pof::core::DynamicModel& m) {
+    for (Eigen::Index i = 1; i < truth.size(); ++i) {
+      if (std::abs(truth(i) - truth(i - 1)) > 1e-6 || !std::isfinite(angle(i) - angle(i - 1)) || !std::isfinite(v(i) - v(i - 1))) continue;
+      const double da = angle(i) - angle(i - 1), dv = (v(i) - v(i - 1)) / m.quasi_static_slope(truth(i));
+      sum_angle += da * da;
+      sum_sensor += dv * dv;
+      ++pairs;
+    }
+  }
+  [[nodiscard]] double ratio() const { return pairs > 0 ? std::sqrt(sum_angle / sum_sensor) : std::nan(""); }
+  [[nodiscard]] double sensor_deg() const { return pairs > 0 ? std::sqrt(sum_sensor / (2.0 * static_cast<double>(pairs))) : std::nan(""); }
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -92,8 +118,8 @@ int main(int argc, char** argv) {
     if (std::strcmp(argv[i], "--minutes") == 0 && i + 1 < argc) minutes = std::atof(argv[++i]);
 
   const char* tests[] = {"heldout_gait", "heldout_rehab", "heldout_random"};
-  std::printf("%-3s %-15s %8s | %-16s %-16s %-16s | %s\n", "fib", "held-out test", "scans", "uncomp RMSE/p99",
-              "paper RMSE/p99", "dynamic RMSE/p99", "active (held-out on the calibration: paper / dynamic)");
+  std::printf("%-3s %-15s %8s | %-16s %-16s %-16s %-16s | %s\n", "fib", "held-out test", "scans", "uncomp RMSE/p99",
+              "paper RMSE/p99", "inverse RMSE/p99", "estimate RMSE/p99", "active (held-out on the calibration: paper / dynamic)");
   std::uint64_t seed = 100;
   for (const Fibre& f : fibres()) {
     Scenario cs = pof::sim::builtin_scenario("fibre_calibration");
@@ -105,37 +131,44 @@ int main(int argc, char** argv) {
     const Eigen::VectorXd v = pof::core::normalise(cal.sensor_v, cal.reference_v, g);
     const auto dyn = pof::core::fit_dynamic(cal.t_s, v, cal.angle_ref_deg);
     const auto cmp = pof::core::compare_held_out(cal.t_s, cal.sensor_v, cal.reference_v, cal.angle_ref_deg, dyn);
-    pof::core::Calibration paper = pr.cal, dynamic = pr.cal;
-    dynamic.dynamic = dyn.model;
-    dynamic.active = pof::core::ModelKind::kDynamic;
+    pof::core::Calibration paper = pr.cal, inverse = pr.cal;
+    inverse.dynamic = dyn.model;
+    inverse.active = pof::core::ModelKind::kDynamic;
+    pof::core::Calibration estimate = inverse;
+    estimate.estimator = pof::core::identify_estimator_noise(cal.t_s, v, cal.angle_ref_deg);
     const bool dyn_active = cmp.dynamic.rmse_deg < cmp.paper.rmse_deg;
-    Eigen::VectorXd all_p, all_d, all_u, all_t;
+    Eigen::VectorXd all_p, all_d, all_e, all_u, all_t;
+    HoldNoise hold_d, hold_e;
     for (const char* test : tests) {
       Scenario ts = pof::sim::builtin_scenario(test);
       ts.sensor = f.sensor;
       const pof::io::Recording r = simulate(ts, ++seed);
       const auto rp = pof::core::compensate_recording(r.t_s, r.sensor_v, r.reference_v, Eigen::VectorXd(), paper);
-      const auto rd = pof::core::compensate_recording(r.t_s, r.sensor_v, r.reference_v, Eigen::VectorXd(), dynamic);
+      const auto rd = pof::core::compensate_recording(r.t_s, r.sensor_v, r.reference_v, Eigen::VectorXd(), inverse);
+      const auto re = pof::core::compensate_recording(r.t_s, r.sensor_v, r.reference_v, Eigen::VectorXd(), estimate);
       const Errors eu = errors(rp.angle_uncomp_deg, r.angle_true_deg), ep = errors(rp.angle_deg, r.angle_true_deg),
-                   ed = errors(rd.angle_deg, r.angle_true_deg);
-      std::printf("%-3s %-15s %8ld | %6.3f / %6.3f  %6.3f / %6.3f  %6.3f / %6.3f  |\n", f.name, test, static_cast<long>(r.t_s.size()),
-                  eu.rmse, eu.p99, ep.rmse, ep.p99, ed.rmse, ed.p99);
-      auto append = [](Eigen::VectorXd& to, const Eigen::VectorXd& x) {
-        Eigen::VectorXd y(to.size() + x.size());
-        y << to, x;
-        to = y;
-      };
+                   ed = errors(rd.angle_deg, r.angle_true_deg), ee = errors(re.angle_deg, r.angle_true_deg);
+      std::printf("%-3s %-15s %8ld | %6.3f / %6.3f  %6.3f / %6.3f  %6.3f / %6.3f  %6.3f / %6.3f  |\n", f.name, test,
+                  static_cast<long>(r.t_s.size()), eu.rmse, eu.p99, ep.rmse, ep.p99, ed.rmse, ed.p99, ee.rmse, ee.p99);
+      const Eigen::VectorXd vt = pof::core::normalise(r.sensor_v, r.reference_v, g);
+      hold_d.add(rd.angle_deg, vt, r.angle_true_deg, dyn.model);
+      hold_e.add(re.angle_deg, vt, r.angle_true_deg, dyn.model);
       append(all_p, rp.angle_deg);
       append(all_d, rd.angle_deg);
+      append(all_e, re.angle_deg);
       append(all_u, rp.angle_uncomp_deg);
       append(all_t, r.angle_true_deg);
     }
-    const Errors eu = errors(all_u, all_t), ep = errors(all_p, all_t), ed = errors(all_d, all_t);
-    std::printf("%-3s %-15s %8ld | %6.3f / %6.3f  %6.3f / %6.3f  %6.3f / %6.3f  | %s (%.3f / %.3f deg)\n", f.name, "all three",
-                static_cast<long>(all_t.size()), eu.rmse, eu.p99, ep.rmse, ep.p99, ed.rmse, ed.p99, dyn_active ? "dynamic" : "paper",
-                cmp.paper.rmse_deg, cmp.dynamic.rmse_deg);
-    std::printf("%-3s dynamic structure: degree %d, %d operators, %d Prony terms, kappa %g s/rad, bend lag %g s\n", f.name,
-                dyn.chosen.degree, dyn.chosen.n_operators, dyn.chosen.n_prony, dyn.chosen.rate_gain_s_per_rad, dyn.chosen.bend_lag_s);
+    const Errors eu = errors(all_u, all_t), ep = errors(all_p, all_t), ed = errors(all_d, all_t), ee = errors(all_e, all_t);
+    std::printf("%-3s %-15s %8ld | %6.3f / %6.3f  %6.3f / %6.3f  %6.3f / %6.3f  %6.3f / %6.3f  | %s (%.3f / %.3f deg)\n", f.name,
+                "all three", static_cast<long>(all_t.size()), eu.rmse, eu.p99, ep.rmse, ep.p99, ed.rmse, ed.p99, ee.rmse, ee.p99,
+                dyn_active ? "dynamic" : "paper", cmp.paper.rmse_deg, cmp.dynamic.rmse_deg);
+    std::printf("%-3s dynamic structure: degree %d, %d operators, %d Prony terms, kappa %g s/rad, bend lag %g s; "
+                "train %.3f deg, CV %.3f deg\n", f.name, dyn.chosen.degree, dyn.chosen.n_operators, dyn.chosen.n_prony,
+                dyn.chosen.rate_gain_s_per_rad, dyn.chosen.bend_lag_s, dyn.train_rmse_deg, dyn.chosen.cv_rmse_deg);
+    std::printf("%-3s estimator: sigma_v %.3g mV, sigma_a %.0f deg/s^2; hold noise / sensor's own (%.3f deg): inverse %.2f, "
+                "estimate %.2f\n", f.name, 1e3 * estimate.estimator->voltage_noise_v, estimate.estimator->acceleration_noise_deg_s2,
+                hold_e.sensor_deg(), hold_d.ratio(), hold_e.ratio());
   }
   std::printf("fibres:\n");
   for (const Fibre& f : fibres()) std::printf("  %s  %s\n", f.name, f.family);

@@ -203,16 +203,24 @@ DynamicInverter::Result DynamicInverter::step(double v) noexcept {
     lag_.reset();  // its window would span the gap
     return r;
   }
+  r = solve(state_, v);
+  r.angle_deg = lag_.step(r.fibre_angle_deg);
+  k_.advance(state_, r.fibre_angle_deg);
+  return r;
+}
+
+DynamicInverter::Result DynamicInverter::solve(const DynamicState& state, double v) const noexcept {
+  Result r;
   // f(theta) = sign * (V(theta) - v) is increasing in theta; keep a bracket [a, b] with f(a) < 0 < f(b)
   // as it is learnt, Newton inside it, bisection when Newton leaves it or stalls.
   double a = lo_, b = hi_;
-  double theta = state_.started ? std::clamp(state_.angle_deg, a, b) : 0.5 * (a + b);
+  double theta = state.started ? std::clamp(state.angle_deg, a, b) : 0.5 * (a + b);
   bool a_known = false, b_known = false;
   constexpr int kMaxIterations = 60;
   constexpr double kTolDeg = 1e-7;
   for (r.iterations = 1; r.iterations <= kMaxIterations; ++r.iterations) {
     double slope = 0;
-    const double f = sign_ * (k_.voltage_at(state_, theta, &slope) - v);
+    const double f = sign_ * (k_.voltage_at(state, theta, &slope) - v);
     slope *= sign_;
     if (f == 0) break;
     if (f < 0) {
@@ -238,9 +246,7 @@ DynamicInverter::Result DynamicInverter::step(double v) noexcept {
     theta = next;
   }
   r.clamped = theta <= lo_ || theta >= hi_;
-  r.fibre_angle_deg = theta;
-  r.angle_deg = lag_.step(theta);
-  k_.advance(state_, theta);
+  r.fibre_angle_deg = r.angle_deg = theta;
   return r;
 }
 

@@ -38,6 +38,16 @@ OnlineCompensator::OnlineCompensator(const Calibration& cal, const CompensatorSe
       throw std::invalid_argument(std::string("compensator: dynamic model: ") + why);
     dynamic_ = true;
     inverter_ = DynamicInverter(*cal.dynamic, s.scan_rate_hz);
+    if (s.estimate && cal.estimator) {
+      if (const char* why = cal.estimator->invalid_reason(); *why != '\0')
+        throw std::invalid_argument(std::string("compensator: estimator: ") + why);
+      if (!(s.estimator_lag_s >= 0) || !(s.estimator_lag_s * s.scan_rate_hz <= kMaxSmootherLag))
+        throw std::invalid_argument("compensator: estimator_lag_s must be within 0.." +
+                                    std::to_string(kMaxSmootherLag / s.scan_rate_hz) + " s at this scan rate");
+      estimating_ = true;
+      estimator_ = AngleEstimator(*cal.dynamic, *cal.estimator, s.scan_rate_hz,
+                                  static_cast<int>(std::lround(s.estimator_lag_s * s.scan_rate_hz)));
+    }
   }
   if (cal.gap && !cal.gap->empty()) {
     if (const auto problems = gap_problems(*cal.gap, s.scan_rate_hz); !problems.empty())
@@ -59,16 +69,22 @@ void OnlineCompensator::clear_window() noexcept {
 void OnlineCompensator::reset() noexcept {
   clear_window();
   inverter_.reset();  // the memory of the lost scans is unknown: start from a relaxed state
+  estimator_.reset();
   terms_.reset();
   scans_lost_ = true;
 }
 
-double OnlineCompensator::angle_of(double v, double reference_v, double w, Direction d, bool* clamped) noexcept {
+double OnlineCompensator::angle_of(double v, double reference_v, double w, Direction d, std::int32_t* quality) noexcept {
   double angle = 0;
-  if (dynamic_) {
+  if (estimating_) {
+    const AngleEstimator::Result r = estimator_.step(v);
+    angle = r.angle_deg;
+    if (r.clamped) *quality |= quality::kAngleExtrapolated;
+    if (r.restarted) *quality |= quality::kSettling;
+  } else if (dynamic_) {
     const DynamicInverter::Result r = inverter_.step(v);
     angle = r.angle_deg;
-    *clamped = r.clamped;
+    if (r.clamped) *quality |= quality::kAngleExtrapolated;
   } else {
     angle = compensated_angle(cal_.model, v, std::abs(w), d);  // f5 alone in holds
   }
@@ -102,14 +118,14 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
     // The dynamic inverse keeps the fibre's memory across the scan (the operators and Prony terms
     // are the fibre's state, not a window), but its bend-lag inverse differentiates a window that
     // must not span the scans it never saw (docs/calibration.md, "The dynamic model").
-    if (dynamic_) inverter_.step(nan);
+    if (estimating_) estimator_.step(nan);  // the time passes: a prediction without a voltage
+    else if (dynamic_) inverter_.step(nan);
     if (terms_.active()) terms_.interrupt();
     return out;
   }
   out.angle_uncomp_deg = quasi_static_angle(cal_.model, nz.v);
   // [gap] periodic interference is notched out before either model sees the voltage.
   const double v = terms_.active() ? terms_.filter(nz.v) : nz.v;
-  bool clamped = false;
   // With [gap] terms the velocity is estimated on the quiet angle (term_chains.hpp): never on an
   // angle that went through the direction it is to decide.
   double g_quiet = 0;
@@ -120,7 +136,8 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
     out.quality |= quality::kInvalidInput | quality::kSettling;
     // The dynamic model needs no velocity; the paper's falls back to f5 without one.
     const double g = terms_.active() ? terms_.published_chain_voltage(v, reference_v, nan, Direction::kHold) : 0.0;
-    out.angle_deg = angle_of(v - g, reference_v, nan, Direction::kHold, &clamped);
+    std::int32_t unflagged = 0;  // settling already says it all
+    out.angle_deg = angle_of(v - g, reference_v, nan, Direction::kHold, &unflagged);
     out.velocity_rad_s = nan;
     clear_window();
     terms_.skip_quiet();
@@ -143,8 +160,7 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
     if (std::isfinite(y_quiet)) terms_.commit_quiet(y_quiet, v - g_quiet, reference_v, phase);
     else terms_.skip_quiet();
   }
-  out.angle_deg = angle_of(v - g, reference_v, w, phase, &clamped);
-  if (clamped) out.quality |= quality::kAngleExtrapolated;
+  out.angle_deg = angle_of(v - g, reference_v, w, phase, &out.quality);
   const double aw = std::abs(w);
   if (phase != Direction::kHold &&
       (aw < cal_.velocity_min_rad_s * (1 - s_.velocity_tolerance) || aw > cal_.velocity_max_rad_s * (1 + s_.velocity_tolerance)))

@@ -18,6 +18,7 @@
 
 #include <Eigen/Core>
 
+#include "pof/core/angle_estimator.hpp"
 #include "pof/core/dynamic_model.hpp"
 #include "pof/core/fit.hpp"
 #include "pof/core/gap_terms.hpp"
@@ -35,6 +36,9 @@ enum class ModelKind : int { kPaper = 0, kDynamic = 1 };
 struct Calibration {
   ModelCoefficients model;             // the paper's model (always present; f5 is the uncompensated angle)
   std::optional<DynamicModel> dynamic; // the dynamic model, when one was identified
+  // Its estimator's noises (angle_estimator.hpp); without them (files before schema 3) the
+  // dynamic model is inverted scan by scan, as then.
+  std::optional<EstimatorNoise> estimator;
   ModelKind active = ModelKind::kPaper;
   double reference_level_v = 1.0;      // reference voltage at calibration time [V]
   double angle_min_deg = 0, angle_max_deg = 90;

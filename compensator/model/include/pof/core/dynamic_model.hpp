@@ -185,6 +185,9 @@ class DynamicInverter {
   /// The angle of this scan's normalised voltage v [V]; commits it to the memory. A non-finite v
   /// returns NaN, leaves the memory untouched and restarts the bend-lag inverse's window.
   Result step(double v) noexcept;
+  /// The fibre angle theta_f whose voltage is v given the memory s, without committing it
+  /// (fibre_angle_deg, clamped and iterations of the Result; angle_deg = theta_f).
+  [[nodiscard]] Result solve(const DynamicState& s, double v) const noexcept;
   /// Forget the history (after lost scans): the next scan starts from a relaxed, centred state.
   void reset() noexcept {
     state_ = {};

@@ -17,9 +17,10 @@
 //                       it lags by delay_s() = (N - 1) / (2 fs), its noise is velocity_noise_rad_s()
 //   StepDetector        model steps, paper model only (step_detector.hpp)
 //   DirectionDetector   flexion, extension or hold with a dead band (direction_detector.hpp)
-//   the inverse         eq. (11)/(12) (f5 in holds), or the dynamic model's DynamicInverter
-//                       (dynamic_model.hpp), which decides no direction: the window and the
-//                       detector then only report velocity and phase (POF_ANGLE, the statistics)
+//   the angle           eq. (11)/(12) (f5 in holds), or on the dynamic model its AngleEstimator
+//                       (angle_estimator.hpp) when the calibration carries its noises, else its
+//                       per-scan DynamicInverter (dynamic_model.hpp). Neither decides a direction:
+//                       the window and the detector then only report velocity and phase
 //
 // Threading: one instance per sensor stream, used from one thread. step() and reset() never
 // allocate, never throw and never block; the constructor allocates every part.
@@ -27,6 +28,7 @@
 #include <limits>
 #include <vector>
 
+#include "pof/core/angle_estimator.hpp"
 #include "pof/core/calibration.hpp"
 #include "pof/core/direction_detector.hpp"
 #include "pof/core/dynamic_model.hpp"
@@ -71,6 +73,11 @@ struct CompensatorSettings {
   // line by 0.2 deg, and a measured step needs only 60 % of its prediction (a smaller step changes
   // the angle little when missed).
   double step_min_deg = 0.4;
+  // The dynamic model's angle: estimated (AngleEstimator) when the calibration has [estimator], or
+  // inverted scan by scan. estimator_lag_s > 0 publishes the angle that long ago, smoothed by the
+  // scans since (a fixed-lag smoother; docs/controller.md gives its accuracy and delay).
+  bool estimate = true;
+  double estimator_lag_s = 0;
   double velocity_tolerance = 0.10;    // relative margin on the calibrated velocity range before flagging
   double angle_margin_deg = 2.0;       // margin on the calibrated angle range before flagging
   double input_limit_v = 10.0;         // |input| at or above this is clipped (USB-6008 +-10 V range)
@@ -106,6 +113,10 @@ class OnlineCompensator {
   [[nodiscard]] int window() const noexcept { return window_.size(); }
   [[nodiscard]] const Calibration& calibration() const noexcept { return cal_; }
   [[nodiscard]] const CompensatorSettings& settings() const noexcept { return s_; }
+  /// True when the dynamic model's angle is estimated (AngleEstimator), not inverted.
+  [[nodiscard]] bool estimating() const noexcept { return estimating_; }
+  /// The estimator's restarts after a divergence (0 when not estimating).
+  [[nodiscard]] long estimator_divergences() const noexcept { return estimator_.divergences(); }
 
   static constexpr double kNoReference = std::numeric_limits<double>::quiet_NaN();
 
@@ -114,12 +125,14 @@ class OnlineCompensator {
   void clear_window() noexcept;
   // The active model's inverse of normalised voltage v (the terms' voltage already subtracted):
   // eq. (11)/(12) at |w| (f5 in holds) or the dynamic inverse; the [gap] kinematics undone.
-  double angle_of(double v, double reference_v, double w, Direction d, bool* clamped) noexcept;
+  double angle_of(double v, double reference_v, double w, Direction d, std::int32_t* quality) noexcept;
 
   Calibration cal_;
   CompensatorSettings s_;
   bool dynamic_ = false;
   DynamicInverter inverter_;
+  bool estimating_ = false;
+  AngleEstimator estimator_;
   ReferenceGuard guard_;
   VelocityWindow window_;
   StepDetector steps_;

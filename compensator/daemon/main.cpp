@@ -69,6 +69,8 @@ struct Options {
   double velocity_window_s = 0.5;
   double reversal_window_s = pof::core::CompensatorSettings{}.reversal_window_s;
   bool no_model_steps = false;
+  std::string dynamic_angle = "estimate";
+  double estimator_lag_ms = 0;
   int queue_capacity = 10000;
   double duration_s = 0;
   std::string auth_key_file;
@@ -87,6 +89,8 @@ int run(const Options& o) {
   ps.compensator.velocity_window_s = o.velocity_window_s;
   ps.compensator.reversal_window_s = o.reversal_window_s;
   ps.compensator.model_steps = !o.no_model_steps;
+  ps.compensator.estimate = o.dynamic_angle == "estimate";
+  ps.compensator.estimator_lag_s = o.estimator_lag_ms / 1000;
   ps.compensator.velocity_source =
       o.velocity_source == "reference" ? pof::core::VelocitySource::kReference : pof::core::VelocitySource::kSensor;
   std::optional<pof::core::PotentiometerCalibration> pot;
@@ -240,6 +244,12 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0, 10.0))->capture_default_str();
   app.add_flag("--no-model-steps", o.no_model_steps,
                "Paper model: do not read the start/stop/reversal steps eqs. (11)/(12) predict as changes of direction");
+  app.add_option("--dynamic-angle", o.dynamic_angle,
+                 "Dynamic model: estimate the angle (the calibration's [estimator]) or invert the model scan by scan")
+      ->check(CLI::IsMember({"estimate", "invert"}))->capture_default_str();
+  app.add_option("--estimator-lag", o.estimator_lag_ms,
+                 "Estimator: publish the angle this long ago, smoothed by the scans since [ms] (0: causal)")
+      ->check(CLI::Range(0.0, 300.0))->capture_default_str();
   app.add_option("--duration", o.duration_s, "Stop after this many seconds (tests, benchmarks); 0 = until SIGTERM")
       ->check(pof::service::non_negative(pof::service::kMaxSeconds));
   app.add_option("--queue-capacity", o.queue_capacity, "LCM subscription queue [messages] (transports other than udpm://)")

@@ -73,7 +73,10 @@ void Pipeline::replace_calibration(io::CalibrationFile cal, std::string cal_path
   cal_ = std::move(cal);
   cal_path_ = std::move(cal_path);
   if (!pot_ || cal_.potentiometer) pot_ = cal_.potentiometer ? cal_.potentiometer : pot_;
-  if (rate_ > 0) comp_ = std::move(fresh);
+  if (rate_ > 0) {
+    retire_compensator();
+    comp_ = std::move(fresh);
+  }
   ++counters_.reloads;
   counters_.last_error.clear();
 }
@@ -89,6 +92,7 @@ void Pipeline::ensure_compensator(double scan_rate_hz) {
   if (comp_ && scan_rate_hz == rate_) return;
   core::CompensatorSettings cs = s_.compensator;
   cs.scan_rate_hz = scan_rate_hz;
+  retire_compensator();
   comp_ = std::make_unique<core::OnlineCompensator>(cal_.cal, cs);
   rate_ = scan_rate_hz;
   k_ = s_.output_rate_hz > 0 ? std::max(1, int(std::lround(scan_rate_hz / s_.output_rate_hz))) : 1;
@@ -263,9 +267,15 @@ void Pipeline::emit_angle(std::int64_t publish_utime, Sink& sink) {
   if (!sink.angle(pending_)) note_publish_failure();
 }
 
+void Pipeline::retire_compensator() noexcept {
+  if (comp_) sat_add(divergences_retired_, comp_->estimator_divergences());
+}
+
 pof::compensator_status_t Pipeline::status(std::int64_t now_utime) const {
   pof::compensator_status_t m = counters_;
   m.utime = now_utime;
+  m.estimator_divergences = divergences_retired_;
+  if (comp_) sat_add(m.estimator_divergences, comp_->estimator_divergences());
   m.sensor_id = s_.sensor_id;
   m.calibration_path = cal_path_;
   m.calibration_sensor_id = cal_.sensor_id;

@@ -123,6 +123,10 @@ class Pipeline {
   // Output sequence numbers and counters.
   std::int64_t angle_seq_ = 0, cycle_seq_ = 0;
   pof::compensator_status_t counters_{};
+  // The estimator's divergences counted by compensators since replaced (a reload, a new rate), so
+  // that the status's count never goes backwards.
+  std::int64_t divergences_retired_ = 0;
+  void retire_compensator() noexcept;
 };
 
 }  // namespace pof::compensatord

@@ -12,7 +12,7 @@ CHECK="$SOURCE_DIR/tests/e2e/calibrate_compensate_check.py"
 
 # --- calibrate, with the report
 expect_exit 0 "$POF" calibrate cal.csv -o cal.toml --report rep --sensor-id LEFT_KNEE
-grep -q '^schema_version = 2$' cal.toml || fail "cal.toml has no schema_version = 2"
+grep -q '^schema_version = 3$' cal.toml || fail "cal.toml has no schema_version = 3"
 grep -Eq '^active_model = "(paper|dynamic)"$' cal.toml || fail "cal.toml has no active_model"
 grep -q '^\[dynamic\]' cal.toml || fail "cal.toml has no [dynamic] model"
 grep -Eq 'held-out .*paper RMSE [0-9.]+ deg.*dynamic RMSE [0-9.]+ deg' <<<"$out" || fail "both held-out errors not printed: $out"
@@ -119,9 +119,9 @@ grep -q "key 'model.c10': expected a finite number" <<<"$err" || fail "NaN not n
 sed 's/^velocity_max_rad_s = .*/velocity_max_rad_s = 0.001/' cal.toml >range.toml
 expect_exit 78 "$POF" compensate val.csv --cal range.toml
 grep -q "key 'range.velocity_max_rad_s'" <<<"$err" || fail "impossible range not named: $err"
-sed 's/^schema_version = 2/schema_version = 7/' cal.toml >schema.toml
+sed 's/^schema_version = 3/schema_version = 7/' cal.toml >schema.toml
 expect_exit 78 "$POF" compensate val.csv --cal schema.toml
-grep -q "key 'schema_version': expected 1 or 2, got 7" <<<"$err" || fail "schema version: $err"
+grep -q "key 'schema_version': expected 1, 2 or 3, got 7" <<<"$err" || fail "schema version: $err"
 sed 's/^c9 = \(.*\)/c9 = \1\nc9x = 1.0/' cal.toml >unknown_key.toml
 expect_exit 78 "$POF" compensate val.csv --cal unknown_key.toml
 grep -q "unknown_key.toml:[0-9]*: unknown key 'c9x' in \[model\] (did you mean 'c9'?)" <<<"$err" || fail "unknown key not refused: $err"

@@ -6,7 +6,10 @@
 #   - `pof compensate` (per-scan CSV and statistics JSON) of a held-out session on each;
 #   - the POF_ANGLE stream pof-compensatord publishes from a log played by stock lcm-logplayer
 #     (every field but publish_utime, the wall clock);
-#   - `pof gap` on a session with a hidden creep: gap.json and model.toml.
+#   - `pof gap` on a session with a hidden creep: gap.json and model.toml;
+#   - the fibre's calibration as a schema_version 2 file (no [estimator]) and the new file with
+#     `--dynamic-angle invert`: both give the per-scan inverse's output of before the estimator, bit
+#     for bit (their sums are the ones fibre-comp.csv and fibre-terms.csv had then).
 # The calibration files' `date` (the wall clock) is taken out before the sums.
 # A change that is meant to change behaviour regenerates the sums (`POF_GOLDEN_UPDATE=1`, the test
 # then writes them and passes) and says why in its commit body.
@@ -112,13 +115,29 @@ TOML
   fail "pof compensate (fibre, every term) failed"
 "$POF" compensate paper-val.lcmlog --cal paper-cal.toml --reversal-window 0.1 --csv paper-reversal.csv >/dev/null 2>&1 ||
   fail "pof compensate (paper, reversal window) failed"
+# An older calibration file: schema 2 had no [estimator].
+"$PY" - fibre-cal.toml fibre-cal-v2.toml <<'PY' || fail "cannot write the schema 2 file"
+import re, sys
+text = open(sys.argv[1]).read().replace("schema_version = 3\n", "schema_version = 2\n", 1)
+text = re.sub(r"\n\[estimator\][^\[]*", "\n", text)
+open(sys.argv[2], "w").write(text)
+PY
+grep -q '^\[estimator\]' fibre-cal.toml || fail "fibre-cal.toml has no [estimator]"
+! grep -q 'estimator' fibre-cal-v2.toml || fail "fibre-cal-v2.toml still has an [estimator]"
+"$POF" compensate fibre-session.csv --cal fibre-cal-v2.toml --csv fibre-comp-v2.csv >/dev/null 2>&1 ||
+  fail "pof compensate (fibre, schema 2 file) failed"
+"$POF" compensate fibre-session.csv --cal fibre-cal.toml --dynamic-angle invert --csv fibre-comp-invert.csv >/dev/null 2>&1 ||
+  fail "pof compensate (fibre, --dynamic-angle invert) failed"
+{ cat fibre-cal-v2.toml; terms; } >fibre-terms-v2.toml
+"$POF" compensate fibre-session.csv --cal fibre-terms-v2.toml --csv fibre-terms-v2.csv >/dev/null 2>&1 ||
+  fail "pof compensate (fibre, schema 2 file, every term) failed"
 
 cp gap/gap.json gap.json
 cp gap/model.toml gap-model.toml
 for f in paper-cal.toml fibre-cal.toml gap-model.toml; do sed -i '/^date = /d' "$f"; done
 
 files=(paper-cal.toml paper-comp.csv paper-comp.json fibre-cal.toml fibre-comp.csv fibre-comp.json angles.csv gap.json
-  gap-model.toml paper-terms.csv fibre-terms.csv paper-reversal.csv)
+  gap-model.toml paper-terms.csv fibre-terms.csv paper-reversal.csv fibre-comp-v2.csv fibre-comp-invert.csv fibre-terms-v2.csv)
 if [ "${POF_GOLDEN_UPDATE:-0}" = 1 ]; then
   sha256sum "${files[@]}" >"$SUMS"
   echo "wrote $SUMS"; cat "$SUMS"

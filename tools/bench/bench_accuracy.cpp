@@ -20,7 +20,6 @@
 
 #include "pof/core/calibration.hpp"
 #include "pof/core/dynamic_fit.hpp"
-#include "pof/core/estimator_noise.hpp"
 #include "pof/core/model_selection.hpp"
 #include "pof/core/normalise.hpp"
 #include "pof/core/offline.hpp"
@@ -135,7 +134,7 @@ int main(int argc, char** argv) {
     inverse.dynamic = dyn.model;
     inverse.active = pof::core::ModelKind::kDynamic;
     pof::core::Calibration estimate = inverse;
-    estimate.estimator = pof::core::identify_estimator_noise(cal.t_s, v, cal.angle_ref_deg);
+    estimate.estimator = dyn.estimator;
     const bool dyn_active = cmp.dynamic.rmse_deg < cmp.paper.rmse_deg;
     Eigen::VectorXd all_p, all_d, all_e, all_u, all_t;
     HoldNoise hold_d, hold_e;

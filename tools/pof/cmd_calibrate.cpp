@@ -113,6 +113,7 @@ void run(const CalibrateOptions& o) {
   const Eigen::VectorXd v = pof::core::normalise(rec.sensor_v, rec.reference_v, guard);
   std::optional<pof::core::DynamicFitResult> dyn;
   std::optional<pof::core::ModelComparison> cmp;
+  std::string estimator_note;
   try {
     dyn = pof::core::fit_dynamic(rec.t_s, v, ref);
     progress.stage("held-out comparison of both models");
@@ -123,6 +124,9 @@ void run(const CalibrateOptions& o) {
   }
   if (dyn) {
     f.cal.dynamic = dyn->model;
+    // The estimator's noises; without them the dynamic model's angle is inverted scan by scan.
+    f.cal.estimator = dyn->estimator;
+    if (!dyn->estimator) estimator_note = "no [estimator], the dynamic model is inverted scan by scan: " + dyn->estimator_note;
     if (cmp && cmp->folds_used > 0) {
       f.held_out = pof::io::HeldOutSummary{cmp->paper.rmse_deg, cmp->paper.p99_abs_deg, cmp->dynamic.rmse_deg,
                                            cmp->dynamic.p99_abs_deg, cmp->folds_used};
@@ -159,6 +163,11 @@ void run(const CalibrateOptions& o) {
                 m.degree, m.n_operators, m.n_operators ? m.threshold_deg[0] : 0.0,
                 m.n_operators ? m.threshold_deg[static_cast<std::size_t>(m.n_operators - 1)] : 0.0, m.loop_half_height_v(),
                 m.rate_gain_s_per_rad, m.n_prony, m.bend_lag_s, dyn->train_rmse_deg, dyn->chosen.cv_rmse_deg, dyn->candidates.size());
+    if (f.cal.estimator)
+      std::printf("estimator voltage noise %.3g mV (holds), acceleration noise %.0f deg/s^2\n",
+                  1e3 * f.cal.estimator->voltage_noise_v, f.cal.estimator->acceleration_noise_deg_s2);
+    else
+      std::printf("estimator %s\n", estimator_note.c_str());
   }
   if (f.held_out)
     std::printf("held-out  (%lld blocks) paper RMSE %.3f deg (p99 %.3f), dynamic RMSE %.3f deg (p99 %.3f)\n",

@@ -111,6 +111,15 @@ pof::core::DynamicModel read_dynamic(TomlSection& d) {
   return m;
 }
 
+// [estimator]: both noises finite and > 0, reported on the key.
+pof::core::EstimatorNoise read_estimator(TomlSection& e) {
+  pof::core::EstimatorNoise n;
+  n.voltage_noise_v = e.get<double>("voltage_noise_v", toml_check::positive());
+  n.acceleration_noise_deg_s2 = e.get<double>("acceleration_noise_deg_s2", toml_check::positive());
+  if (const char* why = n.invalid_reason(); *why != '\0') e.fail(why);
+  return n;
+}
+
 // [gap] (docs/calibration.md, "`[gap]`: effect terms and how the compensator applies them"):
 // every key typed and finite, unknown keys refused. Whether the compensator can apply the terms
 // (drift, an unknown effect, counts, ranges) is gap_problems()'s question, asked by
@@ -188,9 +197,9 @@ pof::core::PotentiometerCalibration read_potentiometer(TomlSection& s) {
 // The top-level keys of a calibration file other than [potentiometer] (parse_calibration reads
 // them): a calibration file is also a potentiometer file (--pot-cal), and load_potentiometer
 // leaves these to the calibration loader.
-constexpr std::array<std::string_view, 12> kCalibrationOnlyKeys{
+constexpr std::array<std::string_view, 13> kCalibrationOnlyKeys{
     "sensor_id", "date", "source_recording", "reference_level_v", "active_model", "model",
-    "range", "fit_quality", "equations", "dynamic", "held_out", "gap"};
+    "range", "fit_quality", "equations", "dynamic", "estimator", "held_out", "gap"};
 
 }  // namespace
 
@@ -287,6 +296,12 @@ std::string to_toml(const CalibrationFile& f) {
       << "bend_lag_s = " << num(d.bend_lag_s) << "    # tau_b: the fibre's bend lags the joint (0: none)\n"
       << "lag_window_s = " << num(d.lag_window_s) << "    # the online lag inverse's fitting window\n";
   }
+  if (f.cal.estimator) {
+    const auto& e = *f.cal.estimator;
+    o << "\n[estimator]    # the dynamic model's angle estimated, not inverted (docs/calibration.md, \"The angle estimator\")\n"
+      << "voltage_noise_v = " << num(e.voltage_noise_v) << "    # sigma_v: the normalised voltage's scatter in holds\n"
+      << "acceleration_noise_deg_s2 = " << num(e.acceleration_noise_deg_s2) << "    # sigma_a: the motion model's white acceleration\n";
+  }
   if (f.held_out) {
     const auto& h = *f.held_out;
     o << "\n[held_out]    # online angle vs reference on blocks held out of each fit; informational\n"
@@ -315,7 +330,7 @@ void save_calibration(const CalibrationFile& f, const std::string& path) { write
 CalibrationFile parse_calibration(const std::string& text, const std::string& name) {
   const toml::table t = parse_toml(text, name);
   TomlSection root(t, name);
-  const int version = root.schema_version({1, kCalibrationSchemaVersion});
+  const int version = root.schema_version({1, 2, kCalibrationSchemaVersion});
   CalibrationFile f;
   f.sensor_id = root.get<std::string>("sensor_id");
   f.date = root.get<std::string>("date");
@@ -396,6 +411,10 @@ CalibrationFile parse_calibration(const std::string& text, const std::string& na
     for (const char* key : {"active_model", "dynamic", "held_out"})
       if (root.has(key)) root.fail(key, "is a schema_version 2 key, but the file says schema_version = 1");
   }
+  if (version >= 3) root.with_section("estimator", [&](TomlSection& e) { f.cal.estimator = read_estimator(e); });
+  else if (root.has("estimator"))
+    root.fail("estimator", "is a schema_version 3 section, but the file says schema_version = " + std::to_string(version));
+  if (f.cal.estimator && !f.cal.dynamic) root.fail("estimator", "needs a [dynamic] section: it estimates that model's angle");
   // The effect terms `pof gap` accepted (it writes this layout as its model.toml, docs/gap.md).
   root.with_section("gap", [&](TomlSection& g) { f.cal.gap = read_gap(g); });
   root.finish();
@@ -437,7 +456,7 @@ pof::core::PotentiometerCalibration load_potentiometer(const std::string& path) 
   const toml::table t = read_toml_file(path, "TOML file with a [potentiometer] section");
   TomlSection root(t, path);
   // A potentiometer file of its own need not say its version; a calibration file does.
-  if (root.has("schema_version")) (void)root.schema_version({1, kCalibrationSchemaVersion});
+  if (root.has("schema_version")) (void)root.schema_version({1, 2, kCalibrationSchemaVersion});
   std::optional<TomlSection> section = root.find_section("potentiometer");
   for (const std::string_view key : kCalibrationOnlyKeys) root.ignore(key);
   root.finish();

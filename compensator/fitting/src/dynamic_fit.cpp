@@ -461,6 +461,11 @@ DynamicFitResult fit_dynamic(const VectorXd& t, const VectorXd& v, const VectorX
   Scored scored(res.candidates, pr, s, v, ang);
   res.chosen = search_structure(scored, s);
   fit_chosen(res, pr, s, v, ang);
+  try {
+    res.estimator = identify_estimator_noise(t, v, ang, s.estimator);
+  } catch (const std::runtime_error& e) {
+    res.estimator_note = e.what();
+  }
   return res;
 }
 

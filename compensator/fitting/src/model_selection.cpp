@@ -66,6 +66,7 @@ ModelComparison compare_held_out(const VectorXd& t, const VectorXd& sensor, cons
     }
     dynamic = paper;
     dynamic.dynamic = *refits[f];
+    dynamic.estimator = dyn.estimator;  // two noise levels, not the model: taken from the whole recording
     dynamic.active = ModelKind::kDynamic;
     const OfflineResult rp = compensate_recording(t, sensor, reference, VectorXd(), paper, cs);
     const OfflineResult rd = compensate_recording(t, sensor, reference, VectorXd(), dynamic, cs);

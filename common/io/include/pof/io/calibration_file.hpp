@@ -39,7 +39,8 @@
 
 namespace pof::io {
 
-inline constexpr int kCalibrationSchemaVersion = 2;
+// 3: [estimator] (the dynamic model's angle estimated; files without it keep the per-scan inverse).
+inline constexpr int kCalibrationSchemaVersion = 3;
 
 /// Both models' error against the reference angle on blocks held out of their fits.
 struct HeldOutSummary {

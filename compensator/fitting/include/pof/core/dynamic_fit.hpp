@@ -23,6 +23,7 @@
 #include <Eigen/Core>
 
 #include "pof/core/dynamic_model.hpp"
+#include "pof/core/estimator_noise.hpp"
 #include "pof/core/segmentation.hpp"
 
 namespace pof::core {
@@ -45,6 +46,7 @@ struct DynamicFitSettings {
   double fit_rate_hz = 50;              // rows of the normal equations are decimated to about this
   SegmentationSettings segmentation;
   double min_hold_s = 3.0;              // a hold at least this long counts for the "needs holds" check
+  EstimatorNoiseSettings estimator;
 };
 
 /// One structure tried, with its cross-validated error.
@@ -65,6 +67,9 @@ struct DynamicFitResult {
   double sensitivity_v_per_deg = 0;   // |dV/dtheta| of the least-squares line through the data
   std::vector<Eigen::Index> fold_begin, fold_end;  // the held-out blocks [begin, end)
   Eigen::Index n_used = 0;            // scans in the regression
+  // The angle estimator's noises (estimator_noise.hpp), or why they could not be identified.
+  std::optional<EstimatorNoise> estimator;
+  std::string estimator_note;
 };
 
 struct DynamicFitError : std::runtime_error {

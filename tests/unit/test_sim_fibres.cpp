@@ -492,6 +492,43 @@ TEST(SimGait, ExoskeletonSpeedsAreTrackedWithTheRecommendedKneeLimits) {
               g.worst_deg, g.vmax_rad_s, f.worst_deg, f.vmax_rad_s);
 }
 
+TEST(SimGait, HeldOutFastGaitPeaksAtThreeToFiveTimesTheFastestCalibrationVelocity) {
+  // The fastest commanded speed of the calibration protocol (its table-1 cycles and positioning moves).
+  const Scenario cal = pof::sim::builtin_scenario("fibre_calibration");
+  double fastest = 0;
+  for (const Segment& g : cal.trajectory) {
+    fastest = std::max(fastest, g.move_velocity_rad_s);
+    for (double v : g.velocities_rad_s) fastest = std::max(fastest, v);
+  }
+  EXPECT_EQ(fastest, *std::max_element(pof::sim::kTable1Velocities.begin(), pof::sim::kTable1Velocities.end()));
+  // Every gait segment of the held-out scenario peaks at 3-5x that on the simulated knee, tracked.
+  const Scenario s = pof::sim::builtin_scenario("heldout_fast_gait");
+  pof::sim::Trajectory t(s, 1, 1.0 / s.daq.scan_rate_hz);
+  std::vector<double> peak(s.trajectory.size(), 0.0);
+  double overall = 0;
+  while (!t.finished()) {
+    const auto& k = t.step();
+    if (t.finished()) break;
+    const double w = std::abs(k.velocity_deg_s) / kDegPerRad;
+    peak[static_cast<std::size_t>(k.segment)] = std::max(peak[static_cast<std::size_t>(k.segment)], w);
+    overall = std::max(overall, w);
+  }
+  int gait = 0;
+  for (std::size_t i = 0; i < s.trajectory.size(); ++i) {
+    if (s.trajectory[i].kind != SegmentKind::kGait) continue;
+    ++gait;
+    EXPECT_GE(peak[i], 3 * fastest) << i;
+    EXPECT_LE(peak[i], 5 * fastest) << i;
+    std::printf("heldout_fast_gait segment %zu: peak %.3f rad/s = %.2fx %.4f rad/s\n", i, peak[i], peak[i] / fastest, fastest);
+  }
+  EXPECT_GE(gait, 3);
+  EXPECT_LE(overall, 5 * fastest);
+  const Tracking g = gait_tracking(s);
+  EXPECT_GT(g.ticks, 70 * 200);
+  EXPECT_LT(g.worst_deg, 1.0);
+  std::printf("heldout_fast_gait: tracked within %.3f deg\n", g.worst_deg);
+}
+
 // ------------------------------------------------------------------------------ scenarios and keys
 TEST(SimFibreScenarios, LoadShareTheFibreAndLastAsPlanned) {
   const Scenario cal = pof::sim::builtin_scenario("fibre_calibration");
@@ -526,8 +563,8 @@ TEST(SimFibreScenarios, LoadShareTheFibreAndLastAsPlanned) {
     return same;
   };
   struct Want { const char* name; double lo_s, hi_s; };
-  for (const Want w : {Want{"fibre_session", 90, 120}, Want{"heldout_gait", 60, 90}, Want{"heldout_rehab", 120, 200},
-                       Want{"heldout_random", 100, 140}}) {
+  for (const Want w : {Want{"fibre_session", 90, 120}, Want{"heldout_gait", 60, 90}, Want{"heldout_fast_gait", 80, 110},
+                       Want{"heldout_rehab", 120, 200}, Want{"heldout_random", 100, 140}}) {
     const Scenario s = pof::sim::builtin_scenario(w.name);
     EXPECT_TRUE(same_sensor(s.sensor, cal.sensor)) << w.name;
     EXPECT_EQ(s.daq.resolution_bits(), 12) << w.name;

@@ -49,6 +49,9 @@ auto width_range = [](double v) { return v > 0 && v <= 180 ? std::string{} : std
 auto shape_range = [](double v) { return v >= 0.5 && v <= 20 ? std::string{} : std::string("an exponent in [0.5, 20]"); };
 auto beta_fraction_range = [](double v) { return v > 0 && v <= 1 ? std::string{} : std::string("a fraction in (0, 1]"); };
 auto lag_tau_range = [](double v) { return v > 0 && v <= 600 ? std::string{} : std::string("a time constant in (0, 600] s"); };
+// Preisach density (docs/simulator.md).
+auto spread_range = [](double v) { return v >= 0 && v <= 90 ? std::string{} : std::string("a spread in [0, 90] deg"); };
+auto half_width_range = [](double v) { return v > 0 && v <= 90 ? std::string{} : std::string("a half-width in (0, 90] deg"); };
 auto probability = [](double v) { return v >= 0 && v <= 1 ? std::string{} : std::string("a probability in [0, 1]"); };
 
 // An optional array of numbers, each satisfying `each`, read into `out` when present.
@@ -258,7 +261,8 @@ Scenario read_scenario(const toml::table& root, const std::string& source) {
     s.with_section("memory_hysteresis", [&](TomlSection& h) {
       auto& mh = se.memory_hysteresis;
       mh.enabled = h.get_or("enabled", mh.enabled);
-      mh.family = h.get_enum_or("family", mh.family, {{"bouc_wen", MemoryHysteresisFamily::kBoucWen}, {"maxwell_slip", MemoryHysteresisFamily::kMaxwellSlip}});
+      mh.family = h.get_enum_or("family", mh.family, {{"bouc_wen", MemoryHysteresisFamily::kBoucWen}, {"maxwell_slip", MemoryHysteresisFamily::kMaxwellSlip},
+                                                       {"preisach", MemoryHysteresisFamily::kPreisach}});
       mh.amplitude_v = h.get_or("amplitude_v", mh.amplitude_v, amplitude_range);
       mh.rate_sensitivity_s_per_rad = h.get_or("rate_sensitivity_s_per_rad", mh.rate_sensitivity_s_per_rad, rate_sensitivity_range);
       mh.rate_filter_s = h.get_or("rate_filter_s", mh.rate_filter_s, non_negative);
@@ -275,6 +279,10 @@ Scenario read_scenario(const toml::table& root, const std::string& source) {
       double wsum = 0;
       for (double w : mh.weights) wsum += w;
       if (!(wsum > 0)) h.fail("weights", "expected at least one weight > 0");
+      mh.centre_deg = h.get_or("centre_deg", mh.centre_deg, angle_range);
+      mh.centre_spread_deg = h.get_or("centre_spread_deg", mh.centre_spread_deg, spread_range);
+      mh.half_width_deg = h.get_or("half_width_deg", mh.half_width_deg, half_width_range);
+      mh.half_width_spread_deg = h.get_or("half_width_spread_deg", mh.half_width_spread_deg, spread_range);
     });
     s.with_section("viscoelastic_lag", [&](TomlSection& l) {
       se.viscoelastic_lag.enabled = l.get_or("enabled", se.viscoelastic_lag.enabled);
@@ -403,8 +411,9 @@ void validate(const Scenario& s) {
       const std::string want = std::isfinite(v) ? rule.want(v) : std::string("a finite number");
       if (!want.empty()) bad(k + key, "expected " + want + ", got " + format_number(v));
     };
-    if (mh.family != MemoryHysteresisFamily::kBoucWen && mh.family != MemoryHysteresisFamily::kMaxwellSlip)
-      bad(k + "family", "expected 'bouc_wen' or 'maxwell_slip'");
+    if (mh.family != MemoryHysteresisFamily::kBoucWen && mh.family != MemoryHysteresisFamily::kMaxwellSlip &&
+        mh.family != MemoryHysteresisFamily::kPreisach)
+      bad(k + "family", "expected 'bouc_wen', 'maxwell_slip' or 'preisach'");
     check("amplitude_v", mh.amplitude_v, amplitude_range);
     check("rate_sensitivity_s_per_rad", mh.rate_sensitivity_s_per_rad, rate_sensitivity_range);
     check("rate_filter_s", mh.rate_filter_s, non_negative);
@@ -423,6 +432,10 @@ void validate(const Scenario& s) {
       }
       if (!(wsum > 0)) bad(k + "weights", "expected at least one weight > 0");
     }
+    check("centre_deg", mh.centre_deg, angle_range);
+    check("centre_spread_deg", mh.centre_spread_deg, spread_range);
+    check("half_width_deg", mh.half_width_deg, half_width_range);
+    check("half_width_spread_deg", mh.half_width_spread_deg, spread_range);
     check("viscoelastic_lag.tau_s", s.sensor.viscoelastic_lag.tau_s, lag_tau_range);
   }
   if (s.light.wander.enabled && !(s.light.wander.tau_s > 0)) bad("light.wander.tau_s", "expected a number > 0");

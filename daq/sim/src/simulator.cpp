@@ -97,6 +97,38 @@ Simulator::Simulator(const Scenario& s, std::uint64_t seed, double scan_rate_hz)
       slip_w_.push_back(mh.weights[i] / wsum / mh.thresholds_deg[i]);
     }
   }
+  if (mh.enabled && mh.family == MemoryHysteresisFamily::kPreisach) {
+    // Discretised Preisach model (Mayergoyz 1991): relays on a fixed grid over the centre
+    // u = (alpha + beta) / 2 (mean +- 3 spreads) and the half-width v = (alpha - beta) / 2
+    // ([max(0, mean - 3 spreads), mean + 3 spreads]), at the cells' midpoints, weighted by the
+    // factorised Gaussian density; a spread of 0 is one row. Everything per scan is precomputed here.
+    const int nu = mh.centre_spread_deg > 0 ? kPreisachGrid : 1;
+    const int nv = mh.half_width_spread_deg > 0 ? kPreisachGrid : 1;
+    const double u_lo = mh.centre_deg - 3.0 * mh.centre_spread_deg;
+    const double du = 6.0 * mh.centre_spread_deg / nu;
+    const double v_lo = std::max(0.0, mh.half_width_deg - 3.0 * mh.half_width_spread_deg);
+    const double dv = (mh.half_width_deg + 3.0 * mh.half_width_spread_deg - v_lo) / nv;
+    auto z = [](double x, double mean, double spread) { return spread > 0 ? (x - mean) / spread : 0.0; };
+    double wsum = 0;
+    for (int i = 0; i < nu; ++i) {
+      const double u = u_lo + (i + 0.5) * du;
+      for (int j = 0; j < nv; ++j) {
+        const double v = v_lo + (j + 0.5) * dv;
+        const double zu = z(u, mh.centre_deg, mh.centre_spread_deg), zv = z(v, mh.half_width_deg, mh.half_width_spread_deg);
+        relay_alpha_.push_back(u + v);
+        relay_beta_.push_back(u - v);
+        relay_w_.push_back(std::exp(-0.5 * (zu * zu + zv * zv)));
+        // The demagnetised state at the start angle: relays centred below it up, the others down
+        // (the memory line alpha + beta = 2 theta_0).
+        relay_r_.push_back(u < s.knee.start_deg ? 1.0 : -1.0);
+        wsum += relay_w_.back();
+      }
+    }
+    for (std::size_t i = 0; i < relay_w_.size(); ++i) {
+      relay_w_[i] /= wsum;
+      relay_sum_ += relay_w_[i] * relay_r_[i];
+    }
+  }
   speed_alpha_ = mh.rate_filter_s > 0 ? 1.0 - std::exp(-dt_ / mh.rate_filter_s) : 1.0;
   fibre_angle_ = s.knee.start_deg;
   prev_knee_angle_ = s.knee.start_deg;
@@ -137,6 +169,20 @@ double Simulator::quantise(double v, int channel, std::uint8_t& over) const {
     over = static_cast<std::uint8_t>(over | (1U << channel));
   }
   return code * lsb_ - range_;
+}
+
+double Simulator::preisach_step(double theta_deg) {
+  // Each relay is up once the angle reaches alpha, down once it falls to beta, else unchanged:
+  // exact for any monotone increment between scans. The state is -sum w_i R_i, so that the
+  // flexion branch lies above (the voltage falls with bend and lags it), as for the other families.
+  double acc = 0;
+  for (std::size_t i = 0; i < relay_r_.size(); ++i) {
+    const double r = theta_deg >= relay_alpha_[i] ? 1.0 : (theta_deg <= relay_beta_[i] ? -1.0 : relay_r_[i]);
+    relay_r_[i] = r;
+    acc += relay_w_[i] * r;
+  }
+  relay_sum_ = acc;
+  return std::clamp(-acc, -1.0, 1.0);
 }
 
 double Simulator::bouc_wen_step(double dtheta_deg) {
@@ -223,6 +269,9 @@ void Simulator::step(Scan& out, EffectTrace* tr) {
     mem_prev_angle_ = theta_f;
     if (mh.family == MemoryHysteresisFamily::kBoucWen) {
       mem_state = bouc_wen_step(dtheta);
+    } else if (mh.family == MemoryHysteresisFamily::kPreisach) {
+      // In a hold no relay can switch: skip the sweep over the grid.
+      mem_state = dtheta != 0.0 ? preisach_step(theta_f) : std::clamp(-relay_sum_, -1.0, 1.0);
     } else {
       // Maxwell-slip (Lampaert, Al-Bender, Swevers 2003; Goldfarb and Celanovic 1997): element i
       // is elastic until its slip threshold r_i, e_i <- clamp(e_i + dtheta, -r_i, r_i) (the stop

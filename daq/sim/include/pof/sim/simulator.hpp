@@ -39,7 +39,7 @@ struct EffectTrace {
   double memory_hysteresis_v;  // sensor.memory_hysteresis [V, normalised]
   double viscoelastic_lag_v;   // quasi-static line + nonlinearity at the lagged angle minus at the true one
   double lag_deg;              // true angle - the fibre's effective (lagged) angle [deg]
-  double memory_state;         // the hysteresis state: Bouc-Wen z or sum w_i e_i / r_i, in [-1, 1]
+  double memory_state;         // the hysteresis state: Bouc-Wen z, sum w_i e_i / r_i or -sum w_i R_i, in [-1, 1]
   double normalised_v;         // sum of the above: the noise-free normalised sensor voltage
   double source_power_rel;     // light-source power / nominal
   double pot_error_deg;        // potentiometer angle - true angle (backlash, linearity, vibration)
@@ -67,6 +67,7 @@ class Simulator {
  private:
   void step(Scan& out, EffectTrace* tr);
   double bouc_wen_step(double dtheta_deg);
+  double preisach_step(double theta_deg);
   double quantise(double v, int channel, std::uint8_t& over) const;
 
   Scenario sc_;
@@ -90,6 +91,10 @@ class Simulator {
   // stop operators of Maxwell-slip.
   double bw_z_ = 0, bw_a_ = 0, bw_beta_ = 0, bw_gamma_ = 0, bw_max_substep_deg_ = 1;
   std::vector<double> slip_e_, slip_r_, slip_w_;  // element strain [deg], threshold [deg], weight / threshold
+  // Preisach relays: state (+-1), switch-up angle alpha, switch-down angle beta [deg], weight
+  // (normalised to sum 1), and the weighted sum of the states at the last update.
+  std::vector<double> relay_r_, relay_alpha_, relay_beta_, relay_w_;
+  double relay_sum_ = 0;
   double mem_prev_angle_ = 0;  // fibre angle at the last hysteresis update
   double speed_filt_ = 0, speed_alpha_ = 1;  // low-passed |omega| [rad/s] and its update gain
   double drift_rw_ = 0, drift_rw_step_ = 0;

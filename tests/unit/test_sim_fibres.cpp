@@ -413,6 +413,60 @@ TEST(SimViscoelasticLag, LoopWidensWithSpeedAndAppliesToEveryFibreTerm) {
   }
 }
 
+
+// ------------------------------------------------------------------------------ power-law relaxation
+TEST(SimPowerLawRelaxation, AStepRelaxesAsTToTheMinusN) {
+  for (const double n : {0.2, 0.5, 0.8}) {
+    Scenario s = quiet();
+    s.knee.max_velocity_rad_s = 4;
+    s.knee.max_acceleration_rad_s2 = 200;
+    s.knee.start_deg = 30;
+    auto& p = s.sensor.power_law_relaxation;
+    p.enabled = true;
+    p.gain_v_per_deg = -0.0003;
+    p.exponent = n;
+    p.min_time_s = 0.1;
+    p.max_time_s = 300;
+    s.trajectory = {go(40, 3.0, 120)};  // a 10-deg bend in ~0.08 s, then a 2-min hold
+    const SimRun r = run(s);
+    // The bend's centroid in time (each scan's increment ramps over the scan before it).
+    double moment = 0, bend = 0;
+    for (std::size_t i = 1; i < r.scans.size(); ++i) {
+      const double d = r.scans[i].angle_true_deg - r.scans[i - 1].angle_true_deg;
+      moment += (r.scans[i].t_s - 0.0025) * d;
+      bend += d;
+    }
+    ASSERT_NEAR(bend, 10, 1e-9);
+    const double t0 = moment / bend;
+    // Log-log fit over 1-100 s after the bend, at 41 log-spaced times.
+    std::vector<double> x, y;
+    for (int k = 0; k <= 40; ++k) {
+      const double t = t0 + std::pow(10.0, k / 20.0);
+      const auto i = static_cast<std::size_t>(std::llround(t * 200));
+      ASSERT_LT(i, r.scans.size());
+      ASSERT_EQ(r.trace[i].velocity_rad_s, 0.0);
+      x.push_back(std::log(r.scans[i].t_s - t0));
+      y.push_back(std::log(-r.trace[i].power_law_relaxation_v));
+    }
+    double mx = 0, my = 0;
+    const auto m = static_cast<double>(x.size());
+    for (std::size_t k = 0; k < x.size(); ++k) mx += x[k] / m, my += y[k] / m;
+    double sxy = 0, sxx = 0;
+    for (std::size_t k = 0; k < x.size(); ++k) sxy += (x[k] - mx) * (y[k] - my), sxx += (x[k] - mx) * (x[k] - mx);
+    const double slope = sxy / sxx, icpt = my - slope * mx;
+    double worst = 0;
+    for (std::size_t k = 0; k < x.size(); ++k) worst = std::max(worst, std::abs(y[k] - (icpt + slope * x[k])));
+    EXPECT_NEAR(slope, -n, 0.01) << n;
+    EXPECT_LT(worst, 0.01) << n << ": the points lie on the power law within 1 %";
+    // The level: g * bend * t^-n at t = 10 s.
+    const auto i10 = static_cast<std::size_t>(std::llround((t0 + 10) * 200));
+    const double want10 = -0.0003 * 10 * std::pow(r.scans[i10].t_s - t0, -n);
+    EXPECT_NEAR(r.trace[i10].power_law_relaxation_v / want10, 1.0, 0.015) << n;
+    std::printf("power law n = %.1f: log-log slope %.4f over 1-100 s, worst residual %.2e, level at 10 s %.4f of g d t^-n\n", n, slope,
+                worst, r.trace[i10].power_law_relaxation_v / want10);
+  }
+}
+
 // ------------------------------------------------------------------------------ determinism
 TEST(SimFibreEffects, OffByDefaultAndNoRandomDraws) {
   // New effects configured but disabled change nothing, bit for bit (realistic: every random stream
@@ -711,6 +765,12 @@ TEST(SimFibreScenarios, BadKeysAreNamed) {
   EXPECT_NE(e.find("t.toml:8: key 'sensor.memory_hysteresis.centre_spread_deg': expected a spread in [0, 90] deg, got -1"), std::string::npos) << e;
   e = config_error(kMinimal + "[sensor.memory_hysteresis]\nhalf_width_deg = 0\n");
   EXPECT_NE(e.find("t.toml:6: key 'sensor.memory_hysteresis.half_width_deg': expected a half-width in (0, 90] deg, got 0"), std::string::npos) << e;
+  e = config_error(kMinimal + "[sensor.power_law_relaxation]\nenabled = true\nexponent = 1\n");
+  EXPECT_NE(e.find("t.toml:7: key 'sensor.power_law_relaxation.exponent': expected an exponent in (0, 1), got 1"), std::string::npos) << e;
+  e = config_error(kMinimal + "[sensor.power_law_relaxation]\nmin_time_s = 10\nmax_time_s = 50\n");
+  EXPECT_NE(e.find("key 'sensor.power_law_relaxation.max_time_s': expected max_time_s / min_time_s in [10, 1e8]"), std::string::npos) << e;
+  e = config_error(kMinimal + "[sensor.power_law_relaxation]\nmin_time_s = 0\n");
+  EXPECT_NE(e.find("t.toml:6: key 'sensor.power_law_relaxation.min_time_s'"), std::string::npos) << e;
   e = config_error(kMinimal + "[sensor.memory_hysteresis]\nwidth_deg = -3\n");
   EXPECT_NE(e.find("t.toml:6: key 'sensor.memory_hysteresis.width_deg': expected an angle in (0, 180] deg, got -3"), std::string::npos) << e;
   e = config_error(kMinimal + "[sensor.memory_hysteresis]\nwidht_deg = 3\n");

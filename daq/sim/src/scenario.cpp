@@ -52,6 +52,13 @@ auto lag_tau_range = [](double v) { return v > 0 && v <= 600 ? std::string{} : s
 // Preisach density (docs/simulator.md).
 auto spread_range = [](double v) { return v >= 0 && v <= 90 ? std::string{} : std::string("a spread in [0, 90] deg"); };
 auto half_width_range = [](double v) { return v > 0 && v <= 90 ? std::string{} : std::string("a half-width in (0, 90] deg"); };
+// Power-law relaxation. max_time_s / min_time_s: at least a decade (a power law over less is not
+// one), at most 8 (the bank, 3 terms per decade over the range and a decade either side, stays
+// <= 32 terms).
+auto exponent_range = [](double v) { return v > 0 && v < 1 ? std::string{} : std::string("an exponent in (0, 1)"); };
+auto relaxation_time_range = [](double v) { return v >= 1e-3 && v <= 1e5 ? std::string{} : std::string("a time in [0.001, 100000] s"); };
+auto gain_range = [](double v) { return std::abs(v) <= 0.1 ? std::string{} : std::string("a gain in [-0.1, 0.1] V/deg"); };
+constexpr double kMinRelaxationRange = 10, kMaxRelaxationRange = 1e8;
 auto probability = [](double v) { return v >= 0 && v <= 1 ? std::string{} : std::string("a probability in [0, 1]"); };
 
 // An optional array of numbers, each satisfying `each`, read into `out` when present.
@@ -288,6 +295,18 @@ Scenario read_scenario(const toml::table& root, const std::string& source) {
       se.viscoelastic_lag.enabled = l.get_or("enabled", se.viscoelastic_lag.enabled);
       se.viscoelastic_lag.tau_s = l.get_or("tau_s", se.viscoelastic_lag.tau_s, lag_tau_range);
     });
+    s.with_section("power_law_relaxation", [&](TomlSection& p) {
+      auto& pl = se.power_law_relaxation;
+      pl.enabled = p.get_or("enabled", pl.enabled);
+      pl.gain_v_per_deg = p.get_or("gain_v_per_deg", pl.gain_v_per_deg, gain_range);
+      pl.exponent = p.get_or("exponent", pl.exponent, exponent_range);
+      pl.min_time_s = p.get_or("min_time_s", pl.min_time_s, relaxation_time_range);
+      pl.max_time_s = p.get_or("max_time_s", pl.max_time_s, relaxation_time_range);
+      const double ratio = pl.max_time_s / pl.min_time_s;
+      if (!(ratio >= kMinRelaxationRange && ratio <= kMaxRelaxationRange))
+        p.fail("max_time_s", "expected max_time_s / min_time_s in [10, 1e8] (a power law over 1 to 8 decades), got " + format_number(pl.max_time_s) +
+                                 " / " + format_number(pl.min_time_s));
+    });
   });
 
   top.with_section("light", [&](TomlSection& l) {
@@ -437,6 +456,20 @@ void validate(const Scenario& s) {
     check("half_width_deg", mh.half_width_deg, half_width_range);
     check("half_width_spread_deg", mh.half_width_spread_deg, spread_range);
     check("viscoelastic_lag.tau_s", s.sensor.viscoelastic_lag.tau_s, lag_tau_range);
+  }
+  {
+    auto check = [&](const std::string& key, double v, const TomlCheck<double>& rule) {
+      const std::string want = std::isfinite(v) ? rule.want(v) : std::string("a finite number");
+      if (!want.empty()) bad("sensor." + key, "expected " + want + ", got " + format_number(v));
+    };
+    const auto& pl = s.sensor.power_law_relaxation;
+    check("power_law_relaxation.gain_v_per_deg", pl.gain_v_per_deg, gain_range);
+    check("power_law_relaxation.exponent", pl.exponent, exponent_range);
+    check("power_law_relaxation.min_time_s", pl.min_time_s, relaxation_time_range);
+    check("power_law_relaxation.max_time_s", pl.max_time_s, relaxation_time_range);
+    const double ratio = pl.max_time_s / pl.min_time_s;
+    if (!(ratio >= kMinRelaxationRange && ratio <= kMaxRelaxationRange))
+      bad("sensor.power_law_relaxation.max_time_s", "expected max_time_s / min_time_s in [10, 1e8]");
   }
   if (s.light.wander.enabled && !(s.light.wander.tau_s > 0)) bad("light.wander.tau_s", "expected a number > 0");
   if (s.daq.time_delay.enabled && !(s.daq.time_delay.delay_s >= 0)) bad("daq.time_delay.delay_s", "expected a number >= 0");

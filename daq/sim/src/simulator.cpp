@@ -130,9 +130,34 @@ Simulator::Simulator(const Scenario& s, std::uint64_t seed, double scan_rate_hz)
     }
   }
   speed_alpha_ = mh.rate_filter_s > 0 ? 1.0 - std::exp(-dt_ / mh.rate_filter_s) : 1.0;
+  if (const auto& pl = s.sensor.power_law_relaxation; pl.enabled) {
+    // t^-n = (1 / Gamma(n)) integral of tau^-n e^(-t/tau) d(ln tau): the rectangle rule on a log
+    // grid of time constants (3 per decade: ripple < 1e-4 relative) from min_time_s / 10 to
+    // max_time_s x 10, plus one term for the spectrum beyond the grid, whose contribution is
+    // ~constant over the range: weight tau_e^-n / Gamma(n + 1), time constant tau_e (n + 1) / n
+    // (matches it to first order in t / tau_e). docs/simulator.md, "Power-law relaxation".
+    constexpr int kPerDecade = 3;
+    const double n = pl.exponent, h = std::log(10.0) / kPerDecade;
+    const double tau_lo = pl.min_time_s / 10.0;
+    const int terms = static_cast<int>(std::ceil(std::log10(100.0 * pl.max_time_s / pl.min_time_s) * kPerDecade)) + 1;
+    auto add = [&](double tau, double weight) {
+      const double e = std::exp(-dt_ / tau);
+      plr_decay_.push_back(e);
+      plr_gain_.push_back(tau / dt_ * (1.0 - e));  // as creep: exact for a linear ramp in a tick
+      plr_w_.push_back(pl.gain_v_per_deg * weight);
+      plr_m_.push_back(0.0);
+    };
+    for (int j = 0; j < terms; ++j) {
+      const double tau = tau_lo * std::exp(j * h);
+      add(tau, h * std::pow(tau, -n) / std::tgamma(n));
+    }
+    const double tau_edge = tau_lo * std::exp((terms - 0.5) * h);
+    add(tau_edge * (n + 1.0) / n, std::pow(tau_edge, -n) / std::tgamma(n + 1.0));
+  }
   fibre_angle_ = s.knee.start_deg;
   prev_knee_angle_ = s.knee.start_deg;
   mem_prev_angle_ = s.knee.start_deg;
+  plr_prev_angle_ = s.knee.start_deg;
   drift_rw_step_ = s.sensor.drift.random_walk_v_per_sqrt_hour * std::sqrt(dt_ / 3600.0);
   wander_decay_ = std::exp(-dt_ / s.light.wander.tau_s);
   wander_kick_ = s.light.wander.sigma_rel * std::sqrt(1.0 - wander_decay_ * wander_decay_);
@@ -292,7 +317,20 @@ void Simulator::step(Scan& out, EffectTrace* tr) {
     drift = se.drift.rate_v_per_hour * t / 3600.0 + drift_rw_;
     if (drift_rw_step_ > 0) drift_rw_ += drift_rw_step_ * rng_drift_.normal();
   }
-  const double v_norm = v_line + snl + hyst + rdh + creep + acc + drift + mem;
+  double plr = 0;
+  if (se.power_law_relaxation.enabled) {
+    // A bank of Prony terms updated as creep's (constructor; docs/simulator.md).
+    const double dtheta = theta_f - plr_prev_angle_;
+    plr_prev_angle_ = theta_f;
+    for (std::size_t i = 0; i < plr_m_.size(); ++i) {
+      plr_m_[i] = plr_m_[i] * plr_decay_[i] + dtheta * plr_gain_[i];
+      plr += plr_w_[i] * plr_m_[i];
+    }
+  }
+  // The effects added after the original sum, and only when on, so that scenarios without them
+  // give the same doubles bit for bit.
+  double v_norm = v_line + snl + hyst + rdh + creep + acc + drift + mem;
+  if (se.power_law_relaxation.enabled) v_norm += plr;
 
   // --- light path: one source feeds both fibres, so the reference cancels its power changes ---
   const LightSettings& li = sc_.light;
@@ -401,6 +439,7 @@ void Simulator::step(Scan& out, EffectTrace* tr) {
     tr->viscoelastic_lag_v = theta_f == theta ? 0.0 : (v_line + snl) - qs_true;
     tr->lag_deg = theta - theta_f;
     tr->memory_state = mem_state;
+    tr->power_law_relaxation_v = plr;
     tr->normalised_v = v_norm;
     tr->source_power_rel = power;
     tr->pot_error_deg = pot_angle - theta;

@@ -125,6 +125,14 @@ struct SensorSettings {
   // First-order lag of the fibre's effective bend behind the knee (Kelvin-Voigt-like):
   // theta_f' = (theta - theta_f) / tau. The fibre-side terms are evaluated at theta_f.
   struct ViscoelasticLag { bool enabled = false; double tau_s = 0.3; } viscoelastic_lag;
+  // Nutting (fractional) relaxation: a sudden bend of d deg adds gain_v_per_deg * d * (t / 1 s)^-n,
+  // t the time since the bend, over [min_time_s, max_time_s]; run as a fixed bank of Prony terms.
+  struct PowerLawRelaxation {
+    bool enabled = false;
+    double gain_v_per_deg = -0.0003;  // the response 1 s after the bend, per degree of bend
+    double exponent = 0.3;            // n, in (0, 1)
+    double min_time_s = 0.1, max_time_s = 300;  // where the t^-n law holds
+  } power_law_relaxation;
 };
 
 // ---------------------------------------------------------------- light path

@@ -40,6 +40,7 @@ struct EffectTrace {
   double viscoelastic_lag_v;   // quasi-static line + nonlinearity at the lagged angle minus at the true one
   double lag_deg;              // true angle - the fibre's effective (lagged) angle [deg]
   double memory_state;         // the hysteresis state: Bouc-Wen z, sum w_i e_i / r_i or -sum w_i R_i, in [-1, 1]
+  double power_law_relaxation_v;  // sensor.power_law_relaxation [V, normalised]
   double normalised_v;         // sum of the above: the noise-free normalised sensor voltage
   double source_power_rel;     // light-source power / nominal
   double pot_error_deg;        // potentiometer angle - true angle (backlash, linearity, vibration)
@@ -95,6 +96,9 @@ class Simulator {
   // (normalised to sum 1), and the weighted sum of the states at the last update.
   std::vector<double> relay_r_, relay_alpha_, relay_beta_, relay_w_;
   double relay_sum_ = 0;
+  // Power-law relaxation: its bank of Prony terms (state, e^{-dt/tau}, input weight, output weight).
+  std::vector<double> plr_m_, plr_decay_, plr_gain_, plr_w_;
+  double plr_prev_angle_ = 0;
   double mem_prev_angle_ = 0;  // fibre angle at the last hysteresis update
   double speed_filt_ = 0, speed_alpha_ = 1;  // low-passed |omega| [rad/s] and its update gain
   double drift_rw_ = 0, drift_rw_step_ = 0;

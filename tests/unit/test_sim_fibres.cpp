@@ -467,6 +467,69 @@ TEST(SimPowerLawRelaxation, AStepRelaxesAsTToTheMinusN) {
   }
 }
 
+// ------------------------------------------------------------------------------ cyclic softening
+TEST(SimCyclicSoftening, SensitivityFallsByTheStatedAmountAfterTheStatedTravel) {
+  Scenario s = quiet();
+  auto& c = s.sensor.cyclic_softening;
+  c.enabled = true;
+  c.depth = 0.1;
+  c.travel_scale_deg = 1000;
+  // Holds at 30 and 60 deg (travel 30, 60), back to 0 (120), four 0-90-0 cycles (840), then
+  // 80 (920), 40 (960) and 80 again: a hold after exactly L0 = 1000 deg of travel.
+  s.trajectory = {go(30, 0.3, 1), go(60, 0.3, 1), go(0, 0.3, 0.5), cycles({0.4, 0.4, 0.4, 0.4}, 0, 90, 0.5),
+                  go(80, 0.3, 0.5), go(40, 0.3, 0.5), go(80, 0.3, 1)};
+  const SimRun r = run(s);
+  // The travel is the sum of |d theta| of the fibre; the trace's contribution adds up.
+  double travel = 0;
+  for (std::size_t i = 1; i < r.scans.size(); ++i) {
+    travel += std::abs(r.scans[i].angle_true_deg - r.scans[i - 1].angle_true_deg);
+    ASSERT_NEAR(r.trace[i].travel_deg, travel, 1e-9);
+    ASSERT_NEAR(r.trace[i].quasi_static_v + r.trace[i].cyclic_softening_v, r.trace[i].normalised_v, 1e-12);
+  }
+  EXPECT_NEAR(travel, 1000, 1e-9);
+  // In a hold the bend response relative to the straight fibre is S(L) times the new fibre's.
+  const double v0 = pof::core::quasi_static_voltage(s.sensor.model, 0);
+  auto response = [&](std::size_t i) {
+    return (r.trace[i].normalised_v - v0) / (pof::core::quasi_static_voltage(s.sensor.model, r.scans[i].angle_true_deg) - v0);
+  };
+  auto softened = [](double l) { return 1 - 0.1 * (1 - std::exp(-l / 1000)); };
+  const std::size_t h30 = hold_at(r, 30).first, h60 = hold_at(r, 60).first;
+  const std::size_t end = r.scans.size() - 1;
+  ASSERT_EQ(r.trace[end].velocity_rad_s, 0.0);
+  EXPECT_NEAR(response(h30), softened(30), 1e-9);
+  EXPECT_NEAR(response(h60), softened(60), 1e-9);
+  EXPECT_NEAR(r.trace[end].travel_deg, 1000, 1e-9);
+  EXPECT_NEAR(response(end), 1 - 0.1 * (1 - std::exp(-1.0)), 1e-9);  // 0.9368 after L0
+  const double early = (r.trace[h60].normalised_v - v0) / 60, late = (r.trace[end].normalised_v - v0) / 80;
+  std::printf("cyclic softening: depth 0.1, L0 1000 deg: secant sensitivity %.6f V/deg after 60 deg of travel, %.6f after 1000 (%.5f)\n",
+              early, late, late / early);
+}
+
+TEST(SimCyclicSoftening, LoopShrinksWithLoopDepth) {
+  // Maxwell-slip saturates within 20 deg: at 45 deg of a 0-90 cycle the loop is A (S_loop(L_f) +
+  // S_loop(L_e)), the travel at the two crossings; with depth 0 the line does not change.
+  Scenario s = with_memory(MemoryHysteresisFamily::kMaxwellSlip);
+  auto& c = s.sensor.cyclic_softening;
+  c.enabled = true;
+  c.depth = 0;
+  c.loop_depth = 0.3;
+  c.travel_scale_deg = 500;
+  s.trajectory = {cycles({0.2, 0.2, 0.2, 0.2}, 0, 90, 0.5)};
+  const SimRun r = run(s);
+  auto v = [](const EffectTrace& t) { return t.normalised_v; };
+  auto travel = [](const EffectTrace& t) { return t.travel_deg; };
+  auto soft = [](double l) { return 1 - 0.3 * (1 - std::exp(-l / 500)); };
+  std::size_t from = 1;
+  for (int k = 0; k < 4; ++k) {
+    // The k-th cycle: its flexion crossing of 45 deg starts at travel 180 k + 45.
+    while (r.trace[from].travel_deg < 180.0 * k + 40) ++from;
+    const double loop = at_crossing(r, 0.2, 45, v, from) - at_crossing(r, -0.2, 45, v, from);
+    const double lf = at_crossing(r, 0.2, 45, travel, from), le = at_crossing(r, -0.2, 45, travel, from);
+    EXPECT_NEAR(lf, 180.0 * k + 45, 1e-6);
+    EXPECT_NEAR(loop, 0.025 * (soft(lf) + soft(le)), 1e-9) << k;
+  }
+}
+
 // ------------------------------------------------------------------------------ determinism
 TEST(SimFibreEffects, OffByDefaultAndNoRandomDraws) {
   // New effects configured but disabled change nothing, bit for bit (realistic: every random stream
@@ -771,6 +834,12 @@ TEST(SimFibreScenarios, BadKeysAreNamed) {
   EXPECT_NE(e.find("key 'sensor.power_law_relaxation.max_time_s': expected max_time_s / min_time_s in [10, 1e8]"), std::string::npos) << e;
   e = config_error(kMinimal + "[sensor.power_law_relaxation]\nmin_time_s = 0\n");
   EXPECT_NE(e.find("t.toml:6: key 'sensor.power_law_relaxation.min_time_s'"), std::string::npos) << e;
+  e = config_error(kMinimal + "[sensor.cyclic_softening]\nenabled = true\ndepth = 1\n");
+  EXPECT_NE(e.find("t.toml:7: key 'sensor.cyclic_softening.depth': expected a fraction in [0, 1), got 1"), std::string::npos) << e;
+  e = config_error(kMinimal + "[sensor.cyclic_softening]\ntravel_scale_deg = -5\n");
+  EXPECT_NE(e.find("t.toml:6: key 'sensor.cyclic_softening.travel_scale_deg': expected a travel in (0, 1e9] deg, got -5"), std::string::npos) << e;
+  e = config_error(kMinimal + "[sensor.cyclic_softening]\ntravel_scale = 500\n");
+  EXPECT_NE(e.find("t.toml:6: unknown key 'travel_scale' in [sensor.cyclic_softening] (did you mean 'travel_scale_deg'?)"), std::string::npos) << e;
   e = config_error(kMinimal + "[sensor.memory_hysteresis]\nwidth_deg = -3\n");
   EXPECT_NE(e.find("t.toml:6: key 'sensor.memory_hysteresis.width_deg': expected an angle in (0, 180] deg, got -3"), std::string::npos) << e;
   e = config_error(kMinimal + "[sensor.memory_hysteresis]\nwidht_deg = 3\n");

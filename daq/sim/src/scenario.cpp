@@ -59,6 +59,9 @@ auto exponent_range = [](double v) { return v > 0 && v < 1 ? std::string{} : std
 auto relaxation_time_range = [](double v) { return v >= 1e-3 && v <= 1e5 ? std::string{} : std::string("a time in [0.001, 100000] s"); };
 auto gain_range = [](double v) { return std::abs(v) <= 0.1 ? std::string{} : std::string("a gain in [-0.1, 0.1] V/deg"); };
 constexpr double kMinRelaxationRange = 10, kMaxRelaxationRange = 1e8;
+// Cyclic softening.
+auto depth_range = [](double v) { return v >= 0 && v < 1 ? std::string{} : std::string("a fraction in [0, 1)"); };
+auto travel_scale_range = [](double v) { return v > 0 && v <= 1e9 ? std::string{} : std::string("a travel in (0, 1e9] deg"); };
 auto probability = [](double v) { return v >= 0 && v <= 1 ? std::string{} : std::string("a probability in [0, 1]"); };
 
 // An optional array of numbers, each satisfying `each`, read into `out` when present.
@@ -307,6 +310,13 @@ Scenario read_scenario(const toml::table& root, const std::string& source) {
         p.fail("max_time_s", "expected max_time_s / min_time_s in [10, 1e8] (a power law over 1 to 8 decades), got " + format_number(pl.max_time_s) +
                                  " / " + format_number(pl.min_time_s));
     });
+    s.with_section("cyclic_softening", [&](TomlSection& c) {
+      auto& cs = se.cyclic_softening;
+      cs.enabled = c.get_or("enabled", cs.enabled);
+      cs.depth = c.get_or("depth", cs.depth, depth_range);
+      cs.loop_depth = c.get_or("loop_depth", cs.loop_depth, depth_range);
+      cs.travel_scale_deg = c.get_or("travel_scale_deg", cs.travel_scale_deg, travel_scale_range);
+    });
   });
 
   top.with_section("light", [&](TomlSection& l) {
@@ -470,6 +480,10 @@ void validate(const Scenario& s) {
     const double ratio = pl.max_time_s / pl.min_time_s;
     if (!(ratio >= kMinRelaxationRange && ratio <= kMaxRelaxationRange))
       bad("sensor.power_law_relaxation.max_time_s", "expected max_time_s / min_time_s in [10, 1e8]");
+    const auto& cs = s.sensor.cyclic_softening;
+    check("cyclic_softening.depth", cs.depth, depth_range);
+    check("cyclic_softening.loop_depth", cs.loop_depth, depth_range);
+    check("cyclic_softening.travel_scale_deg", cs.travel_scale_deg, travel_scale_range);
   }
   if (s.light.wander.enabled && !(s.light.wander.tau_s > 0)) bad("light.wander.tau_s", "expected a number > 0");
   if (s.daq.time_delay.enabled && !(s.daq.time_delay.delay_s >= 0)) bad("daq.time_delay.delay_s", "expected a number >= 0");

@@ -158,6 +158,7 @@ Simulator::Simulator(const Scenario& s, std::uint64_t seed, double scan_rate_hz)
   prev_knee_angle_ = s.knee.start_deg;
   mem_prev_angle_ = s.knee.start_deg;
   plr_prev_angle_ = s.knee.start_deg;
+  soft_prev_angle_ = s.knee.start_deg;
   drift_rw_step_ = s.sensor.drift.random_walk_v_per_sqrt_hour * std::sqrt(dt_ / 3600.0);
   wander_decay_ = std::exp(-dt_ / s.light.wander.tau_s);
   wander_kick_ = s.light.wander.sigma_rel * std::sqrt(1.0 - wander_decay_ * wander_decay_);
@@ -327,10 +328,22 @@ void Simulator::step(Scan& out, EffectTrace* tr) {
       plr += plr_w_[i] * plr_m_[i];
     }
   }
+  double soft = 0;
+  if (se.cyclic_softening.enabled) {
+    // The bend response (the line relative to the straight fibre at 0 deg, and the static
+    // nonlinearity) and the hysteresis terms scale down with the accumulated travel.
+    const auto& cs = se.cyclic_softening;
+    travel_ += std::abs(theta_f - soft_prev_angle_);
+    soft_prev_angle_ = theta_f;
+    const double progress = 1.0 - std::exp(-travel_ / cs.travel_scale_deg);
+    const double bend = v_line - pof::core::quasi_static_voltage(se.model, 0.0) + snl;
+    soft = -cs.depth * progress * bend - cs.loop_depth * progress * (hyst + rdh + mem);
+  }
   // The effects added after the original sum, and only when on, so that scenarios without them
   // give the same doubles bit for bit.
   double v_norm = v_line + snl + hyst + rdh + creep + acc + drift + mem;
   if (se.power_law_relaxation.enabled) v_norm += plr;
+  if (se.cyclic_softening.enabled) v_norm += soft;
 
   // --- light path: one source feeds both fibres, so the reference cancels its power changes ---
   const LightSettings& li = sc_.light;
@@ -440,6 +453,8 @@ void Simulator::step(Scan& out, EffectTrace* tr) {
     tr->lag_deg = theta - theta_f;
     tr->memory_state = mem_state;
     tr->power_law_relaxation_v = plr;
+    tr->cyclic_softening_v = soft;
+    tr->travel_deg = travel_;
     tr->normalised_v = v_norm;
     tr->source_power_rel = power;
     tr->pot_error_deg = pot_angle - theta;

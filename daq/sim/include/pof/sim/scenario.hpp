@@ -133,6 +133,15 @@ struct SensorSettings {
     double exponent = 0.3;            // n, in (0, 1)
     double min_time_s = 0.1, max_time_s = 300;  // where the t^-n law holds
   } power_law_relaxation;
+  // Cyclic softening of the PMMA: with L the fibre's accumulated bend travel (sum of |dtheta_f|),
+  // the bend sensitivity is multiplied by 1 - depth (1 - exp(-L / travel_scale_deg)), the
+  // hysteresis terms by the same with loop_depth.
+  struct CyclicSoftening {
+    bool enabled = false;
+    double depth = 0.05;       // fraction of the sensitivity lost after a long run, [0, 1)
+    double loop_depth = 0;     // fraction of the hysteresis loop lost, [0, 1)
+    double travel_scale_deg = 5000;  // L0 [deg]
+  } cyclic_softening;
 };
 
 // ---------------------------------------------------------------- light path

@@ -41,6 +41,8 @@ struct EffectTrace {
   double lag_deg;              // true angle - the fibre's effective (lagged) angle [deg]
   double memory_state;         // the hysteresis state: Bouc-Wen z, sum w_i e_i / r_i or -sum w_i R_i, in [-1, 1]
   double power_law_relaxation_v;  // sensor.power_law_relaxation [V, normalised]
+  double cyclic_softening_v;   // what sensor.cyclic_softening changes: (factor - 1) x the softened terms [V]
+  double travel_deg;           // the fibre's accumulated bend travel (with cyclic_softening on, else 0) [deg]
   double normalised_v;         // sum of the above: the noise-free normalised sensor voltage
   double source_power_rel;     // light-source power / nominal
   double pot_error_deg;        // potentiometer angle - true angle (backlash, linearity, vibration)
@@ -99,6 +101,8 @@ class Simulator {
   // Power-law relaxation: its bank of Prony terms (state, e^{-dt/tau}, input weight, output weight).
   std::vector<double> plr_m_, plr_decay_, plr_gain_, plr_w_;
   double plr_prev_angle_ = 0;
+  // Cyclic softening: accumulated |dtheta_f| [deg] and the fibre angle it was last updated at.
+  double travel_ = 0, soft_prev_angle_ = 0;
   double mem_prev_angle_ = 0;  // fibre angle at the last hysteresis update
   double speed_filt_ = 0, speed_alpha_ = 1;  // low-passed |omega| [rad/s] and its update gain
   double drift_rw_ = 0, drift_rw_step_ = 0;

@@ -1,5 +1,6 @@
-// pof_sim: the viscoelastic fibre effects (memory hysteresis: Bouc-Wen and Maxwell-slip, the
-// speed factor, the viscoelastic lag), the random_moves trajectory, gait at exoskeleton speeds and
+// pof_sim: the viscoelastic fibre effects (memory hysteresis: Bouc-Wen, Maxwell-slip and Preisach,
+// the speed factor, the viscoelastic lag, power-law relaxation, cyclic softening), the
+// random_moves trajectory, gait at exoskeleton speeds and
 // the fibre / held-out scenarios (docs/simulator.md). As in test_sim.cpp every check runs the
 // simulator without noise, with a 24-bit converter and without multiplexing, and reads the effect
 // contributions from EffectTrace.
@@ -405,11 +406,27 @@ TEST(SimViscoelasticLag, LoopWidensWithSpeedAndAppliesToEveryFibreTerm) {
   all.sensor.memory_hysteresis.enabled = true;
   all.sensor.memory_hysteresis.rate_sensitivity_s_per_rad = -1;
   all.sensor.acceleration_dependence.enabled = true;
-  const SimRun a = run(all);
-  for (const auto& t : a.trace) {
-    const double sum = t.quasi_static_v + t.viscoelastic_lag_v + t.hysteresis_v + t.rate_dependent_hysteresis_v + t.creep_v +
-                       t.acceleration_v + t.drift_v + t.memory_hysteresis_v;
-    ASSERT_NEAR(sum, t.normalised_v, 1e-12);
+  for (const bool newer : {false, true}) {
+    // ... and with the power-law relaxation, the cyclic softening and the Preisach family.
+    if (newer) {
+      all.sensor.memory_hysteresis.family = MemoryHysteresisFamily::kPreisach;
+      all.sensor.power_law_relaxation.enabled = true;
+      all.sensor.cyclic_softening.enabled = true;
+      all.sensor.cyclic_softening.loop_depth = 0.2;
+    }
+    const SimRun a = run(all);
+    for (const auto& t : a.trace) {
+      const double sum = t.quasi_static_v + t.viscoelastic_lag_v + t.hysteresis_v + t.rate_dependent_hysteresis_v + t.creep_v +
+                         t.acceleration_v + t.drift_v + t.memory_hysteresis_v + t.power_law_relaxation_v + t.cyclic_softening_v;
+      ASSERT_NEAR(sum, t.normalised_v, 1e-12);
+      if (!newer) {
+        ASSERT_EQ(t.power_law_relaxation_v + t.cyclic_softening_v + t.travel_deg, 0.0);
+      }
+    }
+    if (newer) {
+      EXPECT_GT(a.trace.back().travel_deg, 300.0);
+      EXPECT_NE(a.trace.back().power_law_relaxation_v, 0.0);
+    }
   }
 }
 
@@ -540,6 +557,11 @@ TEST(SimFibreEffects, OffByDefaultAndNoRandomDraws) {
   off.sensor.memory_hysteresis.family = MemoryHysteresisFamily::kMaxwellSlip;
   off.sensor.memory_hysteresis.rate_sensitivity_s_per_rad = 3;
   off.sensor.viscoelastic_lag.tau_s = 2;
+  off.sensor.memory_hysteresis.centre_spread_deg = 30;
+  off.sensor.power_law_relaxation.exponent = 0.6;
+  off.sensor.power_law_relaxation.gain_v_per_deg = 0.01;
+  off.sensor.cyclic_softening.depth = 0.5;
+  off.sensor.cyclic_softening.loop_depth = 0.5;
   const SimRun a = run(base, 5), b = run(off, 5);
   ASSERT_EQ(a.scans.size(), b.scans.size());
   EXPECT_EQ(std::memcmp(a.scans.data(), b.scans.data(), a.scans.size() * sizeof(Scan)), 0);
@@ -547,6 +569,8 @@ TEST(SimFibreEffects, OffByDefaultAndNoRandomDraws) {
     ASSERT_EQ(t.memory_hysteresis_v, 0.0);
     ASSERT_EQ(t.lag_deg, 0.0);
     ASSERT_EQ(t.viscoelastic_lag_v, 0.0);
+    ASSERT_EQ(t.power_law_relaxation_v, 0.0);
+    ASSERT_EQ(t.cyclic_softening_v, 0.0);
   }
 
   Scenario on = base;
@@ -563,6 +587,18 @@ TEST(SimFibreEffects, OffByDefaultAndNoRandomDraws) {
     nonzero += d.trace[i].memory_hysteresis_v != 0;
   }
   EXPECT_GT(nonzero, c.scans.size() / 2);
+  // The Preisach family and power-law relaxation likewise add only their own term; softening
+  // scales terms but draws nothing either.
+  Scenario more = on;
+  more.sensor.memory_hysteresis.family = MemoryHysteresisFamily::kPreisach;
+  more.sensor.power_law_relaxation.enabled = true;
+  more.sensor.cyclic_softening.enabled = true;
+  const SimRun e = run(more, 5);
+  for (std::size_t i = 0; i < c.scans.size(); ++i) {
+    ASSERT_EQ(c.scans[i].reference_v, e.scans[i].reference_v);
+    ASSERT_NEAR(e.trace[i].normalised_v - c.trace[i].normalised_v,
+                e.trace[i].memory_hysteresis_v + e.trace[i].power_law_relaxation_v + e.trace[i].cyclic_softening_v, 1e-12);
+  }
 }
 
 // ------------------------------------------------------------------------------ random moves
@@ -865,6 +901,11 @@ TEST(SimFibreScenarios, BadKeysAreNamed) {
                    "[sensor.memory_hysteresis]\nenabled = true\nfamily = \"maxwell_slip\"\namplitude_v = -0.02\nrate_sensitivity_s_per_rad = 1\n"
                    "rate_filter_s = 0\nthresholds_deg = [1, 4, 9]\nweights = [0.2, 0.5, 0.3]\n[sensor.viscoelastic_lag]\nenabled = true\ntau_s = 0.5\n");
   EXPECT_EQ(e, "(no error)");
+  e = config_error(kMinimal + "[sensor.memory_hysteresis]\nenabled = true\nfamily = \"preisach\"\ncentre_deg = 40\ncentre_spread_deg = 0\n"
+                   "half_width_deg = 20\nhalf_width_spread_deg = 0\n[sensor.power_law_relaxation]\nenabled = true\ngain_v_per_deg = -0.0002\n"
+                   "exponent = 0.25\nmin_time_s = 0.05\nmax_time_s = 1000\n[sensor.cyclic_softening]\nenabled = true\ndepth = 0.08\n"
+                   "loop_depth = 0.2\ntravel_scale_deg = 20000\n");
+  EXPECT_EQ(e, "(no error)");
   // Scenarios built in code are checked by the simulator's constructor (validate()).
   Scenario s = quiet();
   s.trajectory = {go(10, 0.1, 1)};
@@ -878,6 +919,17 @@ TEST(SimFibreScenarios, BadKeysAreNamed) {
   s.sensor.memory_hysteresis.width_deg = 10;
   s.sensor.memory_hysteresis.family = MemoryHysteresisFamily::kMaxwellSlip;
   s.sensor.memory_hysteresis.weights = {1};
+  EXPECT_THROW(pof::sim::Simulator(s, 1, 0), pof::ConfigError);
+  s.sensor.memory_hysteresis.weights = {1, 1, 1};
+  s.sensor.power_law_relaxation.exponent = 0;
+  try {
+    pof::sim::Simulator sim(s, 1, 0);
+    ADD_FAILURE() << "no error";
+  } catch (const pof::ConfigError& err) {
+    EXPECT_NE(std::string(err.what()).find("'sensor.power_law_relaxation.exponent'"), std::string::npos) << err.what();
+  }
+  s.sensor.power_law_relaxation.exponent = 0.3;
+  s.sensor.cyclic_softening.travel_scale_deg = 0;
   EXPECT_THROW(pof::sim::Simulator(s, 1, 0), pof::ConfigError);
 }
 

@@ -37,7 +37,7 @@ head -1 p_trace.csv | grep -q "creep_v" || fail "trace columns"
 [ ! -e p.trace.csv.tmp ] || fail "temporary plot data left behind"
 # The fibre's own fields are columns too: on the memory-hysteresis fibre its contribution moves.
 expect_exit 0 "$POF" sim fibre_calibration -o f.csv --seconds 20 --trace f_trace.csv
-head -1 f_trace.csv | grep -q "memory_hysteresis_v,viscoelastic_lag_v,lag_deg,memory_state$" || fail "fibre trace columns"
+head -1 f_trace.csv | grep -q "memory_hysteresis_v,viscoelastic_lag_v,lag_deg,memory_state,power_law_relaxation_v,cyclic_softening_v,travel_deg$" || fail "fibre trace columns"
 awk -F, 'NR > 1 && ($20 > 0.001 || $20 < -0.001) { moved = 1 } END { exit !moved }' f_trace.csv || fail "memory_hysteresis_v is flat"
 
 # Bad scenario: exit 78 naming the key; the existing output is kept.

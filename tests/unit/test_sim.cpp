@@ -103,7 +103,8 @@ std::vector<std::pair<std::size_t, std::size_t>> holds(const SimRun& r, std::siz
 TEST(SimScenario, BuiltinsLoadAndMatchThePaperProtocol) {
   const auto names = pof::sim::builtin_scenario_names();
   ASSERT_EQ(names, (std::vector<std::string>{"paper", "validation", "session", "realistic", "fibre_calibration",
-                                             "fibre_session", "heldout_gait", "heldout_rehab", "heldout_random"}));
+                                             "fibre_session", "heldout_gait", "heldout_rehab", "heldout_random",
+                                             "heldout_fast_gait"}));
   for (const auto& n : names) EXPECT_NO_THROW((void)pof::sim::builtin_scenario(n)) << n;
   const Scenario p = pof::sim::builtin_scenario("paper");
   EXPECT_EQ(p.name, "paper");

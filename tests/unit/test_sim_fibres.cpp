@@ -1,5 +1,6 @@
-// pof_sim: the viscoelastic fibre effects (memory hysteresis: Bouc-Wen and Maxwell-slip, the
-// speed factor, the viscoelastic lag), the random_moves trajectory, gait at exoskeleton speeds and
+// pof_sim: the viscoelastic fibre effects (memory hysteresis: Bouc-Wen, Maxwell-slip and Preisach,
+// the speed factor, the viscoelastic lag, power-law relaxation, cyclic softening), the
+// random_moves trajectory, gait at exoskeleton speeds and
 // the fibre / held-out scenarios (docs/simulator.md). As in test_sim.cpp every check runs the
 // simulator without noise, with a 24-bit converter and without multiplexing, and reads the effect
 // contributions from EffectTrace.
@@ -101,10 +102,11 @@ std::pair<std::size_t, std::size_t> hold_at(const SimRun& r, double angle, std::
   return {i, j};
 }
 
-// Value of trace field `get` where a stroke at cruise velocity `w` [rad/s, signed] crosses `angle`.
+// Value of trace field `get` where a stroke at cruise velocity `w` [rad/s, signed] crosses `angle`
+// (the first such crossing at or after scan `from`).
 template <class Get>
-double at_crossing(const SimRun& r, double w, double angle, Get get) {
-  for (std::size_t i = 1; i < r.scans.size(); ++i) {
+double at_crossing(const SimRun& r, double w, double angle, Get get, std::size_t from = 1) {
+  for (std::size_t i = std::max<std::size_t>(from, 1); i < r.scans.size(); ++i) {
     if (std::abs(r.trace[i].velocity_rad_s - w) > 1e-9 || std::abs(r.trace[i - 1].velocity_rad_s - w) > 1e-9) continue;
     const double a0 = r.scans[i - 1].angle_true_deg, a1 = r.scans[i].angle_true_deg;
     if ((a0 - angle) * (a1 - angle) > 0 || a0 == a1) continue;
@@ -249,6 +251,111 @@ TEST(SimMemoryHysteresis, NegativeAmplitudePutsTheExtensionBranchAbove) {
   EXPECT_NEAR(at_crossing(r, 0.1, 45, v) - at_crossing(r, -0.1, 45, v), -0.04, 1e-6);
 }
 
+
+// ------------------------------------------------------------------------------ Preisach relays
+// The default density (centre 45 +- 12 deg, half-width 15 +- 6 deg) with amplitude 0.025 V.
+Scenario with_preisach() {
+  Scenario s = with_memory(MemoryHysteresisFamily::kPreisach);
+  auto& mh = s.sensor.memory_hysteresis;
+  mh.centre_deg = 45;
+  mh.centre_spread_deg = 12;
+  mh.half_width_deg = 15;
+  mh.half_width_spread_deg = 6;
+  return s;
+}
+
+double memory_v(const EffectTrace& t) { return t.memory_hysteresis_v; }
+
+TEST(SimPreisach, BoundedByTheAmplitudeAndSaturatedBeyondEveryRelay) {
+  // A narrow density: every alpha below 80 deg, every beta above 10 deg (centres 45 +- 15, half-
+  // widths up to 19). Starting at 0 every relay is down (y = +1); 90 deg switches every one up.
+  Scenario s = with_preisach();
+  s.sensor.memory_hysteresis.centre_spread_deg = 5;
+  s.sensor.memory_hysteresis.half_width_deg = 10;
+  s.sensor.memory_hysteresis.half_width_spread_deg = 3;
+  s.trajectory = {go(0, 0.2, 1), go(90, 0.2, 1), go(0, 0.2, 1), go(50, 0.2, 1), go(30, 0.2, 1), go(70, 0.2, 1),
+                  go(40, 0.2, 1), go(85, 0.2, 1), go(20, 0.2, 1)};
+  const SimRun r = run(s);
+  EXPECT_NEAR(r.trace.front().memory_hysteresis_v, 0.025, 1e-12) << "demagnetised at 0 deg: every centre is above";
+  EXPECT_NEAR(r.trace[hold_at(r, 90).first].memory_hysteresis_v, -0.025, 1e-12);
+  EXPECT_NEAR(r.trace[hold_at(r, 0, hold_at(r, 90).second).first].memory_hysteresis_v, 0.025, 1e-12);
+  for (const Scenario& sc : {s, with_preisach()}) {
+    Scenario t = sc;
+    t.trajectory = s.trajectory;
+    const SimRun q = run(t);
+    for (const auto& x : q.trace) {
+      ASSERT_LE(std::abs(x.memory_hysteresis_v), 0.025);
+      ASSERT_LE(std::abs(x.memory_state), 1.0);
+    }
+  }
+}
+
+TEST(SimPreisach, ReturnPointMemoryAndWipingOut) {
+  // Return-point memory: back at a reversal point the relays are as they were, so a minor loop
+  // closes bit for bit, and it is open in between (the ascending branch lies above).
+  Scenario s = with_preisach();
+  s.trajectory = {go(90, 0.2, 1), go(20, 0.2, 1), go(60, 0.2, 1), go(20, 0.2, 1), go(60, 0.2, 1)};
+  const SimRun r = run(s);
+  const auto h20a = hold_at(r, 20), h60a = hold_at(r, 60, h20a.second);
+  const auto h20b = hold_at(r, 20, h60a.second), h60b = hold_at(r, 60, h20b.second);
+  ASSERT_LT(h60b.first, r.trace.size());
+  EXPECT_EQ(r.trace[h20a.first].memory_hysteresis_v, r.trace[h20b.first].memory_hysteresis_v);
+  EXPECT_EQ(r.trace[h60a.first].memory_hysteresis_v, r.trace[h60b.first].memory_hysteresis_v);
+  const double up = at_crossing(r, 0.2, 40, memory_v, h20a.second), down = at_crossing(r, -0.2, 40, memory_v, h60a.second);
+  EXPECT_GT(up - down, 0.05 * 0.025);
+  // Wiping-out: the excursion to 80 deg erases the 70/40 reversal pair inside it.
+  Scenario a = with_preisach(), b = with_preisach();
+  a.trajectory = {go(90, 0.2, 1), go(20, 0.2, 1), go(70, 0.2, 1), go(40, 0.2, 1), go(80, 0.2, 1), go(50, 0.2, 1)};
+  b.trajectory = {go(90, 0.2, 1), go(20, 0.2, 1), go(80, 0.2, 1), go(50, 0.2, 1)};
+  const SimRun ra = run(a), rb = run(b);
+  EXPECT_EQ(ra.trace.back().memory_hysteresis_v, rb.trace.back().memory_hysteresis_v);
+  // Without the excursion to 80 the 40-deg reversal is remembered: 50 deg is reached differently.
+  Scenario c = with_preisach();
+  c.trajectory = {go(90, 0.2, 1), go(20, 0.2, 1), go(70, 0.2, 1), go(40, 0.2, 1), go(50, 0.2, 1)};
+  EXPECT_GT(std::abs(run(c).trace.back().memory_hysteresis_v - rb.trace.back().memory_hysteresis_v), 0.05 * 0.025);
+}
+
+TEST(SimPreisach, MajorLoopFollowsTheDensity) {
+  // 0 -> 90 -> 0 from the demagnetised state at 0 (every relay down): at the centre u0 the loop
+  // in y is 2 (P(beta < u0) - P(alpha < u0)) = 2 erf(v0 / (sqrt(2) s)), s^2 = s_u^2 + s_v^2, for the
+  // continuous density (alpha = u + v, beta = u - v); the 400-relay grid (each axis cut at 3
+  // spreads, v at 0) gives it within 1.5 % (0.5-0.9 % measured).
+  for (const double spread : {4.0, 8.0, 12.0}) {
+    Scenario s = with_preisach();
+    s.sensor.memory_hysteresis.centre_spread_deg = spread;
+    s.trajectory = {go(90, 0.2, 1), go(0, 0.2, 1)};
+    const SimRun r = run(s);
+    const double loop = (at_crossing(r, 0.2, 45, memory_v) - at_crossing(r, -0.2, 45, memory_v)) / 0.025;
+    const double want = 2 * std::erf(15 / (std::sqrt(2.0) * std::hypot(spread, 6.0)));
+    EXPECT_NEAR(loop, want, 0.015 * want) << spread;
+    std::printf("preisach: major loop at 45 deg, centre spread %g deg: %.4f (continuous density %.4f)\n", spread, loop, want);
+  }
+}
+
+TEST(SimPreisach, MinorLoopsDependOnWhereTheySitUnlikeStopOperators) {
+  // A sum of stop operators (maxwell_slip, and the compensator's model) is translation invariant:
+  // a 20-deg minor loop opens the same at 15 deg as at 45 deg. The Preisach density with a finite
+  // centre spread is not: the loop centred on the density is much wider.
+  auto opening = [](MemoryHysteresisFamily family, double lo, double hi) {
+    Scenario s = family == MemoryHysteresisFamily::kPreisach ? with_preisach() : with_memory(family);
+    s.trajectory = {go(90, 0.2, 1), go(0, 0.2, 1), go(hi, 0.2, 1), go(lo, 0.2, 1), go(hi, 0.2, 1), go(lo, 0.2, 1)};
+    const SimRun r = run(s);
+    const auto h1 = hold_at(r, lo, hold_at(r, hi, hold_at(r, 0).second).second);  // the first minor reversal at lo
+    const auto h2 = hold_at(r, hi, h1.second);
+    return at_crossing(r, 0.2, 0.5 * (lo + hi), memory_v, h1.second) - at_crossing(r, -0.2, 0.5 * (lo + hi), memory_v, h2.second);
+  };
+  const double slip_low = opening(MemoryHysteresisFamily::kMaxwellSlip, 5, 25);
+  const double slip_mid = opening(MemoryHysteresisFamily::kMaxwellSlip, 35, 55);
+  EXPECT_NEAR(slip_low, slip_mid, 1e-12);
+  EXPECT_GT(slip_low, 0.01);
+  const double low = opening(MemoryHysteresisFamily::kPreisach, 5, 25);
+  const double mid = opening(MemoryHysteresisFamily::kPreisach, 35, 55);
+  EXPECT_GT(low, 0);
+  EXPECT_GT(mid, 3 * low);
+  std::printf("minor loops of 20 deg: preisach %.5f V at 5-25 deg, %.5f V at 35-55 deg (%.1fx); maxwell_slip %.5f V at both\n",
+              low, mid, mid / low, slip_mid);
+}
+
 // ------------------------------------------------------------------------------ viscoelastic lag
 TEST(SimViscoelasticLag, LagsARampByTauOmegaAndConvergesInAHold) {
   Scenario s = quiet();
@@ -299,11 +406,144 @@ TEST(SimViscoelasticLag, LoopWidensWithSpeedAndAppliesToEveryFibreTerm) {
   all.sensor.memory_hysteresis.enabled = true;
   all.sensor.memory_hysteresis.rate_sensitivity_s_per_rad = -1;
   all.sensor.acceleration_dependence.enabled = true;
-  const SimRun a = run(all);
-  for (const auto& t : a.trace) {
-    const double sum = t.quasi_static_v + t.viscoelastic_lag_v + t.hysteresis_v + t.rate_dependent_hysteresis_v + t.creep_v +
-                       t.acceleration_v + t.drift_v + t.memory_hysteresis_v;
-    ASSERT_NEAR(sum, t.normalised_v, 1e-12);
+  for (const bool newer : {false, true}) {
+    // ... and with the power-law relaxation, the cyclic softening and the Preisach family.
+    if (newer) {
+      all.sensor.memory_hysteresis.family = MemoryHysteresisFamily::kPreisach;
+      all.sensor.power_law_relaxation.enabled = true;
+      all.sensor.cyclic_softening.enabled = true;
+      all.sensor.cyclic_softening.loop_depth = 0.2;
+    }
+    const SimRun a = run(all);
+    for (const auto& t : a.trace) {
+      const double sum = t.quasi_static_v + t.viscoelastic_lag_v + t.hysteresis_v + t.rate_dependent_hysteresis_v + t.creep_v +
+                         t.acceleration_v + t.drift_v + t.memory_hysteresis_v + t.power_law_relaxation_v + t.cyclic_softening_v;
+      ASSERT_NEAR(sum, t.normalised_v, 1e-12);
+      if (!newer) {
+        ASSERT_EQ(t.power_law_relaxation_v + t.cyclic_softening_v + t.travel_deg, 0.0);
+      }
+    }
+    if (newer) {
+      EXPECT_GT(a.trace.back().travel_deg, 300.0);
+      EXPECT_NE(a.trace.back().power_law_relaxation_v, 0.0);
+    }
+  }
+}
+
+
+// ------------------------------------------------------------------------------ power-law relaxation
+TEST(SimPowerLawRelaxation, AStepRelaxesAsTToTheMinusN) {
+  for (const double n : {0.2, 0.5, 0.8}) {
+    Scenario s = quiet();
+    s.knee.max_velocity_rad_s = 4;
+    s.knee.max_acceleration_rad_s2 = 200;
+    s.knee.start_deg = 30;
+    auto& p = s.sensor.power_law_relaxation;
+    p.enabled = true;
+    p.gain_v_per_deg = -0.0003;
+    p.exponent = n;
+    p.min_time_s = 0.1;
+    p.max_time_s = 300;
+    s.trajectory = {go(40, 3.0, 120)};  // a 10-deg bend in ~0.08 s, then a 2-min hold
+    const SimRun r = run(s);
+    // The bend's centroid in time (each scan's increment ramps over the scan before it).
+    double moment = 0, bend = 0;
+    for (std::size_t i = 1; i < r.scans.size(); ++i) {
+      const double d = r.scans[i].angle_true_deg - r.scans[i - 1].angle_true_deg;
+      moment += (r.scans[i].t_s - 0.0025) * d;
+      bend += d;
+    }
+    ASSERT_NEAR(bend, 10, 1e-9);
+    const double t0 = moment / bend;
+    // Log-log fit over 1-100 s after the bend, at 41 log-spaced times.
+    std::vector<double> x, y;
+    for (int k = 0; k <= 40; ++k) {
+      const double t = t0 + std::pow(10.0, k / 20.0);
+      const auto i = static_cast<std::size_t>(std::llround(t * 200));
+      ASSERT_LT(i, r.scans.size());
+      ASSERT_EQ(r.trace[i].velocity_rad_s, 0.0);
+      x.push_back(std::log(r.scans[i].t_s - t0));
+      y.push_back(std::log(-r.trace[i].power_law_relaxation_v));
+    }
+    double mx = 0, my = 0;
+    const auto m = static_cast<double>(x.size());
+    for (std::size_t k = 0; k < x.size(); ++k) mx += x[k] / m, my += y[k] / m;
+    double sxy = 0, sxx = 0;
+    for (std::size_t k = 0; k < x.size(); ++k) sxy += (x[k] - mx) * (y[k] - my), sxx += (x[k] - mx) * (x[k] - mx);
+    const double slope = sxy / sxx, icpt = my - slope * mx;
+    double worst = 0;
+    for (std::size_t k = 0; k < x.size(); ++k) worst = std::max(worst, std::abs(y[k] - (icpt + slope * x[k])));
+    EXPECT_NEAR(slope, -n, 0.01) << n;
+    EXPECT_LT(worst, 0.01) << n << ": the points lie on the power law within 1 %";
+    // The level: g * bend * t^-n at t = 10 s.
+    const auto i10 = static_cast<std::size_t>(std::llround((t0 + 10) * 200));
+    const double want10 = -0.0003 * 10 * std::pow(r.scans[i10].t_s - t0, -n);
+    EXPECT_NEAR(r.trace[i10].power_law_relaxation_v / want10, 1.0, 0.015) << n;
+    std::printf("power law n = %.1f: log-log slope %.4f over 1-100 s, worst residual %.2e, level at 10 s %.4f of g d t^-n\n", n, slope,
+                worst, r.trace[i10].power_law_relaxation_v / want10);
+  }
+}
+
+// ------------------------------------------------------------------------------ cyclic softening
+TEST(SimCyclicSoftening, SensitivityFallsByTheStatedAmountAfterTheStatedTravel) {
+  Scenario s = quiet();
+  auto& c = s.sensor.cyclic_softening;
+  c.enabled = true;
+  c.depth = 0.1;
+  c.travel_scale_deg = 1000;
+  // Holds at 30 and 60 deg (travel 30, 60), back to 0 (120), four 0-90-0 cycles (840), then
+  // 80 (920), 40 (960) and 80 again: a hold after exactly L0 = 1000 deg of travel.
+  s.trajectory = {go(30, 0.3, 1), go(60, 0.3, 1), go(0, 0.3, 0.5), cycles({0.4, 0.4, 0.4, 0.4}, 0, 90, 0.5),
+                  go(80, 0.3, 0.5), go(40, 0.3, 0.5), go(80, 0.3, 1)};
+  const SimRun r = run(s);
+  // The travel is the sum of |d theta| of the fibre; the trace's contribution adds up.
+  double travel = 0;
+  for (std::size_t i = 1; i < r.scans.size(); ++i) {
+    travel += std::abs(r.scans[i].angle_true_deg - r.scans[i - 1].angle_true_deg);
+    ASSERT_NEAR(r.trace[i].travel_deg, travel, 1e-9);
+    ASSERT_NEAR(r.trace[i].quasi_static_v + r.trace[i].cyclic_softening_v, r.trace[i].normalised_v, 1e-12);
+  }
+  EXPECT_NEAR(travel, 1000, 1e-9);
+  // In a hold the bend response relative to the straight fibre is S(L) times the new fibre's.
+  const double v0 = pof::core::quasi_static_voltage(s.sensor.model, 0);
+  auto response = [&](std::size_t i) {
+    return (r.trace[i].normalised_v - v0) / (pof::core::quasi_static_voltage(s.sensor.model, r.scans[i].angle_true_deg) - v0);
+  };
+  auto softened = [](double l) { return 1 - 0.1 * (1 - std::exp(-l / 1000)); };
+  const std::size_t h30 = hold_at(r, 30).first, h60 = hold_at(r, 60).first;
+  const std::size_t end = r.scans.size() - 1;
+  ASSERT_EQ(r.trace[end].velocity_rad_s, 0.0);
+  EXPECT_NEAR(response(h30), softened(30), 1e-9);
+  EXPECT_NEAR(response(h60), softened(60), 1e-9);
+  EXPECT_NEAR(r.trace[end].travel_deg, 1000, 1e-9);
+  EXPECT_NEAR(response(end), 1 - 0.1 * (1 - std::exp(-1.0)), 1e-9);  // 0.9368 after L0
+  const double early = (r.trace[h60].normalised_v - v0) / 60, late = (r.trace[end].normalised_v - v0) / 80;
+  std::printf("cyclic softening: depth 0.1, L0 1000 deg: secant sensitivity %.6f V/deg after 60 deg of travel, %.6f after 1000 (%.5f)\n",
+              early, late, late / early);
+}
+
+TEST(SimCyclicSoftening, LoopShrinksWithLoopDepth) {
+  // Maxwell-slip saturates within 20 deg: at 45 deg of a 0-90 cycle the loop is A (S_loop(L_f) +
+  // S_loop(L_e)), the travel at the two crossings; with depth 0 the line does not change.
+  Scenario s = with_memory(MemoryHysteresisFamily::kMaxwellSlip);
+  auto& c = s.sensor.cyclic_softening;
+  c.enabled = true;
+  c.depth = 0;
+  c.loop_depth = 0.3;
+  c.travel_scale_deg = 500;
+  s.trajectory = {cycles({0.2, 0.2, 0.2, 0.2}, 0, 90, 0.5)};
+  const SimRun r = run(s);
+  auto v = [](const EffectTrace& t) { return t.normalised_v; };
+  auto travel = [](const EffectTrace& t) { return t.travel_deg; };
+  auto soft = [](double l) { return 1 - 0.3 * (1 - std::exp(-l / 500)); };
+  std::size_t from = 1;
+  for (int k = 0; k < 4; ++k) {
+    // The k-th cycle: its flexion crossing of 45 deg starts at travel 180 k + 45.
+    while (r.trace[from].travel_deg < 180.0 * k + 40) ++from;
+    const double loop = at_crossing(r, 0.2, 45, v, from) - at_crossing(r, -0.2, 45, v, from);
+    const double lf = at_crossing(r, 0.2, 45, travel, from), le = at_crossing(r, -0.2, 45, travel, from);
+    EXPECT_NEAR(lf, 180.0 * k + 45, 1e-6);
+    EXPECT_NEAR(loop, 0.025 * (soft(lf) + soft(le)), 1e-9) << k;
   }
 }
 
@@ -317,6 +557,11 @@ TEST(SimFibreEffects, OffByDefaultAndNoRandomDraws) {
   off.sensor.memory_hysteresis.family = MemoryHysteresisFamily::kMaxwellSlip;
   off.sensor.memory_hysteresis.rate_sensitivity_s_per_rad = 3;
   off.sensor.viscoelastic_lag.tau_s = 2;
+  off.sensor.memory_hysteresis.centre_spread_deg = 30;
+  off.sensor.power_law_relaxation.exponent = 0.6;
+  off.sensor.power_law_relaxation.gain_v_per_deg = 0.01;
+  off.sensor.cyclic_softening.depth = 0.5;
+  off.sensor.cyclic_softening.loop_depth = 0.5;
   const SimRun a = run(base, 5), b = run(off, 5);
   ASSERT_EQ(a.scans.size(), b.scans.size());
   EXPECT_EQ(std::memcmp(a.scans.data(), b.scans.data(), a.scans.size() * sizeof(Scan)), 0);
@@ -324,6 +569,8 @@ TEST(SimFibreEffects, OffByDefaultAndNoRandomDraws) {
     ASSERT_EQ(t.memory_hysteresis_v, 0.0);
     ASSERT_EQ(t.lag_deg, 0.0);
     ASSERT_EQ(t.viscoelastic_lag_v, 0.0);
+    ASSERT_EQ(t.power_law_relaxation_v, 0.0);
+    ASSERT_EQ(t.cyclic_softening_v, 0.0);
   }
 
   Scenario on = base;
@@ -340,6 +587,18 @@ TEST(SimFibreEffects, OffByDefaultAndNoRandomDraws) {
     nonzero += d.trace[i].memory_hysteresis_v != 0;
   }
   EXPECT_GT(nonzero, c.scans.size() / 2);
+  // The Preisach family and power-law relaxation likewise add only their own term; softening
+  // scales terms but draws nothing either.
+  Scenario more = on;
+  more.sensor.memory_hysteresis.family = MemoryHysteresisFamily::kPreisach;
+  more.sensor.power_law_relaxation.enabled = true;
+  more.sensor.cyclic_softening.enabled = true;
+  const SimRun e = run(more, 5);
+  for (std::size_t i = 0; i < c.scans.size(); ++i) {
+    ASSERT_EQ(c.scans[i].reference_v, e.scans[i].reference_v);
+    ASSERT_NEAR(e.trace[i].normalised_v - c.trace[i].normalised_v,
+                e.trace[i].memory_hysteresis_v + e.trace[i].power_law_relaxation_v + e.trace[i].cyclic_softening_v, 1e-12);
+  }
 }
 
 // ------------------------------------------------------------------------------ random moves
@@ -492,6 +751,43 @@ TEST(SimGait, ExoskeletonSpeedsAreTrackedWithTheRecommendedKneeLimits) {
               g.worst_deg, g.vmax_rad_s, f.worst_deg, f.vmax_rad_s);
 }
 
+TEST(SimGait, HeldOutFastGaitPeaksAtThreeToFiveTimesTheFastestCalibrationVelocity) {
+  // The fastest commanded speed of the calibration protocol (its table-1 cycles and positioning moves).
+  const Scenario cal = pof::sim::builtin_scenario("fibre_calibration");
+  double fastest = 0;
+  for (const Segment& g : cal.trajectory) {
+    fastest = std::max(fastest, g.move_velocity_rad_s);
+    for (double v : g.velocities_rad_s) fastest = std::max(fastest, v);
+  }
+  EXPECT_EQ(fastest, *std::max_element(pof::sim::kTable1Velocities.begin(), pof::sim::kTable1Velocities.end()));
+  // Every gait segment of the held-out scenario peaks at 3-5x that on the simulated knee, tracked.
+  const Scenario s = pof::sim::builtin_scenario("heldout_fast_gait");
+  pof::sim::Trajectory t(s, 1, 1.0 / s.daq.scan_rate_hz);
+  std::vector<double> peak(s.trajectory.size(), 0.0);
+  double overall = 0;
+  while (!t.finished()) {
+    const auto& k = t.step();
+    if (t.finished()) break;
+    const double w = std::abs(k.velocity_deg_s) / kDegPerRad;
+    peak[static_cast<std::size_t>(k.segment)] = std::max(peak[static_cast<std::size_t>(k.segment)], w);
+    overall = std::max(overall, w);
+  }
+  int gait = 0;
+  for (std::size_t i = 0; i < s.trajectory.size(); ++i) {
+    if (s.trajectory[i].kind != SegmentKind::kGait) continue;
+    ++gait;
+    EXPECT_GE(peak[i], 3 * fastest) << i;
+    EXPECT_LE(peak[i], 5 * fastest) << i;
+    std::printf("heldout_fast_gait segment %zu: peak %.3f rad/s = %.2fx %.4f rad/s\n", i, peak[i], peak[i] / fastest, fastest);
+  }
+  EXPECT_GE(gait, 3);
+  EXPECT_LE(overall, 5 * fastest);
+  const Tracking g = gait_tracking(s);
+  EXPECT_GT(g.ticks, 70 * 200);
+  EXPECT_LT(g.worst_deg, 1.0);
+  std::printf("heldout_fast_gait: tracked within %.3f deg\n", g.worst_deg);
+}
+
 // ------------------------------------------------------------------------------ scenarios and keys
 TEST(SimFibreScenarios, LoadShareTheFibreAndLastAsPlanned) {
   const Scenario cal = pof::sim::builtin_scenario("fibre_calibration");
@@ -526,8 +822,8 @@ TEST(SimFibreScenarios, LoadShareTheFibreAndLastAsPlanned) {
     return same;
   };
   struct Want { const char* name; double lo_s, hi_s; };
-  for (const Want w : {Want{"fibre_session", 90, 120}, Want{"heldout_gait", 60, 90}, Want{"heldout_rehab", 120, 200},
-                       Want{"heldout_random", 100, 140}}) {
+  for (const Want w : {Want{"fibre_session", 90, 120}, Want{"heldout_gait", 60, 90}, Want{"heldout_fast_gait", 80, 110},
+                       Want{"heldout_rehab", 120, 200}, Want{"heldout_random", 100, 140}}) {
     const Scenario s = pof::sim::builtin_scenario(w.name);
     EXPECT_TRUE(same_sensor(s.sensor, cal.sensor)) << w.name;
     EXPECT_EQ(s.daq.resolution_bits(), 12) << w.name;
@@ -563,7 +859,23 @@ TEST(SimFibreScenarios, CalibrationLoopNarrowsWithSpeedLikeThePaper) {
 
 TEST(SimFibreScenarios, BadKeysAreNamed) {
   std::string e = config_error(kMinimal + "[sensor.memory_hysteresis]\nenabled = true\nfamily = \"nope\"\n");
-  EXPECT_NE(e.find("t.toml:7: key 'sensor.memory_hysteresis.family': expected one of 'bouc_wen', 'maxwell_slip', got 'nope'"), std::string::npos) << e;
+  EXPECT_NE(e.find("t.toml:7: key 'sensor.memory_hysteresis.family': expected one of 'bouc_wen', 'maxwell_slip', 'preisach', got 'nope'"), std::string::npos) << e;
+  e = config_error(kMinimal + "[sensor.memory_hysteresis]\nenabled = true\nfamily = \"preisach\"\ncentre_spread_deg = -1\n");
+  EXPECT_NE(e.find("t.toml:8: key 'sensor.memory_hysteresis.centre_spread_deg': expected a spread in [0, 90] deg, got -1"), std::string::npos) << e;
+  e = config_error(kMinimal + "[sensor.memory_hysteresis]\nhalf_width_deg = 0\n");
+  EXPECT_NE(e.find("t.toml:6: key 'sensor.memory_hysteresis.half_width_deg': expected a half-width in (0, 90] deg, got 0"), std::string::npos) << e;
+  e = config_error(kMinimal + "[sensor.power_law_relaxation]\nenabled = true\nexponent = 1\n");
+  EXPECT_NE(e.find("t.toml:7: key 'sensor.power_law_relaxation.exponent': expected an exponent in (0, 1), got 1"), std::string::npos) << e;
+  e = config_error(kMinimal + "[sensor.power_law_relaxation]\nmin_time_s = 10\nmax_time_s = 50\n");
+  EXPECT_NE(e.find("key 'sensor.power_law_relaxation.max_time_s': expected max_time_s / min_time_s in [10, 1e8]"), std::string::npos) << e;
+  e = config_error(kMinimal + "[sensor.power_law_relaxation]\nmin_time_s = 0\n");
+  EXPECT_NE(e.find("t.toml:6: key 'sensor.power_law_relaxation.min_time_s'"), std::string::npos) << e;
+  e = config_error(kMinimal + "[sensor.cyclic_softening]\nenabled = true\ndepth = 1\n");
+  EXPECT_NE(e.find("t.toml:7: key 'sensor.cyclic_softening.depth': expected a fraction in [0, 1), got 1"), std::string::npos) << e;
+  e = config_error(kMinimal + "[sensor.cyclic_softening]\ntravel_scale_deg = -5\n");
+  EXPECT_NE(e.find("t.toml:6: key 'sensor.cyclic_softening.travel_scale_deg': expected a travel in (0, 1e9] deg, got -5"), std::string::npos) << e;
+  e = config_error(kMinimal + "[sensor.cyclic_softening]\ntravel_scale = 500\n");
+  EXPECT_NE(e.find("t.toml:6: unknown key 'travel_scale' in [sensor.cyclic_softening] (did you mean 'travel_scale_deg'?)"), std::string::npos) << e;
   e = config_error(kMinimal + "[sensor.memory_hysteresis]\nwidth_deg = -3\n");
   EXPECT_NE(e.find("t.toml:6: key 'sensor.memory_hysteresis.width_deg': expected an angle in (0, 180] deg, got -3"), std::string::npos) << e;
   e = config_error(kMinimal + "[sensor.memory_hysteresis]\nwidht_deg = 3\n");
@@ -589,6 +901,11 @@ TEST(SimFibreScenarios, BadKeysAreNamed) {
                    "[sensor.memory_hysteresis]\nenabled = true\nfamily = \"maxwell_slip\"\namplitude_v = -0.02\nrate_sensitivity_s_per_rad = 1\n"
                    "rate_filter_s = 0\nthresholds_deg = [1, 4, 9]\nweights = [0.2, 0.5, 0.3]\n[sensor.viscoelastic_lag]\nenabled = true\ntau_s = 0.5\n");
   EXPECT_EQ(e, "(no error)");
+  e = config_error(kMinimal + "[sensor.memory_hysteresis]\nenabled = true\nfamily = \"preisach\"\ncentre_deg = 40\ncentre_spread_deg = 0\n"
+                   "half_width_deg = 20\nhalf_width_spread_deg = 0\n[sensor.power_law_relaxation]\nenabled = true\ngain_v_per_deg = -0.0002\n"
+                   "exponent = 0.25\nmin_time_s = 0.05\nmax_time_s = 1000\n[sensor.cyclic_softening]\nenabled = true\ndepth = 0.08\n"
+                   "loop_depth = 0.2\ntravel_scale_deg = 20000\n");
+  EXPECT_EQ(e, "(no error)");
   // Scenarios built in code are checked by the simulator's constructor (validate()).
   Scenario s = quiet();
   s.trajectory = {go(10, 0.1, 1)};
@@ -602,6 +919,17 @@ TEST(SimFibreScenarios, BadKeysAreNamed) {
   s.sensor.memory_hysteresis.width_deg = 10;
   s.sensor.memory_hysteresis.family = MemoryHysteresisFamily::kMaxwellSlip;
   s.sensor.memory_hysteresis.weights = {1};
+  EXPECT_THROW(pof::sim::Simulator(s, 1, 0), pof::ConfigError);
+  s.sensor.memory_hysteresis.weights = {1, 1, 1};
+  s.sensor.power_law_relaxation.exponent = 0;
+  try {
+    pof::sim::Simulator sim(s, 1, 0);
+    ADD_FAILURE() << "no error";
+  } catch (const pof::ConfigError& err) {
+    EXPECT_NE(std::string(err.what()).find("'sensor.power_law_relaxation.exponent'"), std::string::npos) << err.what();
+  }
+  s.sensor.power_law_relaxation.exponent = 0.3;
+  s.sensor.cyclic_softening.travel_scale_deg = 0;
   EXPECT_THROW(pof::sim::Simulator(s, 1, 0), pof::ConfigError);
 }
 

@@ -33,14 +33,19 @@ TEST(SimStreaming, TheCounterSeesAllocations) {
 }
 
 TEST(SimStreaming, NextDoesNotAllocate) {
-  for (const char* name : {"paper", "realistic", "fibre_calibration", "heldout_random", "maxwell_slip"}) {
-    const bool slip = std::string(name) == "maxwell_slip";
-    pof::sim::Scenario s = pof::sim::builtin_scenario(slip ? "heldout_gait" : name);
+  for (const char* name : {"paper", "realistic", "fibre_calibration", "heldout_random", "maxwell_slip", "preisach"}) {
+    const bool slip = std::string(name) == "maxwell_slip", preisach = std::string(name) == "preisach";
+    pof::sim::Scenario s = pof::sim::builtin_scenario(slip ? "heldout_gait" : preisach ? "heldout_fast_gait" : name);
     s.loop = true;
     s.daq.time_delay.enabled = true;  // every optional state in use
     s.sensor.rate_dependent_hysteresis.enabled = true;
     s.sensor.viscoelastic_lag.enabled = true;
     if (slip) s.sensor.memory_hysteresis.family = pof::sim::MemoryHysteresisFamily::kMaxwellSlip;
+    if (preisach) {  // the relay grid, the power-law bank and the softening's travel
+      s.sensor.memory_hysteresis.family = pof::sim::MemoryHysteresisFamily::kPreisach;
+      s.sensor.power_law_relaxation.enabled = true;
+      s.sensor.cyclic_softening.enabled = true;
+    }
     pof::sim::Simulator sim(s, 1, 16000);
     std::vector<pof::sim::Scan> buf(512);
     std::vector<pof::sim::EffectTrace> tr(512);

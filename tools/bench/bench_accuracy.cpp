@@ -72,6 +72,39 @@ std::vector<Fibre> fibres() {
 
   SensorSettings d = pof::sim::builtin_scenario("paper").sensor;
   f.push_back({"P", "the paper's step model (eqs. (11)/(12) at the true velocity, f5 in holds)", d});
+
+  // Appended after P so that the earlier fibres keep their seeds (main() numbers them in order).
+  // A Preisach relay density with a centre spread: its loop depends on where it sits, which no
+  // sum of stop operators reproduces (docs/simulator.md); 0.022 V loop at 45 deg on 0-90.
+  SensorSettings pe = base;
+  pe.memory_hysteresis.family = pof::sim::MemoryHysteresisFamily::kPreisach;
+  pe.memory_hysteresis.amplitude_v = 0.02;
+  pe.memory_hysteresis.centre_deg = 45;
+  pe.memory_hysteresis.centre_spread_deg = 15;
+  pe.memory_hysteresis.half_width_deg = 12;
+  pe.memory_hysteresis.half_width_spread_deg = 5;
+  pe.memory_hysteresis.rate_sensitivity_s_per_rad = 0;
+  f.push_back({"E", "Preisach relays (centre 45+-15, half-width 12+-5 deg), rate independent, Prony 2 s + 20 s, bowed line", pe});
+
+  // Fibre A with its Prony pair replaced by a power law over decades (more than the dynamic
+  // model's Prony terms can span).
+  SensorSettings pl = base;
+  pl.creep.enabled = false;
+  pl.power_law_relaxation.enabled = true;
+  pl.power_law_relaxation.gain_v_per_deg = -0.00025;
+  pl.power_law_relaxation.exponent = 0.3;
+  pl.power_law_relaxation.min_time_s = 0.1;
+  pl.power_law_relaxation.max_time_s = 300;
+  f.push_back({"F", "fibre A with power-law relaxation t^-0.3 over 0.1-300 s (-0.00025 V/deg at 1 s) instead of Prony", pl});
+
+  // Fibre A softening with use: each run starts new, so the calibration and each held-out test
+  // soften from 1 (the calibration protocol's ~1700 deg of travel: sensitivity x0.97, loop x0.91).
+  SensorSettings cs = base;
+  cs.cyclic_softening.enabled = true;
+  cs.cyclic_softening.depth = 0.05;
+  cs.cyclic_softening.loop_depth = 0.15;
+  cs.cyclic_softening.travel_scale_deg = 2000;
+  f.push_back({"G", "fibre A with cyclic softening: sensitivity -5 %, loop -15 % x (1 - exp(-travel / 2000 deg))", cs});
   return f;
 }
 

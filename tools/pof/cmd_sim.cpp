@@ -94,7 +94,7 @@ void run_sim(const SimOptions& o) {
     std::fputs("t_s,sensor_v,reference_v,pot_v,angle_ref_deg,angle_true_deg,velocity_rad_s,acceleration_rad_s2,"
                "direction,quasi_static_v,static_nonlinearity_v,hysteresis_v,rate_dependent_hysteresis_v,creep_v,"
                "acceleration_v,drift_v,normalised_v,source_power_rel,pot_error_deg,memory_hysteresis_v,viscoelastic_lag_v,"
-               "lag_deg,memory_state\n", trace);
+               "lag_deg,memory_state,power_law_relaxation_v,cyclic_softening_v,travel_deg\n", trace);
   }
   struct TraceCloser {
     std::FILE*& f;
@@ -123,11 +123,12 @@ void run_sim(const SimOptions& o) {
       else lcm_w->write(r);
       if (trace != nullptr) {
         const auto& e = traces[i];
-        std::fprintf(trace, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n",
+        std::fprintf(trace, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n",
                      s.t_s, s.sensor_v, s.reference_v, s.pot_v, s.angle_ref_deg, s.angle_true_deg, e.velocity_rad_s,
                      e.acceleration_rad_s2, e.direction, e.quasi_static_v, e.static_nonlinearity_v, e.hysteresis_v,
                      e.rate_dependent_hysteresis_v, e.creep_v, e.acceleration_v, e.drift_v, e.normalised_v,
-                     e.source_power_rel, e.pot_error_deg, e.memory_hysteresis_v, e.viscoelastic_lag_v, e.lag_deg, e.memory_state);
+                     e.source_power_rel, e.pot_error_deg, e.memory_hysteresis_v, e.viscoelastic_lag_v, e.lag_deg, e.memory_state,
+                     e.power_law_relaxation_v, e.cyclic_softening_v, e.travel_deg);
       }
     }
     n_total += static_cast<std::int64_t>(n);

@@ -49,6 +49,19 @@ auto width_range = [](double v) { return v > 0 && v <= 180 ? std::string{} : std
 auto shape_range = [](double v) { return v >= 0.5 && v <= 20 ? std::string{} : std::string("an exponent in [0.5, 20]"); };
 auto beta_fraction_range = [](double v) { return v > 0 && v <= 1 ? std::string{} : std::string("a fraction in (0, 1]"); };
 auto lag_tau_range = [](double v) { return v > 0 && v <= 600 ? std::string{} : std::string("a time constant in (0, 600] s"); };
+// Preisach density (docs/simulator.md).
+auto spread_range = [](double v) { return v >= 0 && v <= 90 ? std::string{} : std::string("a spread in [0, 90] deg"); };
+auto half_width_range = [](double v) { return v > 0 && v <= 90 ? std::string{} : std::string("a half-width in (0, 90] deg"); };
+// Power-law relaxation. max_time_s / min_time_s: at least a decade (a power law over less is not
+// one), at most 8 (the bank, 3 terms per decade over the range and a decade either side, stays
+// <= 32 terms).
+auto exponent_range = [](double v) { return v > 0 && v < 1 ? std::string{} : std::string("an exponent in (0, 1)"); };
+auto relaxation_time_range = [](double v) { return v >= 1e-3 && v <= 1e5 ? std::string{} : std::string("a time in [0.001, 100000] s"); };
+auto gain_range = [](double v) { return std::abs(v) <= 0.1 ? std::string{} : std::string("a gain in [-0.1, 0.1] V/deg"); };
+constexpr double kMinRelaxationRange = 10, kMaxRelaxationRange = 1e8;
+// Cyclic softening.
+auto depth_range = [](double v) { return v >= 0 && v < 1 ? std::string{} : std::string("a fraction in [0, 1)"); };
+auto travel_scale_range = [](double v) { return v > 0 && v <= 1e9 ? std::string{} : std::string("a travel in (0, 1e9] deg"); };
 auto probability = [](double v) { return v >= 0 && v <= 1 ? std::string{} : std::string("a probability in [0, 1]"); };
 
 // An optional array of numbers, each satisfying `each`, read into `out` when present.
@@ -258,7 +271,8 @@ Scenario read_scenario(const toml::table& root, const std::string& source) {
     s.with_section("memory_hysteresis", [&](TomlSection& h) {
       auto& mh = se.memory_hysteresis;
       mh.enabled = h.get_or("enabled", mh.enabled);
-      mh.family = h.get_enum_or("family", mh.family, {{"bouc_wen", MemoryHysteresisFamily::kBoucWen}, {"maxwell_slip", MemoryHysteresisFamily::kMaxwellSlip}});
+      mh.family = h.get_enum_or("family", mh.family, {{"bouc_wen", MemoryHysteresisFamily::kBoucWen}, {"maxwell_slip", MemoryHysteresisFamily::kMaxwellSlip},
+                                                       {"preisach", MemoryHysteresisFamily::kPreisach}});
       mh.amplitude_v = h.get_or("amplitude_v", mh.amplitude_v, amplitude_range);
       mh.rate_sensitivity_s_per_rad = h.get_or("rate_sensitivity_s_per_rad", mh.rate_sensitivity_s_per_rad, rate_sensitivity_range);
       mh.rate_filter_s = h.get_or("rate_filter_s", mh.rate_filter_s, non_negative);
@@ -275,10 +289,33 @@ Scenario read_scenario(const toml::table& root, const std::string& source) {
       double wsum = 0;
       for (double w : mh.weights) wsum += w;
       if (!(wsum > 0)) h.fail("weights", "expected at least one weight > 0");
+      mh.centre_deg = h.get_or("centre_deg", mh.centre_deg, angle_range);
+      mh.centre_spread_deg = h.get_or("centre_spread_deg", mh.centre_spread_deg, spread_range);
+      mh.half_width_deg = h.get_or("half_width_deg", mh.half_width_deg, half_width_range);
+      mh.half_width_spread_deg = h.get_or("half_width_spread_deg", mh.half_width_spread_deg, spread_range);
     });
     s.with_section("viscoelastic_lag", [&](TomlSection& l) {
       se.viscoelastic_lag.enabled = l.get_or("enabled", se.viscoelastic_lag.enabled);
       se.viscoelastic_lag.tau_s = l.get_or("tau_s", se.viscoelastic_lag.tau_s, lag_tau_range);
+    });
+    s.with_section("power_law_relaxation", [&](TomlSection& p) {
+      auto& pl = se.power_law_relaxation;
+      pl.enabled = p.get_or("enabled", pl.enabled);
+      pl.gain_v_per_deg = p.get_or("gain_v_per_deg", pl.gain_v_per_deg, gain_range);
+      pl.exponent = p.get_or("exponent", pl.exponent, exponent_range);
+      pl.min_time_s = p.get_or("min_time_s", pl.min_time_s, relaxation_time_range);
+      pl.max_time_s = p.get_or("max_time_s", pl.max_time_s, relaxation_time_range);
+      const double ratio = pl.max_time_s / pl.min_time_s;
+      if (!(ratio >= kMinRelaxationRange && ratio <= kMaxRelaxationRange))
+        p.fail("max_time_s", "expected max_time_s / min_time_s in [10, 1e8] (a power law over 1 to 8 decades), got " + format_number(pl.max_time_s) +
+                                 " / " + format_number(pl.min_time_s));
+    });
+    s.with_section("cyclic_softening", [&](TomlSection& c) {
+      auto& cs = se.cyclic_softening;
+      cs.enabled = c.get_or("enabled", cs.enabled);
+      cs.depth = c.get_or("depth", cs.depth, depth_range);
+      cs.loop_depth = c.get_or("loop_depth", cs.loop_depth, depth_range);
+      cs.travel_scale_deg = c.get_or("travel_scale_deg", cs.travel_scale_deg, travel_scale_range);
     });
   });
 
@@ -403,8 +440,9 @@ void validate(const Scenario& s) {
       const std::string want = std::isfinite(v) ? rule.want(v) : std::string("a finite number");
       if (!want.empty()) bad(k + key, "expected " + want + ", got " + format_number(v));
     };
-    if (mh.family != MemoryHysteresisFamily::kBoucWen && mh.family != MemoryHysteresisFamily::kMaxwellSlip)
-      bad(k + "family", "expected 'bouc_wen' or 'maxwell_slip'");
+    if (mh.family != MemoryHysteresisFamily::kBoucWen && mh.family != MemoryHysteresisFamily::kMaxwellSlip &&
+        mh.family != MemoryHysteresisFamily::kPreisach)
+      bad(k + "family", "expected 'bouc_wen', 'maxwell_slip' or 'preisach'");
     check("amplitude_v", mh.amplitude_v, amplitude_range);
     check("rate_sensitivity_s_per_rad", mh.rate_sensitivity_s_per_rad, rate_sensitivity_range);
     check("rate_filter_s", mh.rate_filter_s, non_negative);
@@ -423,7 +461,29 @@ void validate(const Scenario& s) {
       }
       if (!(wsum > 0)) bad(k + "weights", "expected at least one weight > 0");
     }
+    check("centre_deg", mh.centre_deg, angle_range);
+    check("centre_spread_deg", mh.centre_spread_deg, spread_range);
+    check("half_width_deg", mh.half_width_deg, half_width_range);
+    check("half_width_spread_deg", mh.half_width_spread_deg, spread_range);
     check("viscoelastic_lag.tau_s", s.sensor.viscoelastic_lag.tau_s, lag_tau_range);
+  }
+  {
+    auto check = [&](const std::string& key, double v, const TomlCheck<double>& rule) {
+      const std::string want = std::isfinite(v) ? rule.want(v) : std::string("a finite number");
+      if (!want.empty()) bad("sensor." + key, "expected " + want + ", got " + format_number(v));
+    };
+    const auto& pl = s.sensor.power_law_relaxation;
+    check("power_law_relaxation.gain_v_per_deg", pl.gain_v_per_deg, gain_range);
+    check("power_law_relaxation.exponent", pl.exponent, exponent_range);
+    check("power_law_relaxation.min_time_s", pl.min_time_s, relaxation_time_range);
+    check("power_law_relaxation.max_time_s", pl.max_time_s, relaxation_time_range);
+    const double ratio = pl.max_time_s / pl.min_time_s;
+    if (!(ratio >= kMinRelaxationRange && ratio <= kMaxRelaxationRange))
+      bad("sensor.power_law_relaxation.max_time_s", "expected max_time_s / min_time_s in [10, 1e8]");
+    const auto& cs = s.sensor.cyclic_softening;
+    check("cyclic_softening.depth", cs.depth, depth_range);
+    check("cyclic_softening.loop_depth", cs.loop_depth, depth_range);
+    check("cyclic_softening.travel_scale_deg", cs.travel_scale_deg, travel_scale_range);
   }
   if (s.light.wander.enabled && !(s.light.wander.tau_s > 0)) bad("light.wander.tau_s", "expected a number > 0");
   if (s.daq.time_delay.enabled && !(s.daq.time_delay.delay_s >= 0)) bad("daq.time_delay.delay_s", "expected a number >= 0");

@@ -97,10 +97,68 @@ Simulator::Simulator(const Scenario& s, std::uint64_t seed, double scan_rate_hz)
       slip_w_.push_back(mh.weights[i] / wsum / mh.thresholds_deg[i]);
     }
   }
+  if (mh.enabled && mh.family == MemoryHysteresisFamily::kPreisach) {
+    // Discretised Preisach model (Mayergoyz 1991): relays on a fixed grid over the centre
+    // u = (alpha + beta) / 2 (mean +- 3 spreads) and the half-width v = (alpha - beta) / 2
+    // ([max(0, mean - 3 spreads), mean + 3 spreads]), at the cells' midpoints, weighted by the
+    // factorised Gaussian density; a spread of 0 is one row. Everything per scan is precomputed here.
+    const int nu = mh.centre_spread_deg > 0 ? kPreisachGrid : 1;
+    const int nv = mh.half_width_spread_deg > 0 ? kPreisachGrid : 1;
+    const double u_lo = mh.centre_deg - 3.0 * mh.centre_spread_deg;
+    const double du = 6.0 * mh.centre_spread_deg / nu;
+    const double v_lo = std::max(0.0, mh.half_width_deg - 3.0 * mh.half_width_spread_deg);
+    const double dv = (mh.half_width_deg + 3.0 * mh.half_width_spread_deg - v_lo) / nv;
+    auto z = [](double x, double mean, double spread) { return spread > 0 ? (x - mean) / spread : 0.0; };
+    double wsum = 0;
+    for (int i = 0; i < nu; ++i) {
+      const double u = u_lo + (i + 0.5) * du;
+      for (int j = 0; j < nv; ++j) {
+        const double v = v_lo + (j + 0.5) * dv;
+        const double zu = z(u, mh.centre_deg, mh.centre_spread_deg), zv = z(v, mh.half_width_deg, mh.half_width_spread_deg);
+        relay_alpha_.push_back(u + v);
+        relay_beta_.push_back(u - v);
+        relay_w_.push_back(std::exp(-0.5 * (zu * zu + zv * zv)));
+        // The demagnetised state at the start angle: relays centred below it up, the others down
+        // (the memory line alpha + beta = 2 theta_0).
+        relay_r_.push_back(u < s.knee.start_deg ? 1.0 : -1.0);
+        wsum += relay_w_.back();
+      }
+    }
+    for (std::size_t i = 0; i < relay_w_.size(); ++i) {
+      relay_w_[i] /= wsum;
+      relay_sum_ += relay_w_[i] * relay_r_[i];
+    }
+  }
   speed_alpha_ = mh.rate_filter_s > 0 ? 1.0 - std::exp(-dt_ / mh.rate_filter_s) : 1.0;
+  if (const auto& pl = s.sensor.power_law_relaxation; pl.enabled) {
+    // t^-n = (1 / Gamma(n)) integral of tau^-n e^(-t/tau) d(ln tau): the rectangle rule on a log
+    // grid of time constants (3 per decade: ripple < 1e-4 relative) from min_time_s / 10 to
+    // max_time_s x 10, plus one term for the spectrum beyond the grid, whose contribution is
+    // ~constant over the range: weight tau_e^-n / Gamma(n + 1), time constant tau_e (n + 1) / n
+    // (matches it to first order in t / tau_e). docs/simulator.md, "Power-law relaxation".
+    constexpr int kPerDecade = 3;
+    const double n = pl.exponent, h = std::log(10.0) / kPerDecade;
+    const double tau_lo = pl.min_time_s / 10.0;
+    const int terms = static_cast<int>(std::ceil(std::log10(100.0 * pl.max_time_s / pl.min_time_s) * kPerDecade)) + 1;
+    auto add = [&](double tau, double weight) {
+      const double e = std::exp(-dt_ / tau);
+      plr_decay_.push_back(e);
+      plr_gain_.push_back(tau / dt_ * (1.0 - e));  // as creep: exact for a linear ramp in a tick
+      plr_w_.push_back(pl.gain_v_per_deg * weight);
+      plr_m_.push_back(0.0);
+    };
+    for (int j = 0; j < terms; ++j) {
+      const double tau = tau_lo * std::exp(j * h);
+      add(tau, h * std::pow(tau, -n) / std::tgamma(n));
+    }
+    const double tau_edge = tau_lo * std::exp((terms - 0.5) * h);
+    add(tau_edge * (n + 1.0) / n, std::pow(tau_edge, -n) / std::tgamma(n + 1.0));
+  }
   fibre_angle_ = s.knee.start_deg;
   prev_knee_angle_ = s.knee.start_deg;
   mem_prev_angle_ = s.knee.start_deg;
+  plr_prev_angle_ = s.knee.start_deg;
+  soft_prev_angle_ = s.knee.start_deg;
   drift_rw_step_ = s.sensor.drift.random_walk_v_per_sqrt_hour * std::sqrt(dt_ / 3600.0);
   wander_decay_ = std::exp(-dt_ / s.light.wander.tau_s);
   wander_kick_ = s.light.wander.sigma_rel * std::sqrt(1.0 - wander_decay_ * wander_decay_);
@@ -137,6 +195,20 @@ double Simulator::quantise(double v, int channel, std::uint8_t& over) const {
     over = static_cast<std::uint8_t>(over | (1U << channel));
   }
   return code * lsb_ - range_;
+}
+
+double Simulator::preisach_step(double theta_deg) {
+  // Each relay is up once the angle reaches alpha, down once it falls to beta, else unchanged:
+  // exact for any monotone increment between scans. The state is -sum w_i R_i, so that the
+  // flexion branch lies above (the voltage falls with bend and lags it), as for the other families.
+  double acc = 0;
+  for (std::size_t i = 0; i < relay_r_.size(); ++i) {
+    const double r = theta_deg >= relay_alpha_[i] ? 1.0 : (theta_deg <= relay_beta_[i] ? -1.0 : relay_r_[i]);
+    relay_r_[i] = r;
+    acc += relay_w_[i] * r;
+  }
+  relay_sum_ = acc;
+  return std::clamp(-acc, -1.0, 1.0);
 }
 
 double Simulator::bouc_wen_step(double dtheta_deg) {
@@ -223,6 +295,9 @@ void Simulator::step(Scan& out, EffectTrace* tr) {
     mem_prev_angle_ = theta_f;
     if (mh.family == MemoryHysteresisFamily::kBoucWen) {
       mem_state = bouc_wen_step(dtheta);
+    } else if (mh.family == MemoryHysteresisFamily::kPreisach) {
+      // In a hold no relay can switch: skip the sweep over the grid.
+      mem_state = dtheta != 0.0 ? preisach_step(theta_f) : std::clamp(-relay_sum_, -1.0, 1.0);
     } else {
       // Maxwell-slip (Lampaert, Al-Bender, Swevers 2003; Goldfarb and Celanovic 1997): element i
       // is elastic until its slip threshold r_i, e_i <- clamp(e_i + dtheta, -r_i, r_i) (the stop
@@ -243,7 +318,32 @@ void Simulator::step(Scan& out, EffectTrace* tr) {
     drift = se.drift.rate_v_per_hour * t / 3600.0 + drift_rw_;
     if (drift_rw_step_ > 0) drift_rw_ += drift_rw_step_ * rng_drift_.normal();
   }
-  const double v_norm = v_line + snl + hyst + rdh + creep + acc + drift + mem;
+  double plr = 0;
+  if (se.power_law_relaxation.enabled) {
+    // A bank of Prony terms updated as creep's (constructor; docs/simulator.md).
+    const double dtheta = theta_f - plr_prev_angle_;
+    plr_prev_angle_ = theta_f;
+    for (std::size_t i = 0; i < plr_m_.size(); ++i) {
+      plr_m_[i] = plr_m_[i] * plr_decay_[i] + dtheta * plr_gain_[i];
+      plr += plr_w_[i] * plr_m_[i];
+    }
+  }
+  double soft = 0;
+  if (se.cyclic_softening.enabled) {
+    // The bend response (the line relative to the straight fibre at 0 deg, and the static
+    // nonlinearity) and the hysteresis terms scale down with the accumulated travel.
+    const auto& cs = se.cyclic_softening;
+    travel_ += std::abs(theta_f - soft_prev_angle_);
+    soft_prev_angle_ = theta_f;
+    const double progress = 1.0 - std::exp(-travel_ / cs.travel_scale_deg);
+    const double bend = v_line - pof::core::quasi_static_voltage(se.model, 0.0) + snl;
+    soft = -cs.depth * progress * bend - cs.loop_depth * progress * (hyst + rdh + mem);
+  }
+  // The effects added after the original sum, and only when on, so that scenarios without them
+  // give the same doubles bit for bit.
+  double v_norm = v_line + snl + hyst + rdh + creep + acc + drift + mem;
+  if (se.power_law_relaxation.enabled) v_norm += plr;
+  if (se.cyclic_softening.enabled) v_norm += soft;
 
   // --- light path: one source feeds both fibres, so the reference cancels its power changes ---
   const LightSettings& li = sc_.light;
@@ -352,6 +452,9 @@ void Simulator::step(Scan& out, EffectTrace* tr) {
     tr->viscoelastic_lag_v = theta_f == theta ? 0.0 : (v_line + snl) - qs_true;
     tr->lag_deg = theta - theta_f;
     tr->memory_state = mem_state;
+    tr->power_law_relaxation_v = plr;
+    tr->cyclic_softening_v = soft;
+    tr->travel_deg = travel_;
     tr->normalised_v = v_norm;
     tr->source_power_rel = power;
     tr->pot_error_deg = pot_angle - theta;

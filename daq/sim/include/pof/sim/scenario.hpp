@@ -84,7 +84,12 @@ struct CreepTerm {
 enum class MemoryHysteresisFamily : int {
   kBoucWen,      // smooth Bouc-Wen loop (Bouc 1967, Wen 1976)
   kMaxwellSlip,  // Maxwell-slip / Prandtl-Ishlinskii: weighted stop operators
+  kPreisach,     // discretised Preisach model: relays with a Gaussian density (Mayergoyz 1991)
 };
+
+// sensor.memory_hysteresis.family = "preisach" runs a fixed grid of this many relays per axis of
+// the (centre, half-width) half-plane (docs/simulator.md, "Continuous hysteresis with memory").
+inline constexpr int kPreisachGrid = 20;
 
 struct SensorSettings {
   pof::core::ModelCoefficients model = pof::core::paper_coefficients();
@@ -110,10 +115,33 @@ struct SensorSettings {
     // maxwell_slip
     std::vector<double> thresholds_deg{2, 5, 10};  // slip threshold of each element
     std::vector<double> weights{1, 1, 1};          // relative, normalised to sum 1
+    // preisach: relays switching up at alpha and down at beta <= alpha, with a factorised Gaussian
+    // density over the centre u = (alpha + beta) / 2 and the half-width v = (alpha - beta) / 2.
+    double centre_deg = 45;            // mean relay centre
+    double centre_spread_deg = 12;     // std. dev. of the centres (the interaction spread)
+    double half_width_deg = 15;        // mean relay half-width (the coercive angle)
+    double half_width_spread_deg = 6;  // std. dev. of the half-widths (truncated at 0)
   } memory_hysteresis;
   // First-order lag of the fibre's effective bend behind the knee (Kelvin-Voigt-like):
   // theta_f' = (theta - theta_f) / tau. The fibre-side terms are evaluated at theta_f.
   struct ViscoelasticLag { bool enabled = false; double tau_s = 0.3; } viscoelastic_lag;
+  // Nutting (fractional) relaxation: a sudden bend of d deg adds gain_v_per_deg * d * (t / 1 s)^-n,
+  // t the time since the bend, over [min_time_s, max_time_s]; run as a fixed bank of Prony terms.
+  struct PowerLawRelaxation {
+    bool enabled = false;
+    double gain_v_per_deg = -0.0003;  // the response 1 s after the bend, per degree of bend
+    double exponent = 0.3;            // n, in (0, 1)
+    double min_time_s = 0.1, max_time_s = 300;  // where the t^-n law holds
+  } power_law_relaxation;
+  // Cyclic softening of the PMMA: with L the fibre's accumulated bend travel (sum of |dtheta_f|),
+  // the bend sensitivity is multiplied by 1 - depth (1 - exp(-L / travel_scale_deg)), the
+  // hysteresis terms by the same with loop_depth.
+  struct CyclicSoftening {
+    bool enabled = false;
+    double depth = 0.05;       // fraction of the sensitivity lost after a long run, [0, 1)
+    double loop_depth = 0;     // fraction of the hysteresis loop lost, [0, 1)
+    double travel_scale_deg = 5000;  // L0 [deg]
+  } cyclic_softening;
 };
 
 // ---------------------------------------------------------------- light path

@@ -39,7 +39,10 @@ struct EffectTrace {
   double memory_hysteresis_v;  // sensor.memory_hysteresis [V, normalised]
   double viscoelastic_lag_v;   // quasi-static line + nonlinearity at the lagged angle minus at the true one
   double lag_deg;              // true angle - the fibre's effective (lagged) angle [deg]
-  double memory_state;         // the hysteresis state: Bouc-Wen z or sum w_i e_i / r_i, in [-1, 1]
+  double memory_state;         // the hysteresis state: Bouc-Wen z, sum w_i e_i / r_i or -sum w_i R_i, in [-1, 1]
+  double power_law_relaxation_v;  // sensor.power_law_relaxation [V, normalised]
+  double cyclic_softening_v;   // what sensor.cyclic_softening changes: (factor - 1) x the softened terms [V]
+  double travel_deg;           // the fibre's accumulated bend travel (with cyclic_softening on, else 0) [deg]
   double normalised_v;         // sum of the above: the noise-free normalised sensor voltage
   double source_power_rel;     // light-source power / nominal
   double pot_error_deg;        // potentiometer angle - true angle (backlash, linearity, vibration)
@@ -67,6 +70,7 @@ class Simulator {
  private:
   void step(Scan& out, EffectTrace* tr);
   double bouc_wen_step(double dtheta_deg);
+  double preisach_step(double theta_deg);
   double quantise(double v, int channel, std::uint8_t& over) const;
 
   Scenario sc_;
@@ -90,6 +94,15 @@ class Simulator {
   // stop operators of Maxwell-slip.
   double bw_z_ = 0, bw_a_ = 0, bw_beta_ = 0, bw_gamma_ = 0, bw_max_substep_deg_ = 1;
   std::vector<double> slip_e_, slip_r_, slip_w_;  // element strain [deg], threshold [deg], weight / threshold
+  // Preisach relays: state (+-1), switch-up angle alpha, switch-down angle beta [deg], weight
+  // (normalised to sum 1), and the weighted sum of the states at the last update.
+  std::vector<double> relay_r_, relay_alpha_, relay_beta_, relay_w_;
+  double relay_sum_ = 0;
+  // Power-law relaxation: its bank of Prony terms (state, e^{-dt/tau}, input weight, output weight).
+  std::vector<double> plr_m_, plr_decay_, plr_gain_, plr_w_;
+  double plr_prev_angle_ = 0;
+  // Cyclic softening: accumulated |dtheta_f| [deg] and the fibre angle it was last updated at.
+  double travel_ = 0, soft_prev_angle_ = 0;
   double mem_prev_angle_ = 0;  // fibre angle at the last hysteresis update
   double speed_filt_ = 0, speed_alpha_ = 1;  // low-passed |omega| [rad/s] and its update gain
   double drift_rw_ = 0, drift_rw_step_ = 0;

@@ -858,3 +858,36 @@ TEST(AtomicWrite, ReplacesWholeFilesAndLeavesNothingOnFailure) {
   for (const auto& e : fs::directory_iterator(fs::path(p).parent_path())) files += e.is_regular_file() ? 1 : 0;
   EXPECT_EQ(files, 1) << "no temporary file left behind";
 }
+
+// [estimator] (schema 3): round trip, each key named when damaged, refused in an older schema and
+// without the [dynamic] section it estimates for; a schema 2 file without it still loads.
+TEST(CalibrationFile, EstimatorSectionRoundTripsAndDamageIsNamed) {
+  auto f = with_dynamic_model();
+  f.cal.estimator = pof::core::EstimatorNoise{0.0016, 300};
+  const std::string text = pof::io::to_toml(f);
+  const auto g = pof::io::parse_calibration(text, "mem.toml");
+  ASSERT_TRUE(g.cal.estimator);
+  EXPECT_EQ(g.cal.estimator->voltage_noise_v, 0.0016);
+  EXPECT_EQ(g.cal.estimator->acceleration_noise_deg_s2, 300);
+  auto err = [&](const std::string& from, const std::string& start, const std::string& repl) {
+    return error_of([&] { pof::io::parse_calibration(replace_line(from, start, repl), "cal.toml"); });
+  };
+  EXPECT_NE(err(text, "voltage_noise_v", "voltage_noise_v = -0.001").find("key 'estimator.voltage_noise_v': expected a number > 0"),
+            std::string::npos);
+  EXPECT_NE(err(text, "acceleration_noise_deg_s2", "").find("key 'estimator.acceleration_noise_deg_s2'"), std::string::npos);
+  EXPECT_NE(err(text, "acceleration_noise_deg_s2", "acceleration_noise_deg_s2 = nan").find("key 'estimator.acceleration_noise_deg_s2'"),
+            std::string::npos);
+  EXPECT_NE(err(text, "schema_version", "schema_version = 2").find("key 'estimator': is a schema_version 3 section"), std::string::npos);
+  const std::string v2 = replace_line(replace_line(replace_line(replace_line(text, "[estimator]", ""), "voltage_noise_v", ""),
+                                                   "acceleration_noise_deg_s2", ""),
+                                      "schema_version", "schema_version = 2");
+  const auto old = pof::io::parse_calibration(v2, "old.toml");
+  EXPECT_FALSE(old.cal.estimator);
+  ASSERT_TRUE(old.cal.dynamic);
+  auto no_dynamic = f;
+  no_dynamic.cal.dynamic.reset();
+  no_dynamic.cal.active = pof::core::ModelKind::kPaper;
+  EXPECT_NE(error_of([&] { pof::io::parse_calibration(pof::io::to_toml(no_dynamic), "cal.toml"); })
+                .find("key 'estimator': needs a [dynamic] section"),
+            std::string::npos);
+}

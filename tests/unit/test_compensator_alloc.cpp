@@ -68,18 +68,27 @@ TEST(CompensatorAlloc, DynamicModelStepNeverAllocates) {
   m.bend_lag_s = 0.08;  // the lag inverse's window runs too
   cal.dynamic = m;
   cal.active = pof::core::ModelKind::kDynamic;
-  pof::core::OnlineCompensator comp(cal);
-  double sink = 0;
-  g_armed = true;
-  for (int i = 0; i < 20000; ++i) {
-    const double ang = 45 + 40 * std::sin(i / 400.0);
-    const auto s = comp.step(m.quasi_static_v(ang), 4.0);
-    if (i == 10000) comp.reset();
-    sink += s.angle_deg;
+  // The per-scan inverse, the estimator, and the estimator with the longest fixed lag.
+  for (const double lag_s : {-1.0, 0.0, pof::core::kMaxSmootherLag / 200.0}) {
+    pof::core::CompensatorSettings settings;
+    if (lag_s >= 0) {
+      cal.estimator = pof::core::EstimatorNoise{0.0015, 300};
+      settings.estimator_lag_s = lag_s;
+    }
+    pof::core::OnlineCompensator comp(cal, settings);
+    ASSERT_EQ(comp.estimating(), lag_s >= 0);
+    double sink = 0;
+    g_armed = true;
+    for (int i = 0; i < 20000; ++i) {
+      const double ang = 45 + 40 * std::sin(i / 400.0);
+      const auto s = comp.step(i % 5000 == 7 ? std::nan("") : m.quasi_static_v(ang), 4.0);  // and unusable scans
+      if (i == 10000) comp.reset();
+      sink += std::isfinite(s.angle_deg) ? s.angle_deg : 0.0;
+    }
+    g_armed = false;
+    EXPECT_EQ(g_allocs.load(), 0) << "estimator lag " << lag_s << " s (-1: the inverse)";
+    EXPECT_TRUE(std::isfinite(sink));
   }
-  g_armed = false;
-  EXPECT_EQ(g_allocs.load(), 0);
-  EXPECT_TRUE(std::isfinite(sink));
 }
 
 // Every effect the compensator can apply from [gap] (gap_terms.hpp), on both models, through

@@ -210,11 +210,12 @@ void Pipeline::on_block(const pof::raw_block_t& b, std::int64_t publish_utime, S
     // Decimation window (k_ == 1: every scan).
     if (in_window_ == 0) {
       window_first_utime_ = utime;
-      sum_angle_ = sum_uncomp_ = sum_ref_ = 0;
+      sum_angle_ = sum_uncomp_ = sum_ref_ = sum_sigma_ = 0;
       window_quality_ = 0;
     }
     sum_angle_ += cs.angle_deg;
     sum_uncomp_ += cs.angle_uncomp_deg;
+    sum_sigma_ += cs.angle_sigma_deg;
     sum_ref_ += ref;
     window_quality_ |= cs.quality;
     ++in_window_;
@@ -224,6 +225,7 @@ void Pipeline::on_block(const pof::raw_block_t& b, std::int64_t publish_utime, S
       pending_.angle_deg = float(sum_angle_ / k_);
       pending_.angle_uncomp_deg = float(sum_uncomp_ / k_);
       pending_.angle_ref_deg = float(sum_ref_ / k_);
+      pending_.angle_sigma_deg = float(sum_sigma_ / k_);
       pending_.velocity_rad_s = float(cs.velocity_rad_s);
       pending_.phase = phase_of(cs.phase);
       pending_.quality = window_quality_;

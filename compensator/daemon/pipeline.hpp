@@ -115,7 +115,7 @@ class Pipeline {
 
   // Decimation window.
   int k_ = 1, in_window_ = 0;
-  double sum_angle_ = 0, sum_uncomp_ = 0, sum_ref_ = 0;
+  double sum_angle_ = 0, sum_uncomp_ = 0, sum_ref_ = 0, sum_sigma_ = 0;
   std::int32_t window_quality_ = 0;
   std::int64_t window_first_utime_ = 0;
   pof::angle_t pending_{};

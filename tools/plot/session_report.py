@@ -10,6 +10,7 @@ with the table; stats.csv '-' draws no table.
 """
 import argparse
 import csv
+import math
 
 import matplotlib
 
@@ -62,6 +63,15 @@ def figure(rows, stats, title):
     e_u = [u - r for u, r in zip(unc, ref)]
     ax2.plot(t, e_u, color="tab:orange", lw=0.6, label="uncompensated")
     ax2.plot(t, e_c, color="tab:blue", lw=0.6, label="compensated")
+    # The estimator's own error band (angle_t.angle_sigma_deg; absent in older exports, NaN when the
+    # active model gives none): where the error leaves +-2 sigma, the model, not the noise, is off.
+    sigma = [float(r.get("angle_sigma_deg") or "nan") for r in rows]
+    if any(math.isfinite(x) for x in sigma):
+        band = [2 * x if math.isfinite(x) else float("nan") for x in sigma]
+        ax2.fill_between(t, [-b for b in band], band, color="tab:blue", alpha=0.2, lw=0,
+                         label="estimator's +-2 sigma")
+        ax1.fill_between(t, [c - b for c, b in zip(comp, band)], [c + b for c, b in zip(comp, band)],
+                         color="tab:blue", alpha=0.2, lw=0)
     ft = [x for x, f in zip(t, flagged) if f]
     if ft:
         ax2.plot(ft, [0] * len(ft), "|", color="tab:red", ms=4, label="quality flag set")

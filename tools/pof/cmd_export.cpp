@@ -98,7 +98,7 @@ void run(const ExportOptions& o) {
                                " differs from the channel's type");
       switch (t) {
         case bus::MessageType::kAngle:
-          out << "utime,seq,scan_index,angle_deg,angle_uncomp_deg,angle_ref_deg,velocity_rad_s,phase,quality\n";
+          out << "utime,seq,scan_index,angle_deg,angle_uncomp_deg,angle_ref_deg,velocity_rad_s,phase,quality,angle_sigma_deg\n";
           break;
         case bus::MessageType::kCycleStats:
           out << "utime,seq,cycle,start_utime,end_utime,velocity_rad_s,rmse_comp_deg,rmse_uncomp_deg,"
@@ -113,7 +113,7 @@ void run(const ExportOptions& o) {
           out << "utime,seq,sensor_id,calibration_path,calibration_sensor_id,calibration_date,blocks,scans,"
                  "lost_blocks,lost_scans,rejected_blocks,fault_scans,angles,cycles,reloads,reload_failures,"
                  "last_error,decode_errors,malformed_datagrams,duplicate_blocks,publish_failures,authenticated,"
-                 "auth_unsigned,auth_bad_mac,auth_stale,auth_replayed\n";
+                 "auth_unsigned,auth_bad_mac,auth_stale,auth_replayed,estimator_divergences\n";
           break;
         case bus::MessageType::kRawBlock:
         case bus::MessageType::kUnknown:
@@ -130,7 +130,8 @@ void run(const ExportOptions& o) {
       if (auto why = io::decode_lcm_event(ev, m)) return log.undecodable(ev, *why);
       out << m.utime << ',' << m.seq << ',' << m.scan_index << ',' << num(double(m.angle_deg)) << ','
           << num(double(m.angle_uncomp_deg)) << ',' << num(double(m.angle_ref_deg)) << ','
-          << num(double(m.velocity_rad_s)) << ',' << phase_name(m.phase) << ',' << m.quality << '\n';
+          << num(double(m.velocity_rad_s)) << ',' << phase_name(m.phase) << ',' << m.quality << ','
+          << num(double(m.angle_sigma_deg)) << '\n';
       ++rows;
     } else if (t == bus::MessageType::kCycleStats) {
       pof::cycle_stats_t m{};
@@ -159,7 +160,8 @@ void run(const ExportOptions& o) {
           << m.angles << ',' << m.cycles << ',' << m.reloads << ',' << m.reload_failures << ','
           << text(m.last_error) << ',' << m.decode_errors << ',' << m.malformed_datagrams << ','
           << m.duplicate_blocks << ',' << m.publish_failures << ',' << (m.authenticated ? 1 : 0) << ','
-          << m.auth_unsigned << ',' << m.auth_bad_mac << ',' << m.auth_stale << ',' << m.auth_replayed << '\n';
+          << m.auth_unsigned << ',' << m.auth_bad_mac << ',' << m.auth_stale << ',' << m.auth_replayed << ','
+          << m.estimator_divergences << '\n';
       ++rows;
     } else {
       pof::raw_block_t m{};

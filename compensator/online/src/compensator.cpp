@@ -74,17 +74,18 @@ void OnlineCompensator::reset() noexcept {
   scans_lost_ = true;
 }
 
-double OnlineCompensator::angle_of(double v, double reference_v, double w, Direction d, std::int32_t* quality) noexcept {
+double OnlineCompensator::angle_of(double v, double reference_v, double w, Direction d, CompensatedScan& out) noexcept {
   double angle = 0;
   if (estimating_) {
     const AngleEstimator::Result r = estimator_.step(v);
     angle = r.angle_deg;
-    if (r.clamped) *quality |= quality::kAngleExtrapolated;
-    if (r.restarted) *quality |= quality::kSettling;
+    out.angle_sigma_deg = r.sigma_deg;
+    if (r.clamped) out.quality |= quality::kAngleExtrapolated;
+    if (r.restarted) out.quality |= quality::kSettling;
   } else if (dynamic_) {
     const DynamicInverter::Result r = inverter_.step(v);
     angle = r.angle_deg;
-    if (r.clamped) *quality |= quality::kAngleExtrapolated;
+    if (r.clamped) out.quality |= quality::kAngleExtrapolated;
   } else {
     angle = compensated_angle(cal_.model, v, std::abs(w), d);  // f5 alone in holds
   }
@@ -136,8 +137,9 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
     out.quality |= quality::kInvalidInput | quality::kSettling;
     // The dynamic model needs no velocity; the paper's falls back to f5 without one.
     const double g = terms_.active() ? terms_.published_chain_voltage(v, reference_v, nan, Direction::kHold) : 0.0;
-    std::int32_t unflagged = 0;  // settling already says it all
-    out.angle_deg = angle_of(v - g, reference_v, nan, Direction::kHold, &unflagged);
+    CompensatedScan unflagged;  // settling already says it all
+    out.angle_deg = angle_of(v - g, reference_v, nan, Direction::kHold, unflagged);
+    out.angle_sigma_deg = unflagged.angle_sigma_deg;
     out.velocity_rad_s = nan;
     clear_window();
     terms_.skip_quiet();
@@ -160,7 +162,7 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
     if (std::isfinite(y_quiet)) terms_.commit_quiet(y_quiet, v - g_quiet, reference_v, phase);
     else terms_.skip_quiet();
   }
-  out.angle_deg = angle_of(v - g, reference_v, w, phase, &out.quality);
+  out.angle_deg = angle_of(v - g, reference_v, w, phase, out);
   const double aw = std::abs(w);
   if (phase != Direction::kHold &&
       (aw < cal_.velocity_min_rad_s * (1 - s_.velocity_tolerance) || aw > cal_.velocity_max_rad_s * (1 + s_.velocity_tolerance)))

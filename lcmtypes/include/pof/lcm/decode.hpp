@@ -100,6 +100,7 @@ struct Layout<pof::angle_t> {
       {"velocity_rad_s", FieldType::kFloat, {}},
       {"phase", FieldType::kInt8, {}},
       {"quality", FieldType::kInt32, {}},
+      {"angle_sigma_deg", FieldType::kFloat, {}},
   };
 };
 
@@ -179,6 +180,7 @@ struct Layout<pof::compensator_status_t> {
       {"auth_bad_mac", FieldType::kInt64, {}},
       {"auth_stale", FieldType::kInt64, {}},
       {"auth_replayed", FieldType::kInt64, {}},
+      {"estimator_divergences", FieldType::kInt64, {}},
   };
 };
 

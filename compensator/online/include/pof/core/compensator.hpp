@@ -74,8 +74,9 @@ struct CompensatorSettings {
   // the angle little when missed).
   double step_min_deg = 0.4;
   // The dynamic model's angle: estimated (AngleEstimator) when the calibration has [estimator], or
-  // inverted scan by scan. estimator_lag_s > 0 publishes the angle that long ago, smoothed by the
-  // scans since (a fixed-lag smoother; docs/controller.md gives its accuracy and delay).
+  // inverted scan by scan. estimator_lag_s > 0 makes angle_deg the angle that long ago, smoothed by
+  // the scans since (a fixed-lag smoother; docs/controller.md gives its accuracy and delay); the
+  // other fields stay this scan's, so the daemon does not offer it.
   bool estimate = true;
   double estimator_lag_s = 0;
   double velocity_tolerance = 0.10;    // relative margin on the calibrated velocity range before flagging
@@ -92,6 +93,7 @@ struct CompensatedScan {
   double velocity_rad_s = 0;    // signed, positive in flexion; NaN until 2 samples are in the window
   Direction phase = Direction::kHold;
   std::int32_t quality = 0;     // quality::* bits (= angle_t.QUALITY_*)
+  double angle_sigma_deg = std::numeric_limits<double>::quiet_NaN();  // the estimator's; NaN without one
 };
 
 class OnlineCompensator {
@@ -125,7 +127,7 @@ class OnlineCompensator {
   void clear_window() noexcept;
   // The active model's inverse of normalised voltage v (the terms' voltage already subtracted):
   // eq. (11)/(12) at |w| (f5 in holds) or the dynamic inverse; the [gap] kinematics undone.
-  double angle_of(double v, double reference_v, double w, Direction d, std::int32_t* quality) noexcept;
+  double angle_of(double v, double reference_v, double w, Direction d, CompensatedScan& out) noexcept;
 
   Calibration cal_;
   CompensatorSettings s_;

@@ -58,9 +58,17 @@ grep -q "paper model" <<<"$out" || fail "--model paper not used: $out"
 expect_exit 2 "$POF" compensate val.csv --cal cal.toml --model lstm
 expect_exit 0 "$POF" calibrate cal.csv -o cal_paper.toml --model paper
 grep -q '^active_model = "paper"$' cal_paper.toml || fail "--model paper not stored"
-sed '/^\[dynamic\]/,/^$/d' cal_paper.toml >no_dynamic.toml
+sed '/^\[dynamic\]/,/^$/d; /^\[estimator\]/,/^$/d' cal_paper.toml >no_dynamic.toml
 expect_exit 78 "$POF" compensate val.csv --cal no_dynamic.toml --model dynamic
 grep -q "no_dynamic.toml: --model dynamic: the file has no \[dynamic\] section" <<<"$err" || fail "missing dynamic model not named: $err"
+sed '/^\[dynamic\]/,/^$/d' cal_paper.toml >estimator_alone.toml
+expect_exit 78 "$POF" compensate val.csv --cal estimator_alone.toml
+grep -q "key 'estimator': needs a \[dynamic\] section" <<<"$err" || fail "[estimator] without [dynamic] not named: $err"
+sed 's/^voltage_noise_v = .*/voltage_noise_v = -0.001/' cal.toml >bad_estimator.toml
+expect_exit 78 "$POF" compensate val.csv --cal bad_estimator.toml
+grep -q "key 'estimator.voltage_noise_v': expected a number > 0" <<<"$err" || fail "damaged [estimator] not named: $err"
+expect_exit 0 "$POF" compensate val.csv --cal cal.toml --model dynamic --dynamic-angle invert
+expect_exit 2 "$POF" compensate val.csv --cal cal.toml --dynamic-angle guess
 sed 's/^poly = .*/poly = [1.0]/' cal.toml >damaged.toml
 expect_exit 78 "$POF" compensate val.csv --cal damaged.toml
 grep -q "key 'dynamic.poly': expected degree + 1" <<<"$err" || fail "damaged dynamic section not named: $err"

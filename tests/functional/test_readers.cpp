@@ -813,7 +813,7 @@ TEST(PotentiometerFile, ReadsItsSectionStrictlyAlsoFromACalibrationFile) {
   const auto stray = d.file("stray.toml", "zero_v = 0.5\n[potentiometer]\ndeg_per_volt = 22.5\nzero_v = 0.5\n");
   EXPECT_EQ(error_of([&] { pof::io::load_potentiometer(stray); }), stray + ":1: unknown key 'zero_v' at the top level");
   const auto version = d.file("v9.toml", "schema_version = 9\n[potentiometer]\ndeg_per_volt = 22.5\nzero_v = 0.5\n");
-  EXPECT_EQ(error_of([&] { pof::io::load_potentiometer(version); }), version + ":1: key 'schema_version': expected 1 or 2, got 9");
+  EXPECT_EQ(error_of([&] { pof::io::load_potentiometer(version); }), version + ":1: key 'schema_version': expected 1, 2 or 3, got 9");
 }
 
 // An output that is a device or a pipe is written into, never renamed over: as root a rename

@@ -11,6 +11,7 @@
 // with the paper model, the dynamic model and the active one; RMSE and |error| p99 over every scan,
 // holds included. --minutes also times the calibration of a recording that long (the paper's
 // protocol repeated), the figure for "30 min of 200 Hz in < 5 s".
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -142,6 +143,59 @@ struct HoldNoise {
   [[nodiscard]] double sensor_deg() const { return pairs > 0 ? std::sqrt(sum_sensor / (2.0 * static_cast<double>(pairs))) : std::nan(""); }
 };
 
+// The delay an angle stream shows against the truth: the shift [scans] that minimises their RMSE,
+// refined between scans by a parabola through the three around the best.
+double delay_scans(const Eigen::VectorXd& a, const Eigen::VectorXd& truth, int max_shift) {
+  std::vector<double> e;
+  for (int s = 0; s <= max_shift; ++s) {
+    const Eigen::Index n = a.size() - s;
+    e.push_back(errors(a.tail(n), truth.head(n)).rmse);
+  }
+  const auto best = static_cast<int>(std::min_element(e.begin(), e.end()) - e.begin());
+  if (best == 0 || best == max_shift) return best;
+  const double l = e[static_cast<std::size_t>(best - 1)], c = e[static_cast<std::size_t>(best)], r = e[static_cast<std::size_t>(best + 1)];
+  return best + 0.5 * (l - r) / (l - 2 * c + r);
+}
+
+// The estimator's latency setting (CompensatorSettings::estimator_lag_s) on gait, the fastest
+// held-out test: RMSE against the truth of the scan each output stands for, and the delay the
+// output shows, per fixed lag.
+void latency(const std::vector<Fibre>& all) {
+  std::printf("estimator latency on heldout_gait: fixed lag [ms] -> RMSE against the truth L back [deg], measured delay [ms]\n");
+  std::uint64_t seed = 500;
+  for (const Fibre& f : all) {
+    if (std::strcmp(f.name, "A") != 0 && std::strcmp(f.name, "B") != 0) continue;
+    Scenario cs = pof::sim::builtin_scenario("fibre_calibration");
+    cs.sensor = f.sensor;
+    const pof::io::Recording cal = simulate(cs, ++seed);
+    const auto pr = pof::core::calibrate(cal.t_s, cal.sensor_v, cal.reference_v, cal.angle_ref_deg);
+    pof::core::ReferenceGuard g;
+    g.level_v = pr.cal.reference_level_v;
+    const auto dyn = pof::core::fit_dynamic(cal.t_s, pof::core::normalise(cal.sensor_v, cal.reference_v, g), cal.angle_ref_deg);
+    pof::core::Calibration c = pr.cal;
+    c.dynamic = dyn.model;
+    c.estimator = dyn.estimator;
+    c.active = pof::core::ModelKind::kDynamic;
+    Scenario ts = pof::sim::builtin_scenario("heldout_gait");
+    ts.sensor = f.sensor;
+    const pof::io::Recording r = simulate(ts, ++seed);
+    std::printf("%-3s", f.name);
+    for (const double lag_ms : {-1.0, 0.0, 10.0, 25.0, 50.0}) {
+      pof::core::CompensatorSettings s;
+      s.estimate = lag_ms >= 0;
+      s.estimator_lag_s = std::max(lag_ms, 0.0) / 1000;
+      const auto out = pof::core::compensate_recording(r.t_s, r.sensor_v, r.reference_v, Eigen::VectorXd(), c, s);
+      const int l = static_cast<int>(std::lround(s.estimator_lag_s * 200));
+      const Eigen::Index n = out.angle_deg.size() - l;
+      const double e = errors(out.angle_deg.tail(n), r.angle_true_deg.head(n)).rmse;
+      const double d = delay_scans(out.angle_deg, r.angle_true_deg, l + 20) * 5.0;
+      if (lag_ms < 0) std::printf("  inverse: %.3f deg, %.1f ms |", e, d);
+      else std::printf("  %2.0f ms: %.3f deg, %.1f ms", lag_ms, e, d);
+    }
+    std::printf("\n");
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -204,6 +258,7 @@ int main(int argc, char** argv) {
                 "estimate %.2f\n", f.name, 1e3 * estimate.estimator->voltage_noise_v, estimate.estimator->acceleration_noise_deg_s2,
                 hold_e.sensor_deg(), hold_d.ratio(), hold_e.ratio());
   }
+  latency(fibres());
   std::printf("fibres:\n");
   for (const Fibre& f : fibres()) std::printf("  %s  %s\n", f.name, f.family);
 

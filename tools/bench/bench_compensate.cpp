@@ -126,6 +126,21 @@ void BM_OnlineCompensatorStepDynamic(benchmark::State& state) {
 }
 BENCHMARK(BM_OnlineCompensatorStepDynamic)->Arg(0)->Arg(1);
 
+// The same two models with their angle estimated (angle_estimator.hpp) instead of inverted: the
+// noises fit_dynamic identifies on this recording. Arg 2: the largest structure with a 10-scan
+// fixed lag (the smoother's backward pass).
+void BM_OnlineCompensatorStepEstimator(benchmark::State& state) {
+  auto cal = dynamic_calibration(state.range(0) >= 1);
+  const auto& g = data();
+  cal.estimator = pof::core::fit_dynamic(g.t_s, g.sensor_v.array() * (4.0 / g.reference_v.array()), g.angle_ref_deg).estimator;
+  pof::core::CompensatorSettings s;
+  if (state.range(0) == 2) s.estimator_lag_s = 10 / s.scan_rate_hz;
+  pof::core::OnlineCompensator comp(cal, s);
+  if (!comp.estimating()) state.SkipWithError("no estimator identified");
+  run_steps(state, comp);
+}
+BENCHMARK(BM_OnlineCompensatorStepEstimator)->Arg(0)->Arg(1)->Arg(2);
+
 // Every effect the compensator can apply from a calibration's [gap] (gap_terms.hpp) on top of
 // the paper's chain (arg 0) or the fitted dynamic model (arg 1): the notch, seven voltage terms
 // (two Prony-like and three stop-operator bases among them), the delay's extrapolation and the

@@ -192,6 +192,11 @@ void run(const CalibrateOptions& o) {
     j["self_check"] = pof::io::statistics_report(self.cycles, self.overall, self.profile);
     j["active_model"] = pof::io::to_string(f.cal.active);
     if (dyn) j["dynamic"] = pof::io::dynamic_report(*dyn, cmp ? &*cmp : nullptr);
+    if (f.cal.estimator)
+      j["estimator"] = {{"voltage_noise_v", f.cal.estimator->voltage_noise_v},
+                        {"acceleration_noise_deg_s2", f.cal.estimator->acceleration_noise_deg_s2}};
+    else if (dyn)
+      j["estimator"] = {{"error", estimator_note}};
     else j["dynamic"] = {{"error", f.dynamic_note}};
     if (dyn && cmp) {
       const Eigen::VectorXd vm = pof::core::forward_dynamic(dyn->model, ref, pof::core::median_rate_hz(rec.t_s));

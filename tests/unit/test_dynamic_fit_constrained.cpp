@@ -43,8 +43,8 @@ Recording record(const pof::sim::Scenario& sc, std::uint64_t seed) {
 
 // fibre_calibration with its Bouc-Wen loop replaced by one Maxwell-slip element of r = 1.5 deg and
 // 0.05 V: elastic slope 0.05 / 1.5 = 0.033 V/deg after a reversal at rest against the line's
-// -0.022 V/deg, so the output runs backwards until the element slips, 2 r = 3 deg of travel
-// (the loop still narrows with speed: x0.52 at the fastest cycle, where it no longer runs backwards).
+// -0.022 V/deg, so the output runs backwards until the element slips, 2 r = 3 deg of travel. The
+// scenario's speed factor (rate_sensitivity_s_per_rad -1.5) is kept: at rest it is 1.
 constexpr double kSlipAmplitudeV = 0.05, kSlipThresholdDeg = 1.5;
 pof::sim::Scenario backwards_fibre() {
   pof::sim::Scenario sc = pof::sim::builtin_scenario("fibre_calibration");

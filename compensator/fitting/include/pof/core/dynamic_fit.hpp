@@ -48,7 +48,8 @@ struct DynamicFitSettings {
   int folds = 5;
   int max_search_rounds = 4;  // rounds (>= 1) of the coordinate descent over the structure (fit_dynamic)
   // The search is run again under the invertibility rule when the best admissible structure's
-  // held-out error exceeds this multiple of the best refused one's (ordinary fibres: 0.7-1.01).
+  // held-out error exceeds this multiple of the best refused one's (docs/calibration.md,
+  // "The dynamic model": 0.67-1.01 measured on ordinary simulated fibres, 13 on one that runs backwards).
   double constrain_above_ratio = 1.5;
   double fit_rate_hz = 50;              // rows of the normal equations are decimated to about this
   SegmentationSettings segmentation;

@@ -124,6 +124,7 @@ void run(const CalibrateOptions& o) {
   }
   if (dyn) {
     f.cal.dynamic = dyn->model;
+    f.dynamic_fit_note = pof::io::dynamic_fit_note(*dyn);
     // The estimator's noises; without them the dynamic model's angle is inverted scan by scan.
     f.cal.estimator = dyn->estimator;
     if (!dyn->estimator) estimator_note = "no [estimator], the dynamic model is inverted scan by scan: " + dyn->estimator_note;
@@ -142,9 +143,10 @@ void run(const CalibrateOptions& o) {
   }
   // Validate what we are about to write with the loader's own rules: a fit that the loader would
   // refuse must fail here, not later in the daemon.
-  const std::string kept_note = f.dynamic_note;  // a comment in the file: not read back
+  const std::string kept_note = f.dynamic_note, kept_fit_note = f.dynamic_fit_note;  // comments: not read back
   f = pof::io::parse_calibration(pof::io::to_toml(f), o.output + " (about to be written)");
   f.dynamic_note = kept_note;
+  f.dynamic_fit_note = kept_fit_note;
   pof::io::save_calibration(f, o.output);
 
   const auto& q = r.quasi_static;
@@ -163,6 +165,7 @@ void run(const CalibrateOptions& o) {
                 m.degree, m.n_operators, m.n_operators ? m.threshold_deg[0] : 0.0,
                 m.n_operators ? m.threshold_deg[static_cast<std::size_t>(m.n_operators - 1)] : 0.0, m.loop_half_height_v(),
                 m.rate_gain_s_per_rad, m.n_prony, m.bend_lag_s, dyn->train_rmse_deg, dyn->chosen.cv_rmse_deg, dyn->candidates.size());
+    if (!f.dynamic_fit_note.empty()) std::printf("          %s\n", f.dynamic_fit_note.c_str());
     if (f.cal.estimator)
       std::printf("estimator voltage noise %.3g mV (holds), acceleration noise %.0f deg/s^2\n",
                   1e3 * f.cal.estimator->voltage_noise_v, f.cal.estimator->acceleration_noise_deg_s2);

@@ -231,6 +231,23 @@ CalibrationFile make_calibration_file(const pof::core::CalibrationResult& r, con
   return f;
 }
 
+std::string dynamic_fit_note(const pof::core::DynamicFitResult& fit) {
+  if (!fit.chosen.constrained || !fit.unconstrained) return {};
+  const auto& u = *fit.unconstrained;
+  char b[400];
+  if (fit.backwards_deg > 0)
+    std::snprintf(b, sizeof b,
+                  "fitted under the invertibility rule: unconstrained (degree %d, %d stop operators, CV %.3f deg) the output "
+                  "runs backwards for %.2g deg after each reversal at rest, where one voltage stands for angles up to %.2g deg apart",
+                  u.degree, u.n_operators, u.cv_rmse_deg, fit.backwards_deg, fit.backwards_ambiguity_deg);
+  else
+    std::snprintf(b, sizeof b,
+                  "fitted under the invertibility rule: unconstrained (degree %d, %d stop operators, CV %.3f deg) the branch "
+                  "after a reversal is monotone but too flat for the inverse's margin",
+                  u.degree, u.n_operators, u.cv_rmse_deg);
+  return b;
+}
+
 std::string to_toml(const CalibrationFile& f) {
   const auto& m = f.cal.model;
   std::ostringstream o;
@@ -279,7 +296,9 @@ std::string to_toml(const CalibrationFile& f) {
     << "extension = " << quoted(f.equation_extension) << "\n";
   if (f.cal.dynamic) {
     const auto& d = *f.cal.dynamic;
-    o << "\n[dynamic]    # V = q(x) + phi(w) sum c_i S_i[theta] + sum g_j m_j (docs/calibration.md, \"The dynamic model\")\n"
+    o << "\n[dynamic]    # V = q(x) + phi(w) sum c_i S_i[theta] + sum g_j m_j (docs/calibration.md, \"The dynamic model\")\n";
+    if (!f.dynamic_fit_note.empty()) o << "# " << f.dynamic_fit_note << "\n";
+    o
       << "degree = " << d.degree << "    # of the quasi-static polynomial q in x = (theta - centre) / scale\n"
       << "angle_centre_deg = " << num(d.angle_centre_deg) << "\n"
       << "angle_scale_deg = " << num(d.angle_scale_deg) << "\n"

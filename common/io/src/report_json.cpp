@@ -78,6 +78,16 @@ json dynamic_report(const pof::core::DynamicFitResult& d, const pof::core::Model
   for (const auto& k : d.candidates)
     cs.push_back({{"degree", k.degree}, {"n_operators", k.n_operators}, {"n_prony", k.n_prony},
                   {"rate_gain_s_per_rad", k.rate_gain_s_per_rad}, {"bend_lag_s", k.bend_lag_s}, {"cv_rmse_deg", k.cv_rmse_deg}, {"admissible", k.admissible}});
+  // Only when the constrained search ran (DynamicFitResult::unconstrained): which structures it
+  // scored, whether it chose one, and what the fit without the invertibility rule says of the sensor.
+  if (d.unconstrained) {
+    for (std::size_t i = 0; i < d.candidates.size(); ++i) cs[i]["constrained"] = d.candidates[i].constrained;
+    j["constrained"] = d.chosen.constrained;
+    j["unconstrained"] = {{"degree", d.unconstrained->degree}, {"n_operators", d.unconstrained->n_operators},
+                          {"n_prony", d.unconstrained->n_prony}, {"rate_gain_s_per_rad", d.unconstrained->rate_gain_s_per_rad},
+                          {"bend_lag_s", d.unconstrained->bend_lag_s}, {"cv_rmse_deg", d.unconstrained->cv_rmse_deg},
+                          {"backwards_deg", d.backwards_deg}, {"backwards_ambiguity_deg", d.backwards_ambiguity_deg}};
+  }
   j["candidates"] = cs;
   if (c != nullptr) {
     j["held_out"] = {{"paper", held(c->paper)}, {"dynamic", held(c->dynamic)}, {"folds", c->folds},

@@ -4,6 +4,9 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
+#include <tuple>
+#include <utility>
 
 #include <Eigen/Dense>
 
@@ -104,13 +107,6 @@ double rss_of(double yy, const VectorXd& g, const MatrixXd& G, const VectorXd& b
   return std::max(0.0, yy - 2.0 * b.dot(g) + b.dot(G * b));
 }
 
-// Sign-constrained least squares: the operator weights all >= 0 or all <= 0, whichever fits better.
-VectorXd solve_signed(const MatrixXd& G, const VectorXd& g, double yy, const Design& d, double* rss) {
-  VectorXd b = one_signed_least_squares(G, g, d.n_poly, d.n_ops);
-  if (rss != nullptr) *rss = rss_of(yy, g, G, b);
-  return b;
-}
-
 DynamicModel with_coefficients(DynamicModel m, const VectorXd& b, const Design& d) {
   for (int c = 0; c <= kMaxDegree; ++c) m.poly[static_cast<std::size_t>(c)] = c < d.n_poly ? b(c) : 0.0;
   for (int o = 0; o < d.n_ops; ++o) m.weight_v_per_deg[static_cast<std::size_t>(o)] = b(d.n_poly + o);
@@ -118,27 +114,102 @@ DynamicModel with_coefficients(DynamicModel m, const VectorXd& b, const Design& 
   return m;
 }
 
+// The angles the invertibility rule is checked at: the inverse's search bracket (the identified
+// range plus a quarter of its span) on a grid of kRuleGrid + 1 points.
+constexpr int kRuleGrid = 200;
+double rule_angle(const DynamicModel& m, int g) {
+  const double span = m.angle_max_deg - m.angle_min_deg;
+  const double lo = m.angle_min_deg - 0.25 * span, hi = m.angle_max_deg + 0.25 * span;
+  return lo + (hi - lo) * g / static_cast<double>(kRuleGrid);
+}
+double rule_phi_max(const DynamicModel& m) { return std::max(m.rate_factor(0), m.rate_factor(m.speed_limit_rad_s)); }
+double centre_slope(const DynamicModel& m) { return m.quasi_static_slope(0.5 * (m.angle_min_deg + m.angle_max_deg)); }
+
 // The inverse needs V(theta) strictly monotone over the search bracket for every state the
 // operators can be in: the quasi-static slope must dominate the worst case of the operators
 // whose weights oppose it (all elastic, phi at its largest) plus the Prony terms' instant slope.
 bool invertible(const DynamicModel& m, double rate_hz) {
   if (*m.invalid_reason() != '\0') return false;
   const DynamicKernel k(m, rate_hz);
-  const double span = m.angle_max_deg - m.angle_min_deg;
-  const double lo = m.angle_min_deg - 0.25 * span, hi = m.angle_max_deg + 0.25 * span;
-  const double centre_slope = m.quasi_static_slope(0.5 * (m.angle_min_deg + m.angle_max_deg));
-  const double sign = centre_slope < 0 ? -1.0 : 1.0;
-  const double phi_max = std::max(m.rate_factor(0), m.rate_factor(m.speed_limit_rad_s));
+  const double c_slope = centre_slope(m);
+  const double sign = c_slope < 0 ? -1.0 : 1.0;
   double ops = 0, prony = 0;
   for (int i = 0; i < m.n_operators; ++i) ops += sign * m.weight_v_per_deg[static_cast<std::size_t>(i)];
   for (int j = 0; j < m.n_prony; ++j)
     prony += sign * m.prony_gain_v_per_deg[static_cast<std::size_t>(j)] * k.ramp_gain[static_cast<std::size_t>(j)];
-  const double worst_extra = std::min(0.0, phi_max * ops) + prony;
-  for (int g = 0; g <= 200; ++g) {
-    const double th = lo + (hi - lo) * g / 200.0;
-    if (!(sign * m.quasi_static_slope(th) + worst_extra > 0.2 * std::abs(centre_slope))) return false;
-  }
+  const double worst_extra = std::min(0.0, rule_phi_max(m) * ops) + prony;
+  for (int g = 0; g <= kRuleGrid; ++g)
+    if (!(sign * m.quasi_static_slope(rule_angle(m, g)) + worst_extra > 0.2 * std::abs(c_slope))) return false;
   return true;
+}
+
+// The invertibility rule above at one angle theta, for operator weights that oppose the slope
+// (the case that breaks it), as a linear function of the coefficients: row . b > 0 there.
+VectorXd rule_row(const DynamicModel& st, const Design& d, double rate_hz, double theta, double sign) {
+  const DynamicKernel k(st, rate_hz);
+  VectorXd a = VectorXd::Zero(d.n_poly + d.n_ops + d.n_prony);
+  const double x = (theta - st.angle_centre_deg) / st.angle_scale_deg;
+  const double xc = (0.5 * (st.angle_min_deg + st.angle_max_deg) - st.angle_centre_deg) / st.angle_scale_deg;
+  double xp = 1, xcp = 1;  // x^(c-1), xc^(c-1)
+  for (int c = 1; c < d.n_poly; ++c, xp *= x, xcp *= xc) a(c) = sign * c * (xp - 0.2 * xcp) / st.angle_scale_deg;
+  for (int o = 0; o < d.n_ops; ++o) a(d.n_poly + o) = sign * rule_phi_max(st);
+  for (int j = 0; j < d.n_prony; ++j) a(d.n_poly + d.n_ops + j) = sign * k.ramp_gain[static_cast<std::size_t>(j)];
+  return a;
+}
+
+// Least squares under the invertibility rule (docs/calibration.md, "The dynamic model", the
+// constrained fit): min |y - X b|^2 with the operator weights of one sign and rule_row . b >= 0 at
+// the angle where the unconstrained fit b0 breaks the rule worst, the angle of the smallest
+// quasi-static slope (for a line, the rule is that one inequality). Its Lagrange multiplier mu is
+// found by bisection: b(mu) = argmin |y - X b|^2 - 2 mu a.b pulls the operators' total weight in,
+// and the line's slope out, until invertible() passes; the smallest such mu (to 1e-3) is kept.
+// Empty when no mu gives an invertible fit (the candidate stays refused).
+std::optional<VectorXd> solve_invertible(const MatrixXd& G, const VectorXd& g, const Design& d, const DynamicModel& st,
+                                         double rate_hz, const VectorXd& b0) {
+  const DynamicModel m0 = with_coefficients(st, b0, d);
+  if (*m0.invalid_reason() != '\0') return std::nullopt;
+  const double sign = centre_slope(m0) < 0 ? -1.0 : 1.0;
+  int worst = 0;
+  for (int gi = 1; gi <= kRuleGrid; ++gi)
+    if (sign * m0.quasi_static_slope(rule_angle(m0, gi)) < sign * m0.quasi_static_slope(rule_angle(m0, worst))) worst = gi;
+  const VectorXd a = rule_row(st, d, rate_hz, rule_angle(m0, worst), sign);
+  const auto fit_at = [&](double mu) -> std::optional<VectorXd> {
+    VectorXd b = one_signed_least_squares(G, g + mu * a, d.n_poly, d.n_ops);
+    if (!invertible(with_coefficients(st, b, d), rate_hz)) return std::nullopt;
+    return b;
+  };
+  // The multiplier's scale: the step mu G^-1 a that closes the violation of an unconstrained solve.
+  const VectorXd ga = (G + 1e-10 * MatrixXd(G.diagonal().asDiagonal())).ldlt().solve(a);
+  const double curvature = a.dot(ga), violation = -a.dot(b0);
+  double hi = curvature > 0 && violation > 0 && std::isfinite(violation / curvature) ? violation / curvature : 1.0;
+  double lo = 0;
+  std::optional<VectorXd> best;
+  for (int k = 0; k < 60 && !(best = fit_at(hi)); ++k) {
+    lo = hi;
+    hi *= 4;
+  }
+  if (!best) return std::nullopt;
+  for (int k = 0; k < 40 && hi - lo > 1e-3 * hi; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    if (auto b = fit_at(mid)) {
+      best = std::move(b);
+      hi = mid;
+    } else {
+      lo = mid;
+    }
+  }
+  return best;
+}
+
+// The coefficients of one structure: sign-constrained least squares, and with `constrained` set,
+// a fit the inverse could not follow refitted under the invertibility rule (solve_invertible).
+VectorXd solve_structure(const MatrixXd& G, const VectorXd& g, double yy, const Design& d, const DynamicModel& st,
+                         double rate_hz, bool constrained, double* rss) {
+  VectorXd b = one_signed_least_squares(G, g, d.n_poly, d.n_ops);
+  if (constrained && !invertible(with_coefficients(st, b, d), rate_hz))
+    if (std::optional<VectorXd> held = solve_invertible(G, g, d, st, rate_hz, b)) b = std::move(*held);
+  if (rss != nullptr) *rss = rss_of(yy, g, G, b);
+  return b;
 }
 
 struct Prepared {
@@ -181,7 +252,7 @@ struct FoldFits {
 };
 
 FoldFits fit_folds(const DynamicModel& st, double rate_hz, int decim, const std::vector<Index>& fb,
-                   const std::vector<Index>& fe, const VectorXd& v, const VectorXd& ang) {
+                   const std::vector<Index>& fe, const VectorXd& v, const VectorXd& ang, bool constrained) {
   FoldFits ff;
   ff.d = build_design(st, v, ang, rate_hz, decim);
   ff.gr = block_grams(ff.d, fb, fe);
@@ -197,20 +268,23 @@ FoldFits fit_folds(const DynamicModel& st, double rate_hz, int decim, const std:
   }
   for (std::size_t b = 0; b < ff.gr.G.size(); ++b)
     ff.beta.push_back(ff.gr.rows[b] == 0 ? VectorXd()
-                                         : solve_signed(Gt - ff.gr.G[b], gt - ff.gr.g[b], yt - ff.gr.yy[b], ff.d, nullptr));
+                                         : solve_structure(Gt - ff.gr.G[b], gt - ff.gr.g[b], yt - ff.gr.yy[b], ff.d, st,
+                                                           rate_hz, constrained, nullptr));
   return ff;
 }
 
-// Blocked cross-validation of one structure.
+// Blocked cross-validation of one structure, each fold fitted under the invertibility rule when
+// `constrained` is set.
 DynamicCandidate cross_validate(const DynamicModel& st, const Prepared& pr, const VectorXd& v, const VectorXd& ang,
-                                double sensitivity) {
+                                double sensitivity, bool constrained) {
   DynamicCandidate c;
+  c.constrained = constrained;
   c.degree = st.degree;
   c.n_operators = st.n_operators;
   c.n_prony = st.n_prony;
   c.rate_gain_s_per_rad = st.rate_gain_s_per_rad;
   c.bend_lag_s = st.bend_lag_s;
-  const FoldFits ff = fit_folds(st, pr.rate_hz, pr.decim, pr.fb, pr.fe, v, ang);
+  const FoldFits ff = fit_folds(st, pr.rate_hz, pr.decim, pr.fb, pr.fe, v, ang, constrained);
   double held = 0;
   for (std::size_t b = 0; b < ff.beta.size(); ++b) {
     if (ff.beta[b].size() == 0) continue;
@@ -284,25 +358,27 @@ Prepared prepare(const VectorXd& t, const VectorXd& v, const VectorXd& ang, cons
 
 bool same_structure(const DynamicCandidate& x, const DynamicCandidate& y) {
   return x.degree == y.degree && x.n_operators == y.n_operators && x.n_prony == y.n_prony &&
-         x.rate_gain_s_per_rad == y.rate_gain_s_per_rad && x.bend_lag_s == y.bend_lag_s;
+         x.rate_gain_s_per_rad == y.rate_gain_s_per_rad && x.bend_lag_s == y.bend_lag_s && x.constrained == y.constrained;
 }
 
 // The structures cross-validated so far (fit_dynamic's result lists them, in the order tried),
-// each scored once.
+// each scored once; `constrained`: this search fits under the invertibility rule and reads only
+// its own candidates.
 class Scored {
  public:
   Scored(std::vector<DynamicCandidate>& all, const Prepared& pr, const DynamicFitSettings& s, const VectorXd& v,
-         const VectorXd& ang)
-      : all_(all), pr_(pr), s_(s), v_(v), ang_(ang) {}
+         const VectorXd& ang, bool constrained)
+      : all_(all), pr_(pr), s_(s), v_(v), ang_(ang), constrained_(constrained) {}
 
   // The rate gain scales the operators only (phi(w) S_i): with none it is no structure of its own,
   // so it is scored once, at 0, and never wins a tie at a grid edge.
   void try_structure(int deg, int ops, int k, double kappa, double lag = 0.0) {
     if (ops == 0) kappa = 0.0;
-    const DynamicCandidate key{.degree = deg, .n_operators = ops, .n_prony = k, .rate_gain_s_per_rad = kappa, .bend_lag_s = lag};
+    const DynamicCandidate key{.degree = deg, .n_operators = ops, .n_prony = k, .rate_gain_s_per_rad = kappa, .bend_lag_s = lag,
+                               .constrained = constrained_};
     for (const DynamicCandidate& c : all_)  // each structure is scored once
       if (same_structure(c, key)) return;
-    all_.push_back(cross_validate(structure_of(pr_, s_, deg, ops, k, kappa, lag), pr_, v_, ang_, pr_.sensitivity));
+    all_.push_back(cross_validate(structure_of(pr_, s_, deg, ops, k, kappa, lag), pr_, v_, ang_, pr_.sensitivity, constrained_));
   }
 
   // The admissible structure of lowest held-out error so far (nullptr: none). It points into the
@@ -310,7 +386,8 @@ class Scored {
   [[nodiscard]] const DynamicCandidate* best() const {
     const DynamicCandidate* b = nullptr;
     for (const DynamicCandidate& c : all_)
-      if (c.admissible && std::isfinite(c.cv_rmse_v) && (b == nullptr || c.cv_rmse_v < b->cv_rmse_v)) b = &c;
+      if (c.constrained == constrained_ && c.admissible && std::isfinite(c.cv_rmse_v) && (b == nullptr || c.cv_rmse_v < b->cv_rmse_v))
+        b = &c;
     return b;
   }
 
@@ -320,6 +397,7 @@ class Scored {
   const DynamicFitSettings& s_;
   const VectorXd& v_;
   const VectorXd& ang_;
+  bool constrained_;
 };
 
 // The polynomial's degree: each degree with a middle structure, and alone (the polynomial alone
@@ -389,22 +467,74 @@ DynamicCandidate search_structure(Scored& sc, const DynamicFitSettings& s) {
   return *b;
 }
 
-// The chosen structure refitted on every scan (res.model) and its training error. Throws when
-// the fit is not invertible.
-void fit_chosen(DynamicFitResult& res, const Prepared& pr, const DynamicFitSettings& s, const VectorXd& v, const VectorXd& ang) {
-  const DynamicCandidate& b = res.chosen;
-  const DynamicModel st = structure_of(pr, s, b.degree, b.n_operators, b.n_prony, b.rate_gain_s_per_rad, b.bend_lag_s);
+// The structure of c fitted on every scan (under the invertibility rule if c was scored so), its
+// residual sum of squares and number of rows.
+DynamicModel fit_whole(const DynamicCandidate& c, const Prepared& pr, const DynamicFitSettings& s, const VectorXd& v,
+                       const VectorXd& ang, double& rss, Index& rows) {
+  const DynamicModel st = structure_of(pr, s, c.degree, c.n_operators, c.n_prony, c.rate_gain_s_per_rad, c.bend_lag_s);
   const Design d = build_design(st, v, ang, pr.rate_hz, pr.decim);
   const MatrixXd G = d.X.transpose() * d.X;
   const VectorXd g = d.X.transpose() * d.y;
+  rows = d.y.size();
+  return with_coefficients(st, solve_structure(G, g, d.y.squaredNorm(), d, st, pr.rate_hz, c.constrained, &rss), d);
+}
+
+// The chosen structure refitted on every scan (res.model) and its training error. Throws when
+// the fit is not invertible.
+void fit_chosen(DynamicFitResult& res, const Prepared& pr, const DynamicFitSettings& s, const VectorXd& v, const VectorXd& ang) {
   double rss = 0;
-  const VectorXd beta = solve_signed(G, g, d.y.squaredNorm(), d, &rss);
-  res.model = with_coefficients(st, beta, d);
+  Index rows = 0;
+  res.model = fit_whole(res.chosen, pr, s, v, ang, rss, rows);
   if (!invertible(res.model, pr.rate_hz))
     throw DynamicFitError("dynamic fit: the fitted model is not invertible over the angle range (the hysteresis or relaxation terms outweigh the quasi-static slope)");
-  res.n_used = d.y.size();
-  res.train_rmse_v = std::sqrt(rss / static_cast<double>(std::max<Index>(1, d.y.size())));
+  res.n_used = rows;
+  res.train_rmse_v = std::sqrt(rss / static_cast<double>(std::max<Index>(1, rows)));
   res.train_rmse_deg = res.train_rmse_v / pr.sensitivity;
+}
+
+// How far the output of m runs backwards at rest after a reversal from a saturated branch
+// (docs/calibration.md, "The dynamic model"): operator i stays elastic for 2 r_i of travel, so
+// the branch's slope at travel t is q'(centre) + phi_max sum_{2 r_i > t} c_i, piecewise constant
+// and back to q's sign once the operators that outweigh it have slipped. Returns the travel where
+// it is back (0: it never runs backwards) and the travel where the output is back at its value at
+// the reversal, past which one voltage no longer stands for two angles.
+std::pair<double, double> backwards_run(const DynamicModel& m) {
+  const double slope = centre_slope(m), sign = slope < 0 ? -1.0 : 1.0;
+  double t0 = 0, f = 0, back = 0;  // f: the output's change since the reversal, in q's sense of travel
+  for (int k = 0; k <= m.n_operators; ++k) {
+    double sk = sign * slope;
+    for (int i = k; i < m.n_operators; ++i) sk += rule_phi_max(m) * sign * m.weight_v_per_deg[static_cast<std::size_t>(i)];
+    if (k < m.n_operators) {
+      const double t1 = 2 * m.threshold_deg[static_cast<std::size_t>(k)];
+      if (sk < 0) back = t1;
+      f += sk * (t1 - t0);
+      t0 = t1;
+      if (back > 0 && f >= 0 && sk > 0) return {back, t1 - f / sk};  // back at the reversal's value within this piece
+    } else if (back > 0) {
+      return {back, t0 - f / sk};  // the line alone (sk = |q'| > 0) brings it back
+    }
+  }
+  return {0.0, 0.0};
+}
+
+// When refusing the fits the inverse could not follow leaves the best admissible structure much
+// worse than the best refused one, the sensor itself may run backwards after a reversal (a loop
+// whose elastic slope outweighs the line's): rather than drop the operators, the search runs
+// again with every fit held to the invertibility rule, and the best refused structure, fitted
+// without it, says how far the output runs backwards (docs/calibration.md, "The dynamic model").
+void constrain_if_collapsed(DynamicFitResult& res, const Prepared& pr, const DynamicFitSettings& s, const VectorXd& v,
+                            const VectorXd& ang) {
+  const DynamicCandidate* refused = nullptr;
+  for (const DynamicCandidate& c : res.candidates)
+    if (!c.admissible && std::isfinite(c.cv_rmse_v) && (refused == nullptr || c.cv_rmse_v < refused->cv_rmse_v)) refused = &c;
+  if (refused == nullptr || !(res.chosen.cv_rmse_v > s.constrain_above_ratio * refused->cv_rmse_v)) return;
+  res.unconstrained = *refused;  // a copy: the search below grows the list
+  Scored constrained(res.candidates, pr, s, v, ang, true);
+  const DynamicCandidate best = search_structure(constrained, s);
+  if (best.cv_rmse_v < res.chosen.cv_rmse_v) res.chosen = best;
+  double rss = 0;
+  Index rows = 0;
+  std::tie(res.backwards_deg, res.backwards_ambiguity_deg) = backwards_run(fit_whole(*res.unconstrained, pr, s, v, ang, rss, rows));
 }
 
 }  // namespace
@@ -458,8 +588,9 @@ DynamicFitResult fit_dynamic(const VectorXd& t, const VectorXd& v, const VectorX
   res.sensitivity_v_per_deg = pr.sensitivity;
   res.fold_begin = pr.fb;
   res.fold_end = pr.fe;
-  Scored scored(res.candidates, pr, s, v, ang);
+  Scored scored(res.candidates, pr, s, v, ang, false);
   res.chosen = search_structure(scored, s);
+  constrain_if_collapsed(res, pr, s, v, ang);
   fit_chosen(res, pr, s, v, ang);
   try {
     res.estimator = identify_estimator_noise(t, v, ang, s.estimator);
@@ -475,7 +606,7 @@ const DynamicFitResult& fit, const VectorXd& t, const VectorXd& v,
   const double rate = median_rate_hz(t);
   if (!(rate > 0)) throw DynamicFitError("dynamic fit: the time column does not increase");
   const int decim = std::max(1, static_cast<int>(std::lround(rate / s.fit_rate_hz)));
-  const FoldFits ff = fit_folds(fit.model, rate, decim, fit.fold_begin, fit.fold_end, v, ang);
+  const FoldFits ff = fit_folds(fit.model, rate, decim, fit.fold_begin, fit.fold_end, v, ang, fit.chosen.constrained);
   std::vector<std::optional<DynamicModel>> out;
   for (const VectorXd& beta : ff.beta) {
     std::optional<DynamicModel> m;

@@ -35,6 +35,7 @@
 #include <string>
 
 #include "pof/core/calibration.hpp"
+#include "pof/core/dynamic_fit.hpp"
 #include "pof/core/potentiometer.hpp"
 
 namespace pof::io {
@@ -66,6 +67,7 @@ struct CalibrationFile {
   std::optional<pof::core::PotentiometerCalibration> potentiometer;
   std::optional<HeldOutSummary> held_out;
   std::string dynamic_note;  // why there is no dynamic model, or why it is not active (a comment)
+  std::string dynamic_fit_note;  // dynamic_fit_note() of its fit, under [dynamic] (a comment)
 };
 
 /// "paper" / "dynamic", and back (nullopt for any other text).
@@ -88,6 +90,11 @@ void require_applicable_gap(const CalibrationFile& f, const std::string& source,
 /// and pof-compensatord read. A file with a term the compensator cannot apply is refused, never
 /// applied in part.
 CalibrationFile load_calibration(const std::string& path, const std::string& model_choice, double scan_rate_hz = 0);
+
+/// One line when the dynamic fit had to be held to the invertibility rule: the structure the rule
+/// refused and, if the sensor runs backwards after a reversal, over how many degrees and the span
+/// of angles one voltage stands for there (DynamicFitResult); empty for an ordinary fit.
+std::string dynamic_fit_note(const pof::core::DynamicFitResult& fit);
 
 /// Builds the file contents from a fit.
 CalibrationFile make_calibration_file(const pof::core::CalibrationResult& r, const std::string& sensor_id,

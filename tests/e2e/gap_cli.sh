@@ -15,6 +15,7 @@ expect_exit 0 "$BIN_DIR/pof" sim creep.toml -o creep.csv --seed 3
 expect_exit 0 "$BIN_DIR/pof" gap creep.csv --out report
 [ -z "$err" ] || fail "pof gap printed on stderr in a pipe (progress must be terminal-only): $err"
 grep -q "creep" <<<"$out" || fail "summary does not name creep: $out"
+grep -q "^angle .* deg vs forward .* deg" <<<"$out" || fail "summary does not compare the angle with the forward gap: $out"
 for f in gap.json model.toml report.md series.csv residual_time.png residual_angle.png residual_velocity.png loops.png gap_steps.png compensated.png; do
   [ -s "report/$f" ] || fail "report/$f missing"
 done

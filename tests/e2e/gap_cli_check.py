@@ -35,6 +35,18 @@ def main():
     check(abs(nested["rmse_deg"] - c["rmse_written_deg"]) < 1e-9 and nested["rmse_deg"] < 0.8 * c["rmse_before_deg"],
           f"model.toml's nested held-out angle {nested} against written {c['rmse_written_deg']}, before {c['rmse_before_deg']}")
 
+    # The compensated angle beside the forward gap (docs/gap.md, section 5, "Angle against the
+    # forward gap"): the same two figures as the report's, and a verdict that follows the ratio.
+    a = j["angle_vs_forward"]
+    check(abs(a["angle_rmse_deg"] - c["rmse_after_deg"]) < 1e-9 and a["forward_gap_deg"] == j["final_gap_deg"],
+          f"angle_vs_forward {a['angle_rmse_deg']} / {a['forward_gap_deg']} against compensated.rmse_after_deg "
+          f"{c['rmse_after_deg']} / final_gap_deg {j['final_gap_deg']}")
+    expected = ("comparable",) if a["ratio"] <= a["ratio_threshold"] else ("noise_amplification", "bias")
+    check(a["verdict"] in expected, f"verdict {a['verdict']} at ratio {a['ratio']}")
+    check((a["where"] is not None) == (a["verdict"] == "bias"), f"where {a['where']} with verdict {a['verdict']}")
+    check(len(a["segments"]) >= 4 and abs(sum(s["share_of_scans"] for s in a["segments"]) - 1) < 1e-9,
+          f"segments {a['segments']}")
+
 
 def rmse(path):
     """RMS of angle_deg - angle_ref_deg over the rows where both are numbers."""

@@ -84,8 +84,10 @@ void add_gap(CLI::App& app) {
     std::cout << "baseline gap " << r.baseline_gap_deg << " deg";
     for (const auto& s : r.in_baseline) std::cout << " (in the baseline: " << s.effect << ")";
     for (const auto& s : r.steps) std::cout << " -> " << s.effect << " " << s.gap_deg << " deg";
-    std::cout << (r.unexplained ? " (structure remains unexplained)" : "") << "\n"
-              << "report: " << (fs::path(a->out) / "gap.json").string() << "\n";
+    std::cout << (r.unexplained ? " (structure remains unexplained)" : "") << "\n";
+    // The compensated angle beside the forward gap (docs/gap.md, section 5, "Angle against the forward gap").
+    if (r.angle_vs_forward.contains("summary")) std::cout << r.angle_vs_forward["summary"].get<std::string>() << "\n";
+    std::cout << "report: " << (fs::path(a->out) / "gap.json").string() << "\n";
   });
 }
 

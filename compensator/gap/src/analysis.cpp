@@ -15,6 +15,7 @@
 #include "pof/base/errors.hpp"
 #include "pof/base/format.hpp"
 #include "pof/core/compensator.hpp"
+#include "pof/gap/angle_gap.hpp"
 #include "pof/gap/gap.hpp"
 #include "pof/gap/localise.hpp"
 #include "pof/io/report_json.hpp"
@@ -106,6 +107,7 @@ json Result::to_json() const {
   j["model"] = model;
   j["recording"] = recording;
   j["compensated"] = compensated;
+  j["angle_vs_forward"] = angle_vs_forward;
   return j;
 }
 
@@ -356,6 +358,32 @@ void describe_model(Result& res, const LoopClosed& lc, const Grown& chosen, bool
   describe_range(res.model, s, *ctx.k0);
 }
 
+// The found model's compensated angle beside the forward gap, and where a difference comes from
+// (docs/gap.md, section 5, "Angle against the forward gap"). The input's noise in degrees is the
+// held-out voltage residual over the local quasi-static slope of the structure applied: f5's
+// 1/c9 on the paper structure, q'(angle) on the dynamic model, where a flat stretch of the curve
+// makes any inverse noisy and is the sensor's doing, not the compensator's.
+json angle_vs_forward(const Result& res, const io::Recording& rec, const Grown& chosen, const VectorXd& rf,
+                      const LoopClosed& lc, const Steps& ctx) {
+  if (res.compensated.contains("error")) return {{"error", res.compensated["error"]}};
+  const Signals& s = *ctx.s;
+  const Structure m = lc.applied.structure();
+  VectorXd input_noise(s.n);
+  for (Index i = 0; i < s.n; ++i) {
+    const double slope = m.dynamic ? std::abs(m.dynamic->quasi_static_slope(s.angle(i))) : 1.0 / std::abs(m.paper.c9);
+    input_noise(i) = chosen.strict_resid(i) / slope;
+  }
+  return compare_angle({.angle_deg = lc.comp_after,
+                        .reference_deg = rec.angle_ref_deg,
+                        .smooth_reference_deg = s.angle,
+                        .forward_deg = rf,
+                        .input_noise_deg = input_noise,
+                        .k = *ctx.k0,
+                        .phases = *ctx.phases,
+                        .forward_gap_deg = res.final_gap_deg})
+      .report;
+}
+
 // The plotted series, every stride-th scan (at most ~40k rows); rf: the final residual [deg].
 Series plot_series(const Grown& chosen, const VectorXd& rf, const LoopClosed& lc, const Steps& ctx) {
   const Signals& s = *ctx.s;
@@ -411,6 +439,7 @@ Result analyse(const io::Recording& rec, const Options& opt) {
   LoopClosed lc = close_the_loop(res, rec, chosen.grown, ctx);
   const bool write_baseline = choose_baseline_file(res, lc);
   describe_model(res, lc, chosen.grown, write_baseline, ctx);
+  res.angle_vs_forward = angle_vs_forward(res, rec, chosen.grown, rf, lc, ctx);
   res.series = plot_series(chosen.grown, rf, lc, ctx);
   say("done: held-out gap " + format_fixed(res.baseline_gap_deg, 3) + " -> " + format_fixed(res.final_gap_deg, 3) + " deg in " +
       std::to_string(res.steps.size()) + " step(s)");

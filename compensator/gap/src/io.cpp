@@ -171,6 +171,9 @@ std::string report_md(const Result& r, const std::string& source) {
       o << "\nWhat model.toml gives, each block scored with the choice (effects kept, or the baseline) made on the "
            "other blocks alone: RMSE " << c["model_toml_nested"]["rmse_deg"].get<double>() << " deg ("
         << c["model_toml_nested"]["reduction_pct"].get<double>() << " % lower than the baseline).\n";
+    if (r.angle_vs_forward.contains("summary"))
+      o << "\nAgainst the forward gap (docs/gap.md, section 5, \"Angle against the forward gap\"): "
+        << r.angle_vs_forward["summary"].get<std::string>() << "\n";
     if (const std::string held = c.value("model_toml", ""); held != "found model")
       o << "\n**model.toml holds the " << held << "**.\n";
     o << "\n![compensated angle](compensated.png)\n\n";

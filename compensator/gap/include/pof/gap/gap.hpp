@@ -57,6 +57,7 @@ struct Result {
   nlohmann::json model;          // improved model: coefficients + accepted terms (for model.toml)
   nlohmann::json recording;      // n, rate, duration, reference level
   nlohmann::json compensated;    // the compensator's angle vs the reference on held-out blocks, before/after
+  nlohmann::json angle_vs_forward;  // that angle beside the forward gap, and where they differ (pof/gap/angle_gap.hpp)
   std::optional<core::DynamicModel> dynamic_model;  // model.toml's active model when the dynamic baseline was taken
   Series series;
 

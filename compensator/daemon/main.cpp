@@ -70,6 +70,7 @@ struct Options {
   double reversal_window_s = pof::core::CompensatorSettings{}.reversal_window_s;
   bool no_model_steps = false;
   std::string dynamic_angle = "estimate";
+  double estimator_lag_ms = 0;
   int queue_capacity = 10000;
   double duration_s = 0;
   std::string auth_key_file;
@@ -89,6 +90,7 @@ int run(const Options& o) {
   ps.compensator.reversal_window_s = o.reversal_window_s;
   ps.compensator.model_steps = !o.no_model_steps;
   ps.compensator.estimate = o.dynamic_angle == "estimate";
+  ps.compensator.estimator_lag_s = o.estimator_lag_ms / 1000;
   ps.compensator.velocity_source =
       o.velocity_source == "reference" ? pof::core::VelocitySource::kReference : pof::core::VelocitySource::kSensor;
   std::optional<pof::core::PotentiometerCalibration> pot;
@@ -245,6 +247,10 @@ int main(int argc, char** argv) {
   app.add_option("--dynamic-angle", o.dynamic_angle,
                  "Dynamic model: estimate the angle (the calibration's [estimator]) or invert the model scan by scan")
       ->check(CLI::IsMember({"estimate", "invert"}))->capture_default_str();
+  app.add_option("--estimator-lag", o.estimator_lag_ms,
+                  "Estimator: publish each scan this late, its angle smoothed by the scans since [ms] (0: causal; "
+                  "at most 256 scans; not with [gap] terms)")
+      ->check(CLI::Range(0.0, 320.0))->capture_default_str();
   app.add_option("--duration", o.duration_s, "Stop after this many seconds (tests, benchmarks); 0 = until SIGTERM")
       ->check(pof::service::non_negative(pof::service::kMaxSeconds));
   app.add_option("--queue-capacity", o.queue_capacity, "LCM subscription queue [messages] (transports other than udpm://)")

@@ -76,6 +76,7 @@ void Pipeline::replace_calibration(io::CalibrationFile cal, std::string cal_path
   if (rate_ > 0) {
     retire_compensator();
     comp_ = std::move(fresh);
+    refs_stored_ = 0;
   }
   ++counters_.reloads;
   counters_.last_error.clear();
@@ -92,8 +93,10 @@ void Pipeline::ensure_compensator(double scan_rate_hz) {
   if (comp_ && scan_rate_hz == rate_) return;
   core::CompensatorSettings cs = s_.compensator;
   cs.scan_rate_hz = scan_rate_hz;
+  auto fresh = std::make_unique<core::OnlineCompensator>(cal_.cal, cs);  // may throw: nothing changed yet
   retire_compensator();
-  comp_ = std::make_unique<core::OnlineCompensator>(cal_.cal, cs);
+  comp_ = std::move(fresh);
+  refs_stored_ = 0;
   rate_ = scan_rate_hz;
   k_ = s_.output_rate_hz > 0 ? std::max(1, int(std::lround(scan_rate_hz / s_.output_rate_hz))) : 1;
   in_window_ = 0;
@@ -193,17 +196,22 @@ void Pipeline::on_block(const pof::raw_block_t& b, std::int64_t publish_utime, S
   if (scans_lost) {
     comp_->reset();
     in_window_ = 0;  // never average across a hole
+    refs_stored_ = 0;
   }
   if (!t0_utime_) t0_utime_ = b.utime;
 
   const double us_per_scan = 1e6 / b.scan_rate_hz;
+  // With the estimator's fixed lag the compensator's output describes the scan `lag` back: its
+  // time, index and reference angle are that scan's (CompensatorSettings::estimator_lag_s).
+  const int lag = comp_->lag_scans();
   for (int k = 0; k < b.n_scans; ++k) {
     const std::vector<float>& scan = b.volts[size_t(k)];
-    const std::int64_t utime = b.utime + std::llround(k * us_per_scan);
+    const std::int64_t utime = b.utime + std::llround((k - lag) * us_per_scan);
     constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-    const double ref = doubtful ? kNaN : reference_angle(scan);
+    const double ref_now = doubtful ? kNaN : reference_angle(scan);
     const core::CompensatedScan cs = doubtful ? comp_->step(kNaN, kNaN, kNaN)
-                                              : comp_->step(double(scan[size_t(ch_.sensor)]), double(scan[size_t(ch_.reference)]), ref);
+                                              : comp_->step(double(scan[size_t(ch_.sensor)]), double(scan[size_t(ch_.reference)]), ref_now);
+    const double ref = lag == 0 ? ref_now : delayed_reference(ref_now, lag);
     sat_add(counters_.scans, 1);
     if (cs.quality & kFaultBits) sat_add(counters_.fault_scans, 1);
 
@@ -221,7 +229,7 @@ void Pipeline::on_block(const pof::raw_block_t& b, std::int64_t publish_utime, S
     ++in_window_;
     if (in_window_ == k_) {
       pending_.utime = (window_first_utime_ + utime) / 2;
-      pending_.scan_index = b.first_scan + k - (k_ - 1) / 2;
+      pending_.scan_index = b.first_scan + k - lag - (k_ - 1) / 2;
       pending_.angle_deg = float(sum_angle_ / k_);
       pending_.angle_uncomp_deg = float(sum_uncomp_ / k_);
       pending_.angle_ref_deg = float(sum_ref_ / k_);
@@ -267,6 +275,13 @@ void Pipeline::emit_angle(std::int64_t publish_utime, Sink& sink) {
   pending_.seq = angle_seq_++;
   sat_add(counters_.angles, 1);
   if (!sink.angle(pending_)) note_publish_failure();
+}
+
+double Pipeline::delayed_reference(double ref, int lag) noexcept {
+  refs_head_ = (refs_head_ + 1) % (lag + 1);
+  refs_[static_cast<std::size_t>(refs_head_)] = ref;
+  if (refs_stored_ <= lag) ++refs_stored_;
+  return refs_stored_ <= lag ? std::numeric_limits<double>::quiet_NaN() : refs_[static_cast<std::size_t>((refs_head_ + 1) % (lag + 1))];
 }
 
 void Pipeline::retire_compensator() noexcept {

@@ -9,6 +9,7 @@
 //
 // Threading: one thread (the LCM handle() thread) calls everything. on_block() never throws and
 // allocates only when the scan rate changes (the estimator window is sized by it).
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -127,6 +128,11 @@ class Pipeline {
   // that the status's count never goes backwards.
   std::int64_t divergences_retired_ = 0;
   void retire_compensator() noexcept;
+  // The reference angle of the scan `lag` back (NaN until there is one), for the estimator's
+  // fixed lag: a ring of the last lag + 1.
+  std::array<double, core::kMaxSmootherLag + 1> refs_{};
+  int refs_head_ = 0, refs_stored_ = 0;
+  double delayed_reference(double ref, int lag) noexcept;
 };
 
 }  // namespace pof::compensatord

@@ -69,6 +69,17 @@ expect_exit 78 "$POF" compensate val.csv --cal bad_estimator.toml
 grep -q "key 'estimator.voltage_noise_v': expected a number > 0" <<<"$err" || fail "damaged [estimator] not named: $err"
 expect_exit 0 "$POF" compensate val.csv --cal cal.toml --model dynamic --dynamic-angle invert
 expect_exit 2 "$POF" compensate val.csv --cal cal.toml --dynamic-angle guess
+# A fixed lag: each row still the scan it describes; the last 5 (25 ms at 200 Hz) have no output.
+expect_exit 0 "$POF" compensate val.csv --cal cal.toml --model dynamic --estimator-lag 25 --csv lag.csv
+"$PY" - lag.csv <<'PY' || fail "lag.csv: the last rows are not the ones without output"
+import csv, math, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+tail = [r for r in rows[-5:] if math.isnan(float(r["angle_deg"]))]
+body = [r for r in rows[:-5] if not math.isnan(float(r["angle_deg"]))]
+sys.exit(0 if len(tail) == 5 and len(body) > 0.9 * (len(rows) - 5) else f"{len(tail)} NaN tail rows, {len(body)} finite")
+PY
+expect_exit 78 "$POF" compensate val.csv --cal cal.toml --model paper --estimator-lag 25
+grep -q "estimator_lag_s needs the dynamic model's angle estimated" <<<"$err" || fail "a lag without the estimator: $err"
 sed 's/^poly = .*/poly = [1.0]/' cal.toml >damaged.toml
 expect_exit 78 "$POF" compensate val.csv --cal damaged.toml
 grep -q "key 'dynamic.poly': expected degree + 1" <<<"$err" || fail "damaged dynamic section not named: $err"

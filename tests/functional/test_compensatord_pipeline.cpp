@@ -602,3 +602,40 @@ TEST_F(PipelineTest, MessagesLcmRefusesAreCountedInTheStatus) {
 }
 
 }  // namespace
+
+// The estimator's fixed lag (CompensatorSettings::estimator_lag_s): each message describes the scan
+// L back, whole: its utime, scan_index and reference angle are that scan's, and its angle is the one
+// `pof compensate` puts on that scan's row with the same lag.
+TEST_F(PipelineTest, AFixedLagPublishesEachScanLLateWithItsOwnTimeAndReference) {
+  auto f = paper_calibration();
+  pof::core::DynamicModel m;
+  m.degree = 1;
+  m.poly = {2.4, -1.0, 0, 0, 0, 0};
+  m.n_operators = 2;
+  m.threshold_deg = {1.0, 5.0};
+  m.weight_v_per_deg = {0.001, 0.001};
+  f.cal.dynamic = m;
+  f.cal.active = pof::core::ModelKind::kDynamic;
+  f.cal.estimator = pof::core::EstimatorNoise{0.0015, 300};
+  constexpr int kLag = 5;
+  PipelineSettings s;
+  s.compensator.estimator_lag_s = kLag / 200.0;
+  Pipeline p(f, "lag.toml", s);
+  Collect out;
+  for (const auto& b : *blocks_) p.on_block(b, 0, out);
+  const auto [t, sv, r, a] = offline_inputs();
+  const pof::core::OfflineResult off = pof::core::compensate_recording(t, sv, r, a, f.cal, s.compensator);
+  const auto n = Eigen::Index(blocks_->size() * kScansPerBlock);
+  ASSERT_EQ(Eigen::Index(out.angles.size()), n);
+  for (Eigen::Index j = kLag; j < n; ++j) {
+    const auto& msg = out.angles[size_t(j)];
+    const Eigen::Index scan = j - kLag;
+    ASSERT_EQ(msg.scan_index, scan);
+    ASSERT_EQ(msg.utime, kEpochUtime + scan * 5000) << j;  // 200 Hz from the epoch
+    ASSERT_EQ(msg.angle_ref_deg, float(a[scan])) << j;
+    if (std::isnan(off.angle_deg[scan])) ASSERT_TRUE(std::isnan(msg.angle_deg)) << j;
+    else ASSERT_EQ(msg.angle_deg, float(off.angle_deg[scan])) << j;
+    ASSERT_EQ(std::isfinite(msg.angle_sigma_deg), std::isfinite(msg.angle_deg)) << j;
+  }
+  for (int j = 0; j < kLag; ++j) EXPECT_TRUE(std::isnan(out.angles[size_t(j)].angle_deg));
+}

@@ -216,7 +216,7 @@ TEST(AngleEstimator, TheCompensatorEstimatesOnlyWithTheCalibrationsNoises) {
   off.estimate = false;
   EXPECT_FALSE(pof::core::OnlineCompensator(cal, off).estimating());
   pof::core::CompensatorSettings too_long;
-  too_long.estimator_lag_s = 1.0;  // 200 scans: beyond kMaxSmootherLag
+  too_long.estimator_lag_s = 2.0;  // 400 scans: beyond kMaxSmootherLag
   EXPECT_THROW(pof::core::OnlineCompensator(cal, too_long), std::invalid_argument);
   cal.estimator->voltage_noise_v = -1;
   EXPECT_THROW(pof::core::OnlineCompensator{cal}, std::invalid_argument);
@@ -231,6 +231,51 @@ TEST(AngleEstimator, TheCompensatorEstimatesOnlyWithTheCalibrationsNoises) {
   pof::core::CompensatedScan last;
   for (std::size_t i = 201; i < 400; ++i) last = estimating.step(r.v[i], 4.0);
   EXPECT_NEAR(last.angle_deg, r.truth[399], 0.5);
+}
+
+// A fixed lag of L scans: step() returns, whole, the record of the scan L back (its uncompensated
+// angle is the one a causal compensator gave then), its angle smoothed; the first L are NaN and
+// settling, and so are the L after lost scans.
+TEST(AngleEstimator, TheCompensatorsFixedLagReturnsTheWholeRecordOfTheScanLBack) {
+  pof::core::Calibration cal;
+  cal.model = pof::core::paper_coefficients();
+  cal.reference_level_v = 4.0;
+  cal.dynamic = fibre(0.08);
+  cal.active = pof::core::ModelKind::kDynamic;
+  cal.estimator = EstimatorNoise{kSigmaV, kSigmaA};
+  constexpr int kLag = 5;
+  pof::core::CompensatorSettings lagged;
+  lagged.estimator_lag_s = kLag / lagged.scan_rate_hz;
+  pof::core::OnlineCompensator causal(cal), late(cal, lagged);
+  EXPECT_EQ(late.lag_scans(), kLag);
+  EXPECT_EQ(causal.lag_scans(), 0);
+  const Trace r = simulate(*cal.dynamic, 400, 4);
+  std::vector<pof::core::CompensatedScan> c, l;
+  for (std::size_t i = 0; i < r.v.size(); ++i) {
+    if (i == 300) {
+      causal.reset();
+      late.reset();
+    }
+    c.push_back(causal.step(r.v[i], 4.0));
+    l.push_back(late.step(r.v[i], 4.0));
+  }
+  double se_c = 0, se_l = 0;
+  for (std::size_t i = 0; i < l.size(); ++i) {
+    const bool none = i < kLag || (i >= 300 && i < 300 + kLag);
+    if (none) {
+      EXPECT_TRUE(std::isnan(l[i].angle_deg)) << i;
+      EXPECT_TRUE(l[i].quality & pof::core::quality::kSettling) << i;
+      continue;
+    }
+    const auto& then = c[i - kLag];
+    EXPECT_EQ(l[i].angle_uncomp_deg, then.angle_uncomp_deg) << i;
+    EXPECT_EQ(l[i].quality & pof::core::quality::kScansLost, then.quality & pof::core::quality::kScansLost) << i;
+    if (i > 40 && i < 300) {
+      se_c += std::pow(then.angle_deg - r.truth[i - kLag], 2);
+      se_l += std::pow(l[i].angle_deg - r.truth[i - kLag], 2);
+    }
+  }
+  EXPECT_LT(se_l, se_c);  // smoothed by the kLag scans since
 }
 
 }  // namespace

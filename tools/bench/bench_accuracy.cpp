@@ -161,7 +161,8 @@ double delay_scans(const Eigen::VectorXd& a, const Eigen::VectorXd& truth, int m
 // held-out test: RMSE against the truth of the scan each output stands for, and the delay the
 // output shows, per fixed lag.
 void latency(const std::vector<Fibre>& all) {
-  std::printf("estimator latency on heldout_gait: fixed lag [ms] -> RMSE against the truth L back [deg], measured delay [ms]\n");
+  std::printf("estimator latency on heldout_gait: fixed lag [ms] -> RMSE against the truth of each output's scan [deg], "
+              "delay the angle shows beyond the lag [ms]\n");
   std::uint64_t seed = 500;
   for (const Fibre& f : all) {
     if (std::strcmp(f.name, "A") != 0 && std::strcmp(f.name, "B") != 0) continue;
@@ -185,12 +186,12 @@ void latency(const std::vector<Fibre>& all) {
       s.estimate = lag_ms >= 0;
       s.estimator_lag_s = std::max(lag_ms, 0.0) / 1000;
       const auto out = pof::core::compensate_recording(r.t_s, r.sensor_v, r.reference_v, Eigen::VectorXd(), c, s);
-      const int l = static_cast<int>(std::lround(s.estimator_lag_s * 200));
-      const Eigen::Index n = out.angle_deg.size() - l;
-      const double e = errors(out.angle_deg.tail(n), r.angle_true_deg.head(n)).rmse;
-      const double d = delay_scans(out.angle_deg, r.angle_true_deg, l + 20) * 5.0;
+      // compensate_recording puts each output on the row of the scan it describes: what is left
+      // is the delay the angle shows beyond the fixed lag.
+      const double e = errors(out.angle_deg, r.angle_true_deg).rmse;
+      const double d = delay_scans(out.angle_deg, r.angle_true_deg, 20) * 5.0;
       if (lag_ms < 0) std::printf("  inverse: %.3f deg, %.1f ms |", e, d);
-      else std::printf("  %2.0f ms: %.3f deg, %.1f ms", lag_ms, e, d);
+      else std::printf("  %2.0f ms: %.3f deg, +%.1f ms", lag_ms, e, d);
     }
     std::printf("\n");
   }

@@ -28,6 +28,7 @@ struct CompensateOptions {
   double reversal_window_s = pof::core::CompensatorSettings{}.reversal_window_s;
   bool no_model_steps = false;
   std::string dynamic_angle = "estimate";
+  double estimator_lag_ms = 0;
 };
 
 // Table 3's columns, units in the header (degrees, percent of the span, rad/s).
@@ -68,6 +69,7 @@ void run(const CompensateOptions& o) {
   s.reversal_window_s = o.reversal_window_s;
   s.model_steps = !o.no_model_steps;
   s.estimate = o.dynamic_angle == "estimate";
+  s.estimator_lag_s = o.estimator_lag_ms / 1000;
   s.velocity_source = o.velocity_source == "reference" ? pof::core::VelocitySource::kReference : pof::core::VelocitySource::kSensor;
   const auto r = pof::core::compensate_recording(rec.t_s, rec.sensor_v, rec.reference_v, ref, cal.cal, s, {},
                                                  [&](Eigen::Index i, Eigen::Index n) { progress.fraction(i, n); });
@@ -109,6 +111,10 @@ void add_compensate(CLI::App& app) {
   cmd->add_option("--dynamic-angle", o->dynamic_angle,
                   "Dynamic model: estimate the angle (the calibration's [estimator]) or invert the model scan by scan")
       ->check(CLI::IsMember({"estimate", "invert"}))->capture_default_str();
+  cmd->add_option("--estimator-lag", o->estimator_lag_ms,
+                  "Estimator: publish each scan this late, its angle smoothed by the scans since [ms] (0: causal; "
+                  "at most 256 scans; not with [gap] terms)")
+      ->check(CLI::Range(0.0, 320.0))->capture_default_str();
   cmd->callback([o] { run(*o); });
 }
 

@@ -8,12 +8,14 @@
 #include <limits>
 #include <numbers>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <utility>
 
 #include "pof/core/calibration.hpp"
 #include "pof/core/compensator.hpp"
 #include "pof/core/dynamic_model.hpp"
+#include "pof/core/estimator_noise.hpp"
 #include "pof/core/fit.hpp"
 #include "pof/core/gap_terms.hpp"
 #include "pof/core/model.hpp"
@@ -309,6 +311,14 @@ core::Calibration calibration_of(const Structure& m, const Signals& s) {
   if (m.dynamic) {
     cal.dynamic = m.dynamic;
     cal.active = core::ModelKind::kDynamic;
+    // The angle as pof calibrate's file would have the compensator publish it: estimated from the
+    // dynamic model with the recording's own noises (docs/calibration.md, "The angle estimator"),
+    // inverted scan by scan only where they cannot be measured (no holds).
+    try {
+      cal.estimator = core::identify_estimator_noise(s.t, s.v, s.angle);
+    } catch (const std::runtime_error&) {
+      cal.estimator.reset();
+    }
   }
   cal.reference_level_v = s.reference_level_v;
   cal.angle_min_deg = s.angle.minCoeff();

@@ -76,11 +76,16 @@ void AngleEstimator::remember(const Vec& x_pred, const Mat& p_pred) noexcept {
 }
 
 // The fixed-lag RTS pass over the ring (Sarkka 2013, eq. 8.2): from the newest filtered state back
-// to the oldest slot, which is published.
+// to the oldest slot, which is published. Until the ring holds lag_ + 1 scans since a (re)start
+// there is no scan lag_ back to publish: NaN, so that the delay is always exactly lag_ scans.
 void AngleEstimator::publish(Result& r) const noexcept {
+  if (lag_ > 0 && filled_ <= lag_) {
+    r.angle_deg = r.rate_deg_s = r.sigma_deg = std::nan("");
+    return;
+  }
   Vec xs = x_;
   Mat ps = p_;
-  const int n = lag_ == 0 ? 0 : filled_ - 1;
+  const int n = lag_;
   const bool lagged = bend_lag_s_ > 0;
   for (int i = 0, j = head_; i < n; ++i) {
     const Slot& next = history_[static_cast<std::size_t>(j)];

@@ -44,11 +44,16 @@ OnlineCompensator::OnlineCompensator(const Calibration& cal, const CompensatorSe
       if (!(s.estimator_lag_s >= 0) || !(s.estimator_lag_s * s.scan_rate_hz <= kMaxSmootherLag))
         throw std::invalid_argument("compensator: estimator_lag_s must be within 0.." +
                                     std::to_string(kMaxSmootherLag / s.scan_rate_hz) + " s at this scan rate");
+      if (s.estimator_lag_s > 0 && cal.gap && !cal.gap->empty())
+        throw std::invalid_argument("compensator: estimator_lag_s cannot be combined with [gap] terms");
       estimating_ = true;
-      estimator_ = AngleEstimator(*cal.dynamic, *cal.estimator, s.scan_rate_hz,
-                                  static_cast<int>(std::lround(s.estimator_lag_s * s.scan_rate_hz)));
+      lag_ = static_cast<int>(std::lround(s.estimator_lag_s * s.scan_rate_hz));
+      estimator_ = AngleEstimator(*cal.dynamic, *cal.estimator, s.scan_rate_hz, lag_);
     }
   }
+  if (s.estimator_lag_s != 0 && !estimating_)
+    throw std::invalid_argument("compensator: estimator_lag_s needs the dynamic model's angle estimated (an active [dynamic] "
+                                "with [estimator], and estimate on)");
   if (cal.gap && !cal.gap->empty()) {
     if (const auto problems = gap_problems(*cal.gap, s.scan_rate_hz); !problems.empty())
       throw std::invalid_argument("compensator: " + problems.front().describe());
@@ -70,6 +75,7 @@ void OnlineCompensator::reset() noexcept {
   clear_window();
   inverter_.reset();  // the memory of the lost scans is unknown: start from a relaxed state
   estimator_.reset();
+  stored_ = 0;
   terms_.reset();
   scans_lost_ = true;
 }
@@ -78,6 +84,7 @@ double OnlineCompensator::angle_of(double v, double reference_v, double w, Direc
   double angle = 0;
   if (estimating_) {
     const AngleEstimator::Result r = estimator_.step(v);
+    estimate_ = r;
     angle = r.angle_deg;
     out.angle_sigma_deg = r.sigma_deg;
     if (r.clamped) out.quality |= quality::kAngleExtrapolated;
@@ -100,6 +107,32 @@ double OnlineCompensator::velocity_noise_rad_s(double angle_noise_deg) const noe
 }
 
 CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, double angle_ref_deg) noexcept {
+  const CompensatedScan now = step_now(sensor_v, reference_v, angle_ref_deg);
+  return lag_ > 0 ? delayed(now) : now;
+}
+
+// With a fixed lag the estimator's angle is the scan lag_ back's: the rest of that scan's record
+// comes from the ring, so that every field of the output is of one scan.
+CompensatedScan OnlineCompensator::delayed(const CompensatedScan& now) noexcept {
+  head_ = head_ == lag_ ? 0 : head_ + 1;
+  ring_[static_cast<std::size_t>(head_)] = now;
+  if (stored_ <= lag_) ++stored_;
+  const double nan = std::nan("");
+  if (stored_ <= lag_) {  // no scan lag_ back yet
+    CompensatedScan none;
+    none.angle_deg = none.angle_uncomp_deg = none.velocity_rad_s = nan;
+    none.quality = quality::kSettling;
+    return none;
+  }
+  CompensatedScan out = ring_[static_cast<std::size_t>(head_ == lag_ ? 0 : head_ + 1)];  // the oldest
+  const bool usable = (out.quality & (quality::kInvalidInput | quality::kReferenceLost)) == 0;
+  out.angle_deg = usable ? estimate_.angle_deg : nan;
+  out.angle_sigma_deg = usable ? estimate_.sigma_deg : nan;
+  if (usable && !std::isfinite(estimate_.angle_deg)) out.quality |= quality::kSettling;  // restarted since
+  return out;
+}
+
+CompensatedScan OnlineCompensator::step_now(double sensor_v, double reference_v, double angle_ref_deg) noexcept {
   CompensatedScan out;
   terms_.begin_scan();
   if (scans_lost_) {
@@ -119,7 +152,7 @@ CompensatedScan OnlineCompensator::step(double sensor_v, double reference_v, dou
     // The dynamic inverse keeps the fibre's memory across the scan (the operators and Prony terms
     // are the fibre's state, not a window), but its bend-lag inverse differentiates a window that
     // must not span the scans it never saw (docs/calibration.md, "The dynamic model").
-    if (estimating_) estimator_.step(nan);  // the time passes: a prediction without a voltage
+    if (estimating_) estimate_ = estimator_.step(nan);  // the time passes: a prediction without a voltage
     else if (dynamic_) inverter_.step(nan);
     if (terms_.active()) terms_.interrupt();
     return out;

@@ -43,6 +43,14 @@ OfflineResult compensate_recording(const Eigen::VectorXd& t_s, const Eigen::Vect
   r.quality.resize(static_cast<std::size_t>(n));
   const double lost_after_s = 1.5 / settings.scan_rate_hz;
   const double nan = std::nan("");
+  // With the estimator's fixed lag step() describes the scan lag back: its row is that scan's. The
+  // last lag rows have no output (NaN, settling).
+  const Eigen::Index lag = comp.lag_scans();
+  for (Eigen::Index i = n - std::min(lag, n); i < n; ++i) {
+    r.angle_deg(i) = r.angle_uncomp_deg(i) = r.velocity_rad_s(i) = nan;
+    r.phase[static_cast<std::size_t>(i)] = Direction::kHold;
+    r.quality[static_cast<std::size_t>(i)] = quality::kSettling;
+  }
   for (Eigen::Index i = 0; i < n; ++i) {
     if (i > 0 && t_s(i) - t_s(i - 1) > lost_after_s) {
       comp.reset();
@@ -50,12 +58,14 @@ OfflineResult compensate_recording(const Eigen::VectorXd& t_s, const Eigen::Vect
     }
     const double ref = have_ref ? angle_ref_deg(i) : nan;
     const CompensatedScan s = comp.step(sensor_v(i), reference_v(i), ref);
-    r.angle_deg(i) = s.angle_deg;
-    r.angle_uncomp_deg(i) = s.angle_uncomp_deg;
-    r.velocity_rad_s(i) = s.velocity_rad_s;
-    r.phase[static_cast<std::size_t>(i)] = s.phase;
-    r.quality[static_cast<std::size_t>(i)] = s.quality;
-    if (have_ref && stats.add(t_s(i), s, ref)) r.cycles.push_back(stats.last());
+    const Eigen::Index row = i - lag;
+    if (row < 0) continue;
+    r.angle_deg(row) = s.angle_deg;
+    r.angle_uncomp_deg(row) = s.angle_uncomp_deg;
+    r.velocity_rad_s(row) = s.velocity_rad_s;
+    r.phase[static_cast<std::size_t>(row)] = s.phase;
+    r.quality[static_cast<std::size_t>(row)] = s.quality;
+    if (have_ref && stats.add(t_s(row), s, angle_ref_deg(row))) r.cycles.push_back(stats.last());
     if (progress && (i % 4096) == 0) progress(i, n);
   }
   if (have_ref && stats.finish()) r.cycles.push_back(stats.last());

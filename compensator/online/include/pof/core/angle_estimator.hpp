@@ -45,7 +45,7 @@ struct EstimatorNoise {
   [[nodiscard]] const char* invalid_reason() const;
 };
 
-inline constexpr int kMaxSmootherLag = 64;  // scans (320 ms at 200 Hz)
+inline constexpr int kMaxSmootherLag = 256;  // scans (1.28 s at 200 Hz, 128 ms at 2000 Hz)
 
 class AngleEstimator {
  public:
@@ -56,6 +56,7 @@ class AngleEstimator {
 
   struct Result {
     double angle_deg = 0;        // the joint angle (lag_scans back when smoothing); NaN before the first voltage
+                                 // and, when smoothing, for the lag_scans after each (re)start
     double rate_deg_s = 0;       // its rate
     double sigma_deg = 0;        // the estimate's standard deviation
     double nis = 0;              // this scan's normalised innovation squared (0 without an update)

@@ -24,6 +24,7 @@
 //
 // Threading: one instance per sensor stream, used from one thread. step() and reset() never
 // allocate, never throw and never block; the constructor allocates every part.
+#include <array>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -74,9 +75,9 @@ struct CompensatorSettings {
   // the angle little when missed).
   double step_min_deg = 0.4;
   // The dynamic model's angle: estimated (AngleEstimator) when the calibration has [estimator], or
-  // inverted scan by scan. estimator_lag_s > 0 makes angle_deg the angle that long ago, smoothed by
-  // the scans since (a fixed-lag smoother; docs/controller.md gives its accuracy and delay); the
-  // other fields stay this scan's, so the daemon does not offer it.
+  // inverted scan by scan. estimator_lag_s > 0 makes step() return the record of the scan that long
+  // ago, its angle smoothed by the scans since (a fixed-lag smoother; docs/controller.md gives its
+  // accuracy and delay; not with [gap] terms).
   bool estimate = true;
   double estimator_lag_s = 0;
   double velocity_tolerance = 0.10;    // relative margin on the calibrated velocity range before flagging
@@ -117,6 +118,8 @@ class OnlineCompensator {
   [[nodiscard]] const CompensatorSettings& settings() const noexcept { return s_; }
   /// True when the dynamic model's angle is estimated (AngleEstimator), not inverted.
   [[nodiscard]] bool estimating() const noexcept { return estimating_; }
+  /// Scans between an input and the output that describes it: the estimator's fixed lag, else 0.
+  [[nodiscard]] int lag_scans() const noexcept { return lag_; }
   /// The estimator's restarts after a divergence (0 when not estimating).
   [[nodiscard]] long estimator_divergences() const noexcept { return estimator_.divergences(); }
 
@@ -135,6 +138,12 @@ class OnlineCompensator {
   DynamicInverter inverter_;
   bool estimating_ = false;
   AngleEstimator estimator_;
+  AngleEstimator::Result estimate_;  // its last output
+  // A fixed lag of lag_ scans: the records of the last lag_ + 1 scans, published lag_ late.
+  int lag_ = 0, head_ = 0, stored_ = 0;
+  std::array<CompensatedScan, kMaxSmootherLag + 1> ring_{};
+  CompensatedScan step_now(double sensor_v, double reference_v, double angle_ref_deg) noexcept;
+  CompensatedScan delayed(const CompensatedScan& now) noexcept;
   ReferenceGuard guard_;
   VelocityWindow window_;
   StepDetector steps_;

@@ -63,9 +63,11 @@ int main(int argc, char** argv) {
                  std::string("TOML configuration (default ") + kDefaultConfig + " when present)");
   app.add_option("-d,--device", device, "device.kind: usb6008, usb6009, usb1208ls or sim:<scenario>");
   app.add_option("--serial", serial, "device.serial: the device to use when several are attached");
-  app.add_option("-r,--rate", rate, "acquisition.scan_rate_hz");
-  app.add_option("--decimate", decimate, "acquisition.decimate");
-  app.add_option("--block-scans", block_scans, "acquisition.block_scans");
+  // Given, each must be a value the configuration could hold: 0 here means "not given", so a 0 or a
+  // negative one must be refused, never read as "use the configured value".
+  app.add_option("-r,--rate", rate, "acquisition.scan_rate_hz")->check(pof::service::positive());
+  app.add_option("--decimate", decimate, "acquisition.decimate")->check(CLI::Range(1, 1'000'000));
+  app.add_option("--block-scans", block_scans, "acquisition.block_scans")->check(CLI::Range(1, 1'000'000));
   app.add_option("--lcm-url", lcm_url, "lcm.url (default: $LCM_DEFAULT_URL, else udpm on this host, ttl=0)");
   app.add_option("--sensor-id", sensor_id, "lcm.sensor_id (channel suffix)");
   app.add_option("--auth-key-file", auth_key_file,

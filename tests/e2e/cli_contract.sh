@@ -35,6 +35,12 @@ expect_exit 2 "$BIN_DIR/pof" calibrate none.csv -o x.toml --sensor-id left_knee
 expect_exit 78 "$BIN_DIR/pof-daqd" --config /dev/null -s schema_version=1 -s "lcm.sensor_id=$(printf 'K%.0s' $(seq 41))" \
   --device sim:synthetic --duration 0.1
 grep -q "sensor_id.*at most 40 characters" <<<"$err" || fail "pof-daqd sensor_id of 41: $err"
+# A command-line value the configuration could not hold is refused, not replaced by the configured one.
+for bad in "--rate -2000" "--rate 0" "--decimate 0" "--block-scans -5"; do
+  # shellcheck disable=SC2086  # the option and its value, split on purpose
+  expect_exit 2 "$BIN_DIR/pof-daqd" --config /dev/null -s schema_version=1 --device sim:synthetic $bad --duration 0.1
+  grep -q -- "${bad%% *}" <<<"$err" || fail "pof-daqd $bad: $err"
+done
 # A FIFO as a file to read is refused at once (opening it waited for a writer, forever).
 mkfifo fifo.toml
 expect_exit 66 timeout 10 "$BIN_DIR/pof-daqd" --config fifo.toml --device sim:synthetic --duration 0.1

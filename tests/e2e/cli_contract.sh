@@ -28,6 +28,9 @@ for cmd in "pof-daqd --device sim:synthetic" "pof-compensatord --cal none.toml" 
 done
 expect_exit 2 "$BIN_DIR/pof-compensatord" --cal none.toml --velocity-window nan
 expect_exit 2 "$BIN_DIR/pof" record -o x.lcmlog --sync-interval inf
+# A hand-off bound the recorder could never reserve (twice, up front) is a usage error, not a bad_alloc.
+expect_exit 2 "$BIN_DIR/pof" record -o x.lcmlog --handoff-mb 1e12
+grep -q -- "--handoff-mb: expected at most" <<<"$err" || fail "pof record --handoff-mb 1e12: $err"
 # A sensor id whose channels LCM would refuse (over 63 characters) or that is not upper case.
 expect_exit 2 "$BIN_DIR/pof-compensatord" --cal none.toml --sensor-id "$(printf 'K%.0s' $(seq 41))"
 grep -q -- "--sensor-id: expected at most 40 characters" <<<"$err" || fail "pof-compensatord --sensor-id of 41: $err"

@@ -1,8 +1,10 @@
 // `pof record`: lossless LCM session recording (pof/recorder/session.hpp says why lcm-logger is not
 // enough), plus `--check` and `--repair` for logs cut short by SIGKILL or power loss.
 #include <signal.h>
+#include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <map>
@@ -232,8 +234,13 @@ void add_record(CLI::App& app) {
   cmd->add_option("--queue-capacity", a->queue_capacity, "LCM subscription queue [messages] (LCM's default is 30)")
       ->check(pof::service::positive())
       ->capture_default_str();
+  // The recorder reserves the hand-off twice, up front (SessionOptions::handoff_bytes): a bound
+  // beyond half this machine's memory can never be allocated, so it is a usage error here, not a
+  // bad_alloc at start.
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+  const double half_ram_mb = pages > 0 && page > 0 ? std::floor(0.5 * double(pages) * double(page) / (1024.0 * 1024.0)) : 1e6;
   cmd->add_option("--handoff-mb", a->handoff_mb, "Bound of the queue between the LCM and writer threads [MiB]")
-      ->check(pof::service::positive())
+      ->check(pof::service::positive(half_ram_mb))
       ->capture_default_str();
   cmd->add_option("--manifest-file", a->manifest_files,
                   "Calibration/configuration file to copy next to the log and list in the manifest (repeatable)");

@@ -129,6 +129,7 @@ CompensatedScan OnlineCompensator::delayed(const CompensatedScan& now) noexcept 
   out.angle_deg = usable ? estimate_.angle_deg : nan;
   out.angle_sigma_deg = usable ? estimate_.sigma_deg : nan;
   if (usable && !std::isfinite(estimate_.angle_deg)) out.quality |= quality::kSettling;  // restarted since
+  flag_angle_range(out);
   return out;
 }
 
@@ -200,9 +201,14 @@ CompensatedScan OnlineCompensator::step_now(double sensor_v, double reference_v,
   if (phase != Direction::kHold &&
       (aw < cal_.velocity_min_rad_s * (1 - s_.velocity_tolerance) || aw > cal_.velocity_max_rad_s * (1 + s_.velocity_tolerance)))
     out.quality |= quality::kVelocityExtrapolated;
+  // With a fixed lag this scan's angle is another scan's: delayed() judges the one it publishes.
+  if (lag_ == 0) flag_angle_range(out);
+  return out;
+}
+
+void OnlineCompensator::flag_angle_range(CompensatedScan& out) const noexcept {
   if (out.angle_deg < cal_.angle_min_deg - s_.angle_margin_deg || out.angle_deg > cal_.angle_max_deg + s_.angle_margin_deg)
     out.quality |= quality::kAngleExtrapolated;
-  return out;
 }
 
 }  // namespace pof::core

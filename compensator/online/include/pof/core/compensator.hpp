@@ -144,6 +144,8 @@ class OnlineCompensator {
   std::array<CompensatedScan, kMaxSmootherLag + 1> ring_{};
   CompensatedScan step_now(double sensor_v, double reference_v, double angle_ref_deg) noexcept;
   CompensatedScan delayed(const CompensatedScan& now) noexcept;
+  // QUALITY_ANGLE_EXTRAPOLATED for a published angle outside the calibrated range plus the margin.
+  void flag_angle_range(CompensatedScan& out) const noexcept;
   ReferenceGuard guard_;
   VelocityWindow window_;
   StepDetector steps_;

@@ -7,6 +7,11 @@
 //       a plausible live session: POF_RAW at 100 blocks/s (10 scans of sensor/reference/pot),
 //       POF_ANGLE at 100 Hz following a 0..90 deg sine, POF_STATS every 2 s, POF_DAQ_STATUS at 1 Hz,
 //       and an unknown channel FOREIGN_TELEMETRY (not one of our types).
+//   pof-testpub --lcm-url URL angles --rate R --duration S [--suffix _LEFT_KNEE]
+//       POF_ANGLE at R msg/s (a 0..90 deg, 2 s sine; every 500th flagged QUALITY_GAP) and POF_STATS
+//       once a second with values that differ per cycle (rmse_comp_deg = 0.01 * cycle, ...);
+//       prints one JSON line: what was sent, the last angle's fields and every cycle's statistics,
+//       for `pof dash`'s browser test to compare the page with.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -43,6 +48,59 @@ pof::raw_block_t make_block(int64_t seq, int32_t scans, const std::string& senso
   return b;
 }
 
+int publish_angles(lcm::LCM& lcm, double rate, double duration, const std::string& suffix) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const double period_ns = 1e9 / rate;
+  const auto n = static_cast<int64_t>(rate * duration);
+  pof::angle_t a{};
+  std::string cycles = "[";
+  int32_t cycle = 0;
+  for (int64_t k = 0; k < n; ++k) {
+    const auto due = t0 + std::chrono::nanoseconds(static_cast<int64_t>(static_cast<double>(k) * period_ns));
+    while (std::chrono::steady_clock::now() < due) {  // busy-wait: sleeping is too coarse at 3 kHz
+    }
+    const double t = static_cast<double>(k) / rate;
+    const double ref = 45.0 - 45.0 * std::cos(M_PI * t);
+    a.utime = a.publish_utime = now_utime();
+    a.seq = k;
+    a.scan_index = k;
+    a.angle_ref_deg = static_cast<float>(ref);
+    a.angle_deg = static_cast<float>(ref + 0.3 * std::sin(7.0 * t));
+    a.angle_uncomp_deg = static_cast<float>(ref + 3.0 * std::sin(M_PI * t + 0.5));
+    a.angle_sigma_deg = 0.05f;
+    a.velocity_rad_s = static_cast<float>(45.0 * M_PI / 180.0 * M_PI * std::sin(M_PI * t));
+    a.phase = pof::angle_t::PHASE_FLEXION;
+    a.quality = k % 500 == 499 ? int32_t{pof::angle_t::QUALITY_GAP} : 0;
+    lcm.publish("POF_ANGLE" + suffix, &a);
+    if (k > 0 && k % static_cast<int64_t>(rate) == 0) {
+      pof::cycle_stats_t c{};
+      c.utime = now_utime();
+      c.seq = cycle;
+      c.cycle = ++cycle;
+      c.start_utime = c.utime - 1'000'000;
+      c.end_utime = c.utime;
+      c.velocity_rad_s = 0.1f * static_cast<float>(cycle);
+      c.rmse_comp_deg = 0.01f * static_cast<float>(cycle);
+      c.rmse_uncomp_deg = 1.0f + 0.01f * static_cast<float>(cycle);
+      c.hysteresis_comp_pct = 0.5f;
+      c.hysteresis_uncomp_pct = 6.25f;
+      c.max_error_deg = 0.125f * static_cast<float>(cycle);
+      c.n_samples = static_cast<int32_t>(rate);
+      lcm.publish("POF_STATS" + suffix, &c);
+      char b[160];
+      std::snprintf(b, sizeof b, "%s{\"cycle\":%d,\"rmse_comp_deg\":%.9g,\"max_error_deg\":%.9g}", cycle > 1 ? "," : "",
+                    c.cycle, static_cast<double>(c.rmse_comp_deg), static_cast<double>(c.max_error_deg));
+      cycles += b;
+    }
+  }
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("{\"sent\":%lld,\"seconds\":%.3f,\"last\":{\"seq\":%lld,\"angle_deg\":%.9g,\"angle_ref_deg\":%.9g,"
+              "\"angle_uncomp_deg\":%.9g},\"cycles\":%s]}\n",
+              static_cast<long long>(n), secs, static_cast<long long>(a.seq), static_cast<double>(a.angle_deg),
+              static_cast<double>(a.angle_ref_deg), static_cast<double>(a.angle_uncomp_deg), cycles.c_str());
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -64,6 +122,11 @@ int main(int argc, char** argv) {
   auto* session = app.add_subcommand("session", "a plausible live session");
   session->add_option("--duration", duration);
   session->add_option("--suffix", suffix);
+  double angle_rate = 3333;
+  auto* angles = app.add_subcommand("angles", "angles at R msg/s and statistics once a second");
+  angles->add_option("--rate", angle_rate);
+  angles->add_option("--duration", duration);
+  angles->add_option("--suffix", suffix);
   CLI11_PARSE(app, argc, argv);
 
   lcm::LCM lcm(url);
@@ -92,6 +155,8 @@ int main(int argc, char** argv) {
                 static_cast<double>(count) / t);
     return 0;
   }
+
+  if (angles->parsed()) return publish_angles(lcm, angle_rate, duration, suffix);
 
   // session
   const std::string sensor_id = suffix.empty() ? "" : suffix.substr(1);

@@ -13,6 +13,7 @@ void add_gap(CLI::App& app);
 void add_sim(CLI::App& app);
 void add_record(CLI::App& app);
 void add_spy(CLI::App& app);
+void add_dash(CLI::App& app);
 void add_export(CLI::App& app);
 void add_keygen(CLI::App& app);
 

@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   pof::cli::add_sim(app);
   pof::cli::add_record(app);
   pof::cli::add_spy(app);
+  pof::cli::add_dash(app);
   pof::cli::add_export(app);
   pof::cli::add_keygen(app);
 

@@ -15,31 +15,29 @@ extern char** environ;
 
 namespace pof::cli {
 
-namespace {
-
-// <prefix>/share/pofkit/plot for the prefix this binary runs from (<prefix>/bin/pof): an install
-// with `cmake --install --prefix P`, a .deb (/usr) or an unpacked package all find their own
-// scripts, whatever prefix the build was configured with.
-std::string installed_plot_dir() {
+std::string find_share_file(const char* env_var, const std::string& installed_relative, const std::string& source_dir,
+                            const std::string& file) {
+  // In order: the user's override, the installed copy next to this binary, and the source tree
+  // when running from a build directory (build/bin has no share/ beside it). The installed copy is
+  // <prefix>/<installed_relative> for the prefix this binary runs from (<prefix>/bin/pof): an
+  // install with `cmake --install --prefix P`, a .deb (/usr) or an unpacked package all find their
+  // own files, whatever prefix the build was configured with.
+  const char* env = std::getenv(env_var);
+  std::string installed;
   std::error_code ec;
   const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-  if (ec) return {};
-  return (exe.parent_path().parent_path() / POF_PLOT_DIR_RELATIVE).string();
-}
-
-}  // namespace
-
-std::string find_plot_script(const std::string& script) {
-  // In order: the user's override, the installed copy next to this binary, and the source tree
-  // when running from a build directory (build/bin has no share/ beside it).
-  const char* env = std::getenv("POF_PLOT_DIR");
-  const std::string dirs[] = {env != nullptr ? env : "", installed_plot_dir(), POF_PLOT_DIR_SOURCE};
+  if (!ec) installed = (exe.parent_path().parent_path() / installed_relative).string();
+  const std::string dirs[] = {env != nullptr ? env : "", installed, source_dir};
   for (const std::string& dir : dirs) {
     if (dir.empty()) continue;
-    const std::string p = dir + "/" + script;
+    const std::string p = dir + "/" + file;
     if (::access(p.c_str(), R_OK) == 0) return p;
   }
   return {};
+}
+
+std::string find_plot_script(const std::string& script) {
+  return find_share_file("POF_PLOT_DIR", POF_PLOT_DIR_RELATIVE, POF_PLOT_DIR_SOURCE, script);
 }
 
 void run_plot_script(const std::string& script, const std::vector<std::string>& args) {

@@ -6,6 +6,11 @@
 
 namespace pof::cli {
 
+/// Path of `file` in one of pofkit's shared folders: $<env_var>, else <prefix>/<installed_relative>
+/// for the prefix this binary runs from, else `source_dir` (a build tree). Empty when none has it.
+std::string find_share_file(const char* env_var, const std::string& installed_relative, const std::string& source_dir,
+                            const std::string& file);
+
 /// Path of tools/plot/<script>: $POF_PLOT_DIR, else the source tree this binary was built from,
 /// else the installed share directory. Empty when none has it.
 std::string find_plot_script(const std::string& script);

@@ -41,9 +41,13 @@ say "2/3 live session: pof-daqd (sim:fibre_session) -> pof-compensatord -> pof r
 pids+=($!); recorder=$!
 "$BIN/pof-compensatord" --cal cal.toml --pot-cal pot.toml --lcm-url "$URL" 2>compensatord.log &
 pids+=($!); compensator=$!
+# The live view in a browser (docs/dashboard.md): this host only, on a free port it prints.
+"$BIN/pof" dash --lcm-url "$URL" --port "${POF_DASH_PORT:-0}" >dash.log 2>&1 &
+pids+=($!)
 sleep 1
 "$BIN/pof-daqd" --device sim:fibre_session --lcm-url "$URL" 2>daqd.log &
 pids+=($!); daqd=$!
+grep -o 'http://[^ ]*' dash.log | sed 's/^/watch it live in a browser: /' || echo "pof dash did not start: see $OUT/dash.log"
 sleep 20
 echo "what is on the bus 20 s in (pof spy snapshot; run 'build/bin/pof spy --lcm-url \"$URL\"' for the live view):"
 "$BIN/pof" spy --lcm-url "$URL" --duration 2 || true

@@ -115,6 +115,9 @@ bool Pipeline::map_channels(const pof::raw_block_t& b) noexcept {
   ch_ = m;
   try {
     mapped_names_ = b.channel_names;
+    // Without a reference angle no cycle is scored, so no POF_STATS: a pot channel whose calibration
+    // is missing says so in the status, which every client and `pof dash` shows.
+    if (ch_.pot >= 0 && ch_.angle_ref < 0 && !pot_) counters_.last_error = kNoPotentiometer;
   } catch (...) {
     mapped_names_.clear();
   }

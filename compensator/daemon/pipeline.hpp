@@ -51,6 +51,12 @@ class Sink {
   virtual bool cycle(const pof::cycle_stats_t& msg) = 0;
 };
 
+/// The status's last_error when blocks carry potentiometer volts and nothing calibrates them.
+inline constexpr const char* kNoPotentiometer =
+    "blocks carry 'pot' volts but there is no potentiometer calibration: the reference angle is NaN and no "
+    "cycle statistics (POF_STATS) are published; give --pot-cal FILE, or calibrate with `pof calibrate "
+    "--pot-cal FILE` so cal.toml carries it (docs/calibration.md, \"Potentiometer\")";
+
 class Pipeline {
  public:
   /// Throws std::invalid_argument for settings the compensator rejects.

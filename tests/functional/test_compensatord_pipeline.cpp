@@ -179,6 +179,31 @@ TEST_F(PipelineTest, ReplayIsDeterministic) {
   }
 }
 
+TEST_F(PipelineTest, APotChannelWithoutItsCalibrationIsNamedInTheStatus) {
+  // The reference comes from the pot volts only (no angle_ref channel), as from a real DAQ.
+  std::vector<pof::raw_block_t> blocks((*blocks_).begin(), (*blocks_).begin() + 100);
+  for (auto& b : blocks) {
+    b.n_channels = 3;
+    b.channel_names.resize(3);
+    b.channel_units.resize(3);
+    for (auto& v : b.volts) v.resize(3);
+  }
+  Pipeline bare(paper_calibration(), "x", PipelineSettings{});
+  Collect out;
+  for (const auto& b : blocks) bare.on_block(b, 0, out);
+  EXPECT_EQ(bare.status(0).last_error, pof::compensatord::kNoPotentiometer);
+  EXPECT_TRUE(std::isnan(out.angles.back().angle_ref_deg));
+
+  pof::core::PotentiometerCalibration pot;
+  pot.deg_per_volt = 22.5;
+  pot.zero_v = 0.5;
+  Pipeline with_pot(paper_calibration(), "x", PipelineSettings{}, pot);
+  Collect out2;
+  for (const auto& b : blocks) with_pot.on_block(b, 0, out2);
+  EXPECT_EQ(with_pot.status(0).last_error, "");
+  EXPECT_FALSE(std::isnan(out2.angles.back().angle_ref_deg));
+}
+
 TEST_F(PipelineTest, LostBlockIsCountedAndResetsTheEstimator) {
   Pipeline p(paper_calibration(), "x", PipelineSettings{});
   Collect out;

@@ -2,7 +2,7 @@
 """Checks of tests/e2e/lcm_auth.sh on the files it leaves in its work directory (the current
 directory): forged.json (what the forger sent, per verdict), raw.csv / angle.csv / status.csv
 (`pof export` of the verified recording auth.lcmlog), auth.manifest.json, stock.lcmlog (lcm-logger)
-and spy.txt. The trailer is checked with the forger's own implementation (lcm_hostile.py: hashlib).
+and spy.txt. The trailer is checked with pofkit's Python implementation (lcmtypes/python/pofkit/auth.py, hashlib).
 """
 import csv
 import json
@@ -53,13 +53,13 @@ for k in ("duplicate_blocks", "decode_errors", "rejected_blocks", "lost_blocks",
 m = json.load(open("auth.manifest.json"))
 a = m["authentication"]
 check(a["enabled"] and a["window_s"] == 5.0, f"manifest authentication {a}")
-check(a["key_id"] == lcm_hostile.key_id(lcm_hostile.read_key("bus.key")).hex(), f"manifest key id {a['key_id']}")
+check(a["key_id"] == lcm_hostile.auth.key_id(lcm_hostile.auth.read_key("bus.key")).hex(), f"manifest key id {a['key_id']}")
 check(a["dropped"] == sent, f"manifest dropped {a['dropped']}, sent {sent}")
 
 # Stock lcm-logger logged the signed bytes: lcm-gen's decoder reads them (it ignores the trailer),
 # and the MAC of every block recorded as verified checks out with hashlib (the forgeries do not, or
 # carry a counter 60 s from the time lcm-logger received them, or are replays).
-key = lcm_hostile.read_key("bus.key")
+key = lcm_hostile.auth.read_key("bus.key")
 recorded = {(b.seq, b.first_scan) for b in (raw_block_t.decode(d) for _, ch, d in pofkit.read_events("auth.lcmlog")
                                             if ch == "POF_RAW")}
 good = set()

@@ -20,9 +20,8 @@ sockets (what any process on the host, or any machine on the segment, can send).
 
 The message types come from lcm-gen's Python output in ./py (the script generates it).
 Wire format: lcm/lcm_udpm.c (see common/bus/include/pof/bus/udpm_receiver.hpp). The authenticated mode's
-trailer: common/bus/include/pof/bus/auth_trailer.hpp (keyed BLAKE2b is hashlib.blake2b(key=...)).
+trailer: common/bus/include/pof/bus/auth_trailer.hpp, in Python lcmtypes/python/pofkit/auth.py.
 """
-import hashlib
 import json
 import os
 import random
@@ -32,7 +31,9 @@ import sys
 import time
 
 sys.path.insert(0, "py")
+sys.path.insert(1, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "lcmtypes", "python"))
 from pof import angle_t, compensator_status_t, raw_block_t  # noqa: E402
+from pofkit import auth  # noqa: E402  the trailer, its MAC and the key file, as pofkit's Python clients use them
 
 GROUP = "239.255.76.67"
 LC02, LC03 = 0x4C433032, 0x4C433033
@@ -97,41 +98,20 @@ def raw_bytes(sensor_len=3, n_channels=2, names=("sensor", "reference"), n_scans
 
 
 # --- The authenticated mode's trailer (common/bus/include/pof/bus/auth_trailer.hpp) --------------------
-TRAILER_MAGIC, TRAILER_VERSION, TRAILER_BYTES = 0x504F4641, 1, 60
-
-
-def read_key(path):
-    """A bus key file: 64 hex digits (pof keygen) or 32 bytes."""
-    data = open(path, "rb").read()
-    return data if len(data) == 32 else bytes.fromhex(data.decode().strip())
-
-
-def key_id(key):
-    return hashlib.blake2b(b"pofkit-lcm-key-id", key=key, digest_size=16).digest()[:4]
-
-
-def mac(key, channel, message, header):
-    ch = channel.encode()
-    h = hashlib.blake2b(key=key, digest_size=32)
-    h.update(struct.pack(">I", len(ch)) + ch + struct.pack(">Q", len(message)) + message + header)
-    return h.digest()
-
-
 def sign(key, channel, message, counter, sender=0x0F0F0F0F0F0F0F0F):
-    header = struct.pack(">II", TRAILER_MAGIC, TRAILER_VERSION) + key_id(key) + struct.pack(">QQ", sender, counter)
-    return message + header + mac(key, channel, message, header)
+    return auth.sign(key, channel, message, counter, sender)
 
 
 def verify(key, channel, data):
     """(LCM message, sender, counter) of a message with a valid trailer (key and MAC: the caller
     checks the counter), else None."""
-    if len(data) < TRAILER_BYTES:
+    if len(data) < auth.TRAILER_BYTES:
         return None
-    message, header, tag = data[:-TRAILER_BYTES], data[-TRAILER_BYTES:-32], data[-32:]
-    if struct.unpack(">II", header[:8]) != (TRAILER_MAGIC, TRAILER_VERSION) or header[8:12] != key_id(key):
+    message, header, tag = data[:-auth.TRAILER_BYTES], data[-auth.TRAILER_BYTES:-auth.MAC_BYTES], data[-auth.MAC_BYTES:]
+    if struct.unpack(">II", header[:8]) != (auth.TRAILER_MAGIC, auth.TRAILER_VERSION) or header[8:12] != auth.key_id(key):
         return None
     sender, counter = struct.unpack(">QQ", header[12:28])
-    return (message, sender, counter) if tag == mac(key, channel, message, header) else None
+    return (message, sender, counter) if tag == auth.mac(key, channel, message, header) else None
 
 
 def sender():
@@ -213,7 +193,7 @@ def receiver(port):
 
 
 def forge(port, key_file, out, channel="POF_RAW"):
-    key = read_key(key_file)
+    key = auth.read_key(key_file)
     r = receiver(port)
     captured = []
     deadline = time.monotonic() + 30

@@ -14,6 +14,7 @@ import subprocess
 import sys
 import tempfile
 import threading
+import time
 import unittest
 
 import numpy as np
@@ -35,9 +36,9 @@ def private_url():
 class Collector(threading.Thread):
     """Subscribes in the background until `quiet_s` passes without a message."""
 
-    def __init__(self, url, channels, quiet_s=1.5):
+    def __init__(self, url, channels, quiet_s=1.5, key=None):
         super().__init__(daemon=True)
-        self.sub = pofkit.Subscriber(channels, url=url)
+        self.sub = pofkit.Subscriber(channels, url=url, key=key)
         self.quiet_s, self.got = quiet_s, []
 
     def run(self):
@@ -64,6 +65,56 @@ class LiveStream(unittest.TestCase):
         self.assertGreater(len(angles), 50)
         self.assertEqual([m.seq for m in angles], list(range(len(angles))))
         self.assertEqual(c.sub.stats["malformed"], 0)
+
+    def test_authenticated_mode_yields_only_verified_messages(self):
+        # A key as `pof keygen` writes it (64 hex digits, mode 0600), read as the daemons read it.
+        d = tempfile.mkdtemp()
+        path = os.path.join(d, "bus.key")
+        key = bytes(range(32))
+        with open(os.open(path, os.O_WRONLY | os.O_CREAT, 0o600), "w") as f:
+            f.write(key.hex() + "\n")
+        self.assertEqual(pofkit.auth.read_key(path), key)
+        os.chmod(path, 0o640)
+        with self.assertRaisesRegex(ValueError, "bus.key.*group or others"):
+            pofkit.auth.read_key(path)
+        shutil.rmtree(d)
+
+        url = private_url()
+        group, port, _ = pofkit.parse_udpm_url(url)
+        c = Collector(url, ["POF_ANGLE"], quiet_s=1.0, key=key)
+        c.start()
+        import pof
+        now = time.time_ns() // 1000
+
+        def angle(seq):
+            a = pof.angle_t()
+            a.seq, a.angle_deg = seq, float(seq)
+            return a.encode()
+
+        def datagram(payload, seq):
+            return struct.pack(">II", 0x4C433032, seq) + b"POF_ANGLE\0" + payload
+
+        sign = pofkit.auth.sign
+        good = [sign(key, "POF_ANGLE", angle(i), now + i, sender=7) for i in range(3)]
+        tampered = bytearray(sign(key, "POF_ANGLE", angle(90), now + 10, sender=7))
+        tampered[12] ^= 1
+        sent = good + [
+            angle(91),                                                            # unsigned
+            sign(bytes(32), "POF_ANGLE", angle(92), now + 11, sender=7),          # another key
+            bytes(tampered),                                                      # altered
+            sign(key, "POF_ANGLE", angle(93), now - 60_000_000, sender=7),        # an old session's
+            good[1],                                                              # replayed
+        ]
+        s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        s.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, 0)
+        time.sleep(0.2)
+        for i, m in enumerate(sent):
+            s.sendto(datagram(m, i), (group, port))
+        c.join(timeout=20)
+        self.assertEqual([m.seq for _, _, m in c.got], [0, 1, 2], "only the verified angles")
+        st = c.sub.stats
+        self.assertEqual((st["auth_unsigned"], st["auth_bad_mac"], st["auth_stale"], st["auth_replayed"]),
+                         (1, 2, 1, 1), st)
 
     def test_hostile_datagrams_are_counted_not_raised(self):
         url = private_url()

@@ -11,10 +11,13 @@ beside this package), so every field keeps its name and unit from the .lcm docum
     with pofkit.Subscriber(["POF_ANGLE"]) as sub:                       # $LCM_DEFAULT_URL
         for channel, utime, msg in sub.messages(timeout_s=5):
             print(msg.seq, msg.angle_deg)
+    # The authenticated mode: only verified messages (pofkit.auth).
+    pofkit.Subscriber(["POF_ANGLE"], key=pofkit.auth.read_key("/etc/pof/lcm.key"))
 """
+from . import auth
 from .types import decode, message_class
 from .log import LogError, read_events, read_log, to_arrays, raw_scans
 from .udpm import Subscriber, resolve_url, parse_udpm_url
 
-__all__ = ["decode", "message_class", "LogError", "read_events", "read_log", "to_arrays", "raw_scans",
+__all__ = ["auth", "decode", "message_class", "LogError", "read_events", "read_log", "to_arrays", "raw_scans",
            "Subscriber", "resolve_url", "parse_udpm_url"]

@@ -19,6 +19,7 @@ import socket
 import struct
 import time
 
+from . import auth
 from .types import decode
 
 HOST_ONLY_URL = "udpm://239.255.76.67:7667?ttl=0"
@@ -89,11 +90,17 @@ def parse_udpm_url(url):
 class Subscriber:
     """Messages of the given channels (all when None) from an LCM udpm:// bus, decoded."""
 
-    def __init__(self, channels=None, url=None):
+    def __init__(self, channels=None, url=None, key=None, auth_window_s=2.0):
+        """``key``: the bus key (pofkit.auth.read_key) of the authenticated mode; then only verified
+        messages are yielded and the others are counted per verdict in ``stats``
+        (auth_unsigned, auth_bad_mac, auth_stale, auth_replayed)."""
         self.url = resolve_url(url)
         group, port, opts = parse_udpm_url(self.url)
         self.channels = set(channels) if channels else None
         self.stats = {"datagrams": 0, "malformed": 0, "incomplete": 0, "undecodable": 0, "foreign": 0}
+        self._verifier = auth.Verifier(key, auth_window_s) if key is not None else None
+        if self._verifier is not None:
+            self.stats.update({"auth_" + v: 0 for v in self._verifier.counts})
         self._partial = {}  # sender -> [seq, size, got_bytes, n_frags, got_frags, channel, bytearray]
         s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM, socket.IPPROTO_UDP)
         s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
@@ -133,6 +140,11 @@ class Subscriber:
             for channel, payload in self._datagram(data, sender):
                 if self.channels is not None and channel not in self.channels:
                     continue
+                if self._verifier is not None:
+                    verdict, payload = self._verifier.verify(channel, payload, now)
+                    if verdict != auth.OK:
+                        self.stats["auth_" + verdict] += 1
+                        continue
                 msg = decode(payload)
                 if msg is None:
                     self.stats["undecodable" if payload[:8] and len(payload) >= 8 else "malformed"] += 1

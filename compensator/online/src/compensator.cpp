@@ -37,7 +37,6 @@ OnlineCompensator::OnlineCompensator(const Calibration& cal, const CompensatorSe
     if (const char* why = cal.dynamic->invalid_reason(); *why != '\0')
       throw std::invalid_argument(std::string("compensator: dynamic model: ") + why);
     dynamic_ = true;
-    inverter_ = DynamicInverter(*cal.dynamic, s.scan_rate_hz);
     if (s.estimate && cal.estimator) {
       if (const char* why = cal.estimator->invalid_reason(); *why != '\0')
         throw std::invalid_argument(std::string("compensator: estimator: ") + why);
@@ -49,6 +48,8 @@ OnlineCompensator::OnlineCompensator(const Calibration& cal, const CompensatorSe
       estimating_ = true;
       lag_ = static_cast<int>(std::lround(s.estimator_lag_s * s.scan_rate_hz));
       estimator_ = AngleEstimator(*cal.dynamic, *cal.estimator, s.scan_rate_hz, lag_);
+    } else {
+      inverter_ = DynamicInverter(*cal.dynamic, s.scan_rate_hz);  // the per-scan inverse: older files, `invert`
     }
   }
   if (s.estimator_lag_s != 0 && !estimating_)

@@ -58,6 +58,14 @@ grep -q '^ExecStart=/usr/bin/pof-daqd ' "$root/usr/lib/systemd/system/pof-daqd@.
 grep -q '^prefix=/usr$' "$root/usr/lib/pkgconfig/pofkit.pc" || fail "pofkit.pc prefix: $(head -5 "$root/usr/lib/pkgconfig/pofkit.pc")"
 if readelf -S "$root/usr/bin/pof" | awk '/\.debug_info/ {f=1} END {exit !f}'; then fail "packaged pof is not stripped"; fi
 
+# One name for pof-daqd's configuration: the default its --help names is the file the package
+# installs and the single-sensor unit reads.
+help_cfg=$("$root/usr/bin/pof-daqd" --help | grep -o '/etc/pof/[A-Za-z_-]*\.toml' | head -n 1)
+[ "$help_cfg" = /etc/pof/daqd.toml ] || fail "pof-daqd --help names '$help_cfg' as its default configuration"
+has "$runtime" "${help_cfg#/}"
+grep -q "^ExecStart=/usr/bin/pof-daqd --config $help_cfg\$" "$root/usr/lib/systemd/system/pof-daqd.service" ||
+  fail "pof-daqd.service does not read $help_cfg: $(grep ExecStart "$root/usr/lib/systemd/system/pof-daqd.service")"
+
 # The unpacked pof with the source tree out of reach (needs a mount namespace: root or userns).
 # The work directory is inside the source tree (build/), so this part runs from a copy in /tmp.
 "$root/usr/bin/pof" --version >version.txt || fail "unpacked pof --version failed"

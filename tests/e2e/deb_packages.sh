@@ -66,6 +66,22 @@ has "$runtime" "${help_cfg#/}"
 grep -q "^ExecStart=/usr/bin/pof-daqd --config $help_cfg\$" "$root/usr/lib/systemd/system/pof-daqd.service" ||
   fail "pof-daqd.service does not read $help_cfg: $(grep ExecStart "$root/usr/lib/systemd/system/pof-daqd.service")"
 
+# The shipped defaults suit a single-sensor host as installed: every --manifest-file of record.env
+# is a file the package installs (a missing one makes pof record exit 66 and pof-record.service
+# fail before any calibration exists), and pof.env's bus is the built-in host-only default
+# (ttl=0) that the threat model assumes.
+args=$(sed -n 's/^POF_RECORD_ARGS=//p' "$root/etc/pof/record.env")
+[ -n "$args" ] || fail "record.env sets no POF_RECORD_ARGS"
+for f in $(grep -o -- '--manifest-file[= ][^ ]*' <<<"$args" | sed 's/^--manifest-file[= ]//'); do
+  [ -f "$root$f" ] || fail "record.env names --manifest-file $f, which the package does not install"
+done
+default_url=$(sed -n 's/.*kHostOnlyUrl = "\([^"]*\)".*/\1/p' "$SOURCE_DIR/common/bus/include/pof/bus/url.hpp")
+[ -n "$default_url" ] || fail "no kHostOnlyUrl in url.hpp"
+shipped_url=$(sed -n 's/^LCM_DEFAULT_URL=//p' "$root/etc/pof/pof.env")
+[ "$shipped_url" = "$default_url" ] || fail "pof.env ships LCM_DEFAULT_URL=$shipped_url, the built-in default is $default_url"
+grep -q 'With `ttl=0` (the default URL)' "$SOURCE_DIR/docs/deployment.md" ||
+  fail "docs/deployment.md's threat model no longer calls ttl=0 the default: check pof.env against it"
+
 # The unpacked pof with the source tree out of reach (needs a mount namespace: root or userns).
 # The work directory is inside the source tree (build/), so this part runs from a copy in /tmp.
 "$root/usr/bin/pof" --version >version.txt || fail "unpacked pof --version failed"

@@ -19,7 +19,8 @@ has() {  # has <deb> <path>...: every path is in the package
     printf '%s\n' "$listing" | awk -v p="./$p" '$0 == p {f=1} END {exit !f}' || fail "$(basename "$deb") lacks $p"
   done
 }
-has "$runtime" usr/bin/pof usr/bin/pof-daqd usr/bin/pof-compensatord \
+has "$runtime" usr/bin/pof usr/bin/pof-daqd usr/bin/pof-compensatord usr/bin/pof-gen-udev-rules \
+  usr/sbin/pof-setup-multicast usr/lib/systemd/system/pof-multicast-route.service \
   usr/lib/systemd/system/pof-daqd@.service usr/lib/systemd/system/pof-compensatord@.service \
   usr/lib/systemd/system/pof.target usr/lib/sysusers.d/pof.conf usr/lib/sysctl.d/60-pof-lcm.conf \
   etc/pof/pof.env etc/pof/record.env etc/pof/daqd.toml usr/share/pofkit/plot/calibration_report.py \

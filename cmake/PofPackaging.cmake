@@ -35,6 +35,20 @@ install(FILES ${CMAKE_BINARY_DIR}/pofkit.pc DESTINATION ${CMAKE_INSTALL_LIBDIR}/
 # The example clients (C++, Python, MATLAB/Octave), with the SDK.
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/examples/ DESTINATION ${CMAKE_INSTALL_DOCDIR}/examples COMPONENT dev)
 
+# The static libraries without debug info (dh_strip's options for them): the release preset's
+# line tables made pofkit-dev 65 MB. Only when installing stripped (POF_INSTALL_STRIP, cpack).
+install(CODE "
+  if(CMAKE_INSTALL_DO_STRIP)
+    file(GLOB pof_static_libs \"\$ENV{DESTDIR}\${CMAKE_INSTALL_PREFIX}/${CMAKE_INSTALL_LIBDIR}/libpof*.a\")
+    foreach(lib IN LISTS pof_static_libs)
+      execute_process(COMMAND \"${CMAKE_STRIP}\" --strip-debug --remove-section=.comment --remove-section=.note
+        --enable-deterministic-archives \"\${lib}\" RESULT_VARIABLE rc)
+      if(NOT rc EQUAL 0)
+        message(FATAL_ERROR \"strip --strip-debug \${lib} failed (\${rc})\")
+      endif()
+    endforeach()
+  endif()" COMPONENT dev)
+
 # --- Debian packages --------------------------------------------------------------------------
 set(CPACK_GENERATOR DEB)
 set(CPACK_PACKAGE_NAME pofkit)
@@ -57,6 +71,9 @@ set(CPACK_DEBIAN_RUNTIME_PACKAGE_RECOMMENDS "python3-matplotlib, liblcm-bin")
 set(CPACK_DEBIAN_RUNTIME_PACKAGE_CONTROL_EXTRA
   ${CMAKE_BINARY_DIR}/debian/conffiles ${PROJECT_SOURCE_DIR}/deploy/debian/postinst)
 set(CPACK_DEBIAN_DEV_PACKAGE_NAME pofkit-dev)
-set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS "liblcm-dev, libeigen3-dev, libsodium-dev, pkg-config")
+# The SDK is the runtime's exact version: the types jar, the .lcm files and the headers of one
+# release describe one wire format.
+set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS
+  "pofkit (= ${PROJECT_VERSION}), liblcm-dev, libeigen3-dev, libsodium-dev, pkg-config")
 set(CPACK_DEBIAN_DEV_PACKAGE_SECTION libdevel)
 include(CPack)

@@ -26,10 +26,17 @@ has "$runtime" usr/bin/pof usr/bin/pof-daqd usr/bin/pof-compensatord usr/bin/pof
   etc/pof/pof.env etc/pof/record.env etc/pof/daqd.toml usr/share/pofkit/plot/calibration_report.py \
   usr/share/java/pof_lcmtypes.jar
 for r in "$SOURCE_DIR"/deploy/udev/*.rules; do has "$runtime" "usr/lib/udev/rules.d/$(basename "$r")"; done
+# The SDK's libraries, CMake package and pkg-config file in Debian's multiarch directory.
+multiarch=$(dpkg-architecture -qDEB_HOST_MULTIARCH 2>/dev/null || gcc -print-multiarch)
+[ -n "$multiarch" ] || fail "cannot tell the multiarch triplet"
+ml="usr/lib/$multiarch"
 has "$dev" usr/include/pof/angle_t.hpp usr/include/pof_angle_t.h usr/include/pof/core/compensator.hpp \
-  usr/include/pof/bus/auth.hpp usr/include/pof/bus/auth_key.hpp usr/lib/libpof_auth.a \
-  usr/lib/libpof_core.a usr/lib/libpof_lcmtypes_c.a usr/lib/cmake/pofkit/pofkitConfig.cmake \
-  usr/lib/pkgconfig/pofkit.pc usr/share/pofkit/lcmtypes/angle_t.lcm
+  usr/include/pof/bus/auth.hpp usr/include/pof/bus/auth_key.hpp "$ml/libpof_auth.a" \
+  "$ml/libpof_core.a" "$ml/libpof_lcmtypes_c.a" "$ml/cmake/pofkit/pofkitConfig.cmake" \
+  "$ml/pkgconfig/pofkit.pc" usr/share/pofkit/lcmtypes/angle_t.lcm
+if dpkg-deb -c "$dev" | awk '$6 ~ /^\.\/usr\/lib\/[^\/]*\.a$/ || $6 ~ /^\.\/usr\/lib\/(cmake|pkgconfig)\// {f=1} END {exit !f}'; then
+  fail "pofkit-dev puts libraries in /usr/lib, not /$ml: $(dpkg-deb -c "$dev" | awk '{print $6}' | grep '^\./usr/lib/[^/]*$')"
+fi
 if dpkg-deb -c "$runtime" | awk '$6 ~ /^\.\/usr\/include\// {f=1} END {exit !f}'; then fail "headers in the runtime package"; fi
 
 # Control data: shared-library dependencies found, conffiles and the postinst.
@@ -43,6 +50,9 @@ dev_depends=$(dpkg-deb -f "$dev" Depends)
 for pkg in liblcm-dev libeigen3-dev libsodium-dev pkg-config; do
   case "$dev_depends" in *"$pkg"*) ;; *) fail "pofkit-dev Depends lacks $pkg: $dev_depends" ;; esac
 done
+# The SDK pins the runtime of its own version.
+version=$(dpkg-deb -f "$runtime" Version)
+case ", $dev_depends," in *", pofkit (= $version),"*) ;; *) fail "pofkit-dev does not depend on pofkit (= $version): $dev_depends" ;; esac
 mkdir -p ctl && dpkg-deb -e "$runtime" ctl
 for c in /etc/pof/pof.env /etc/pof/record.env /etc/pof/daqd.toml; do
   awk -v c="$c" '$0 == c {f=1} END {exit !f}' ctl/conffiles || fail "$c is not a conffile: $(cat ctl/conffiles)"
@@ -56,8 +66,12 @@ root="$WORK_DIR/root"
 dpkg-deb -x "$runtime" "$root" && dpkg-deb -x "$dev" "$root"
 grep -q '^ExecStart=/usr/bin/pof-daqd ' "$root/usr/lib/systemd/system/pof-daqd@.service" ||
   fail "unit ExecStart: $(grep ExecStart "$root/usr/lib/systemd/system/pof-daqd@.service")"
-grep -q '^prefix=/usr$' "$root/usr/lib/pkgconfig/pofkit.pc" || fail "pofkit.pc prefix: $(head -5 "$root/usr/lib/pkgconfig/pofkit.pc")"
+grep -q '^prefix=/usr$' "$root/$ml/pkgconfig/pofkit.pc" || fail "pofkit.pc prefix: $(head -5 "$root/$ml/pkgconfig/pofkit.pc")"
+grep -q "^libdir=\${prefix}/lib/$multiarch\$" "$root/$ml/pkgconfig/pofkit.pc" || fail "pofkit.pc libdir: $(grep libdir= "$root/$ml/pkgconfig/pofkit.pc")"
 if readelf -S "$root/usr/bin/pof" | awk '/\.debug_info/ {f=1} END {exit !f}'; then fail "packaged pof is not stripped"; fi
+for lib in "$root/$ml"/libpof*.a; do
+  if readelf -S "$lib" | awk '/\.debug_(info|line)/ {f=1} END {exit !f}'; then fail "$(basename "$lib") in pofkit-dev carries debug info"; fi
+done
 
 # One name for pof-daqd's configuration: the default its --help names is the file the package
 # installs and the single-sensor unit reads.

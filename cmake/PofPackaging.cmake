@@ -50,11 +50,36 @@ install(CODE "
   endif()" COMPONENT dev)
 
 # --- Debian packages --------------------------------------------------------------------------
+set(POF_DEB_MAINTAINER "pofkit maintainers <maintainers@users.noreply.h-seed-4646262e.example>"
+  CACHE STRING "Maintainer of the .deb packages (name <email>)")
 set(CPACK_GENERATOR DEB)
 set(CPACK_PACKAGE_NAME pofkit)
 set(CPACK_PACKAGE_VENDOR "pofkit")
-set(CPACK_PACKAGE_CONTACT "pofkit maintainers <pofkit@localhost>")
+set(CPACK_PACKAGE_CONTACT "${POF_DEB_MAINTAINER}")
 set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "${PROJECT_DESCRIPTION}")
+
+# Debian's per-package documents, for each package: copyright, a changelog (a native package's,
+# changelog.gz) and, for pofkit, the README. gzip -n: no name or time stamp, so builds compare.
+set(pof_changelog_date_fmt "%a, %d %b %Y %H:%M:%S +0000")
+string(TIMESTAMP pof_changelog_date "${pof_changelog_date_fmt}" UTC)
+foreach(pkg pofkit pofkit-dev)
+  set(dir ${CMAKE_BINARY_DIR}/debian/doc/${pkg})
+  file(MAKE_DIRECTORY ${dir})
+  file(WRITE ${dir}/changelog "${pkg} (${PROJECT_VERSION}) bookworm; urgency=medium
+
+  * pofkit ${PROJECT_VERSION}, built from its source tree with CPack.
+
+ -- ${POF_DEB_MAINTAINER}  ${pof_changelog_date}
+")
+  execute_process(COMMAND gzip -9nf ${dir}/changelog RESULT_VARIABLE rc)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "gzip of ${dir}/changelog failed")
+  endif()
+endforeach()
+install(FILES ${PROJECT_SOURCE_DIR}/deploy/debian/copyright ${CMAKE_BINARY_DIR}/debian/doc/pofkit/changelog.gz
+  ${PROJECT_SOURCE_DIR}/README.md DESTINATION ${CMAKE_INSTALL_DATADIR}/doc/pofkit COMPONENT runtime)
+install(FILES ${PROJECT_SOURCE_DIR}/deploy/debian/copyright ${CMAKE_BINARY_DIR}/debian/doc/pofkit-dev/changelog.gz
+  DESTINATION ${CMAKE_INSTALL_DATADIR}/doc/pofkit-dev COMPONENT dev)
 # Install with DESTDIR=<staging> and prefix /usr (CPACK_INSTALL_PREFIX is the one DESTDIR mode
 # uses), so the /etc/pof rule in deploy/ sees /usr.
 set(CPACK_PACKAGING_INSTALL_PREFIX /usr)

@@ -24,7 +24,10 @@ has "$runtime" usr/bin/pof usr/bin/pof-daqd usr/bin/pof-compensatord usr/bin/pof
   usr/lib/systemd/system/pof-daqd@.service usr/lib/systemd/system/pof-compensatord@.service \
   usr/lib/systemd/system/pof.target usr/lib/sysusers.d/pof.conf usr/lib/sysctl.d/60-pof-lcm.conf \
   etc/pof/pof.env etc/pof/record.env etc/pof/daqd.toml usr/share/pofkit/plot/calibration_report.py \
-  usr/share/java/pof_lcmtypes.jar
+  usr/share/java/pof_lcmtypes.jar usr/share/doc/pofkit/copyright usr/share/doc/pofkit/changelog.gz \
+  usr/share/doc/pofkit/README.md usr/share/man/man1/pof.1.gz usr/share/man/man1/pof-daqd.1.gz \
+  usr/share/man/man1/pof-compensatord.1.gz usr/share/man/man1/pof-gen-udev-rules.1.gz \
+  usr/share/man/man8/pof-setup-multicast.8.gz
 for r in "$SOURCE_DIR"/deploy/udev/*.rules; do has "$runtime" "usr/lib/udev/rules.d/$(basename "$r")"; done
 # The SDK's libraries, CMake package and pkg-config file in Debian's multiarch directory.
 multiarch=$(dpkg-architecture -qDEB_HOST_MULTIARCH 2>/dev/null || gcc -print-multiarch)
@@ -33,7 +36,8 @@ ml="usr/lib/$multiarch"
 has "$dev" usr/include/pof/angle_t.hpp usr/include/pof_angle_t.h usr/include/pof/core/compensator.hpp \
   usr/include/pof/bus/auth.hpp usr/include/pof/bus/auth_key.hpp "$ml/libpof_auth.a" \
   "$ml/libpof_core.a" "$ml/libpof_lcmtypes_c.a" "$ml/cmake/pofkit/pofkitConfig.cmake" \
-  "$ml/pkgconfig/pofkit.pc" usr/share/pofkit/lcmtypes/angle_t.lcm
+  "$ml/pkgconfig/pofkit.pc" usr/share/pofkit/lcmtypes/angle_t.lcm usr/share/doc/pofkit-dev/copyright \
+  usr/share/doc/pofkit-dev/changelog.gz
 if dpkg-deb -c "$dev" | awk '$6 ~ /^\.\/usr\/lib\/[^\/]*\.a$/ || $6 ~ /^\.\/usr\/lib\/(cmake|pkgconfig)\// {f=1} END {exit !f}'; then
   fail "pofkit-dev puts libraries in /usr/lib, not /$ml: $(dpkg-deb -c "$dev" | awk '{print $6}' | grep '^\./usr/lib/[^/]*$')"
 fi
@@ -72,6 +76,11 @@ if readelf -S "$root/usr/bin/pof" | awk '/\.debug_info/ {f=1} END {exit !f}'; th
 for lib in "$root/$ml"/libpof*.a; do
   if readelf -S "$lib" | awk '/\.debug_(info|line)/ {f=1} END {exit !f}'; then fail "$(basename "$lib") in pofkit-dev carries debug info"; fi
 done
+# Each man page is a help2man page of its program (not an empty shell).
+for m in "$root"/usr/share/man/man*/*.gz; do
+  zcat "$m" | grep -q '^\.SH DESCRIPTION' || zcat "$m" | grep -q '^\.SH SYNOPSIS' || fail "$(basename "$m") is not a man page"
+done
+grep -q '^Files: \*' "$root/usr/share/doc/pofkit/copyright" || fail "copyright is not in the machine-readable format"
 
 # One name for pof-daqd's configuration: the default its --help names is the file the package
 # installs and the single-sensor unit reads.

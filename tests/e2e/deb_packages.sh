@@ -61,8 +61,10 @@ mkdir -p ctl && dpkg-deb -e "$runtime" ctl
 for c in /etc/pof/pof.env /etc/pof/record.env /etc/pof/daqd.toml; do
   awk -v c="$c" '$0 == c {f=1} END {exit !f}' ctl/conffiles || fail "$c is not a conffile: $(cat ctl/conffiles)"
 done
-[ -x ctl/postinst ] || fail "no postinst"
-sh -n ctl/postinst || fail "postinst is not valid sh"
+for script in postinst prerm postrm; do
+  [ -x "ctl/$script" ] || fail "no $script"
+  sh -n "ctl/$script" || fail "$script is not valid sh"
+done
 
 # Unpacked into a scratch root: the units name /usr/bin, the binaries carry no debug info, the
 # pkg-config file names /usr.

@@ -54,9 +54,12 @@ dev_depends=$(dpkg-deb -f "$dev" Depends)
 for pkg in liblcm-dev libeigen3-dev libsodium-dev pkg-config; do
   case "$dev_depends" in *"$pkg"*) ;; *) fail "pofkit-dev Depends lacks $pkg: $dev_depends" ;; esac
 done
-# The SDK pins the runtime of its own version.
+# The SDK pins the runtime of its own version; the Python package's NumPy is declared.
 version=$(dpkg-deb -f "$runtime" Version)
 case ", $dev_depends," in *", pofkit (= $version),"*) ;; *) fail "pofkit-dev does not depend on pofkit (= $version): $dev_depends" ;; esac
+for pkg in python3 python3-numpy; do
+  case ", $depends," in *", $pkg,"*) ;; *) fail "pofkit Depends lacks $pkg: $depends" ;; esac
+done
 mkdir -p ctl && dpkg-deb -e "$runtime" ctl
 for c in /etc/pof/pof.env /etc/pof/record.env /etc/pof/daqd.toml; do
   awk -v c="$c" '$0 == c {f=1} END {exit !f}' ctl/conffiles || fail "$c is not a conffile: $(cat ctl/conffiles)"

@@ -56,7 +56,6 @@ set(CPACK_GENERATOR DEB)
 set(CPACK_PACKAGE_NAME pofkit)
 set(CPACK_PACKAGE_VENDOR "pofkit")
 set(CPACK_PACKAGE_CONTACT "${POF_DEB_MAINTAINER}")
-set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "${PROJECT_DESCRIPTION}")
 
 # Debian's per-package documents, for each package: copyright, a changelog (a native package's,
 # changelog.gz) and, for pofkit, the README. gzip -n: no name or time stamp, so builds compare.
@@ -80,6 +79,9 @@ install(FILES ${PROJECT_SOURCE_DIR}/deploy/debian/copyright ${CMAKE_BINARY_DIR}/
   ${PROJECT_SOURCE_DIR}/README.md DESTINATION ${CMAKE_INSTALL_DATADIR}/doc/pofkit COMPONENT runtime)
 install(FILES ${PROJECT_SOURCE_DIR}/deploy/debian/copyright ${CMAKE_BINARY_DIR}/debian/doc/pofkit-dev/changelog.gz
   DESTINATION ${CMAKE_INSTALL_DATADIR}/doc/pofkit-dev COMPONENT dev)
+# What lintian flags on purpose, each with its reason in the file.
+install(FILES ${PROJECT_SOURCE_DIR}/deploy/debian/lintian/pofkit-dev
+  DESTINATION ${CMAKE_INSTALL_DATADIR}/lintian/overrides COMPONENT dev)
 # Install with DESTDIR=<staging> and prefix /usr (CPACK_INSTALL_PREFIX is the one DESTDIR mode
 # uses), so the /etc/pof rule in deploy/ sees /usr.
 set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
@@ -91,6 +93,21 @@ set(CPACK_COMPONENTS_ALL runtime dev)
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 set(CPACK_DEBIAN_PACKAGE_SECTION science)
 set(CPACK_DEBIAN_RUNTIME_PACKAGE_NAME pofkit)
+# A synopsis of at most 80 characters, then the extended description (Debian policy 3.4), per
+# package. CPack puts CPACK_PACKAGE_DESCRIPTION_SUMMARY (else the project's description, too long
+# for a synopsis) before it unless the summary is CPack's own default, so it is set to that.
+set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "${CPACK_PACKAGE_NAME} built using CMake")
+set(CPACK_DEBIAN_RUNTIME_DESCRIPTION "POF knee-angle sensing: DAQ and compensation daemons, recorder
+pofkit acquires polymer-optical-fibre (POF) curvature sensors on an
+exoskeleton knee from a USB DAQ (NI USB-6008/6009, MCC USB-1208LS),
+compensates their hysteresis online and publishes the knee angle and
+per-cycle statistics over LCM.
+.
+This package holds the daemons pof-daqd and pof-compensatord, the pof
+command line (simulate, calibrate, compensate, record, spy, export), their
+systemd units (pof.target), udev rules, the system user, the LCM
+socket-buffer sysctl, the message types for Java and Python, and the plot
+scripts.")
 set(CPACK_DEBIAN_RUNTIME_PACKAGE_SHLIBDEPS ON)
 # The Python package (pofkit.log reads logs into NumPy arrays) is for /usr/bin/python3 only
 # (dist-packages): python3 and NumPy are dependencies; matplotlib only draws the plots.
@@ -101,6 +118,12 @@ set(CPACK_DEBIAN_RUNTIME_PACKAGE_CONTROL_EXTRA ${CMAKE_BINARY_DIR}/debian/conffi
   ${PROJECT_SOURCE_DIR}/deploy/debian/postrm)
 set(CPACK_DEBIAN_PACKAGE_CONTROL_STRICT_PERMISSION ON)  # maintainer scripts 0755, the rest 0644
 set(CPACK_DEBIAN_DEV_PACKAGE_NAME pofkit-dev)
+set(CPACK_DEBIAN_DEV_DESCRIPTION "POF knee-angle sensing: SDK for exoskeleton controller clients
+The development files of pofkit for a controller that consumes its angles:
+the LCM message types (C and C++ headers, a C library, the .lcm files),
+the pure sensor model (libpof_core), the authenticated mode's verifier and
+key files (libpof_auth), a CMake package (find_package(pofkit)), a
+pkg-config file and example clients.")
 # The SDK is the runtime's exact version: the types jar, the .lcm files and the headers of one
 # release describe one wire format.
 set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS

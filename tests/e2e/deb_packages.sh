@@ -2,7 +2,10 @@
 # sysusers, sysctl, /etc/pof conffiles, plot scripts) and `pofkit-dev` (the SDK). Built from this
 # build tree, their contents and control data checked, unpacked into a scratch root (dpkg-deb -x:
 # no container, nothing installed on this host), and the unpacked `pof` run with the source tree
-# hidden (a private mount namespace covers it) so it must find its own plot scripts.
+# hidden (a private mount namespace covers it) so it must find its own plot scripts. Both packages
+# pass lintian with no error; pofkit-dev's libraries are in the multiarch directory without debug
+# info and it pins pofkit's version; man pages, copyright, changelog and the maintainer scripts are
+# there. tests/e2e/deb_lifecycle.sh installs, runs and purges them.
 source "$(dirname "$0")/lib.sh"
 BUILD_DIR=$(readlink -f "$BIN_DIR/..")
 command -v dpkg-deb >/dev/null || { echo "SKIP: dpkg-deb missing"; exit 77; }
@@ -11,6 +14,14 @@ runtime=$(ls pkg/pofkit_*.deb 2>/dev/null | head -1)
 dev=$(ls pkg/pofkit-dev_*.deb 2>/dev/null | head -1)
 [ -n "$runtime" ] && [ -n "$dev" ] || fail "expected pofkit_*.deb and pofkit-dev_*.deb, got: $(ls pkg)"
 echo "packages: $(du -k "$runtime" | cut -f1) KiB $(basename "$runtime"), $(du -k "$dev" | cut -f1) KiB $(basename "$dev")"
+
+# lintian: no error; its warnings are printed, not failed on. lintian is a test package of
+# ./pofkit setup.
+command -v lintian >/dev/null || fail "lintian missing: ./pofkit setup installs it"
+lintian --no-tag-display-limit "$runtime" "$dev" >lintian.out 2>&1 || true
+n_err=$(grep -c '^E: ' lintian.out || true)
+echo "lintian: $n_err errors, $(grep -c '^W: ' lintian.out || true) warnings$(grep '^W: ' lintian.out | sed 's/^/\n  /' | tr -d '\n' || true)"
+[ "$n_err" -eq 0 ] || fail "lintian errors: $(grep '^E: ' lintian.out)"
 
 has() {  # has <deb> <path>...: every path is in the package
   local deb=$1 listing; shift

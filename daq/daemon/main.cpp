@@ -34,7 +34,7 @@
 
 namespace {
 
-constexpr const char* kDefaultConfig = "/etc/pof/daq.toml";
+constexpr const char* kDefaultConfig = "/etc/pof/daqd.toml";
 
 }  // namespace
 

@@ -9,7 +9,7 @@ expect_exit 2 "$d" --no-such-flag
 expect_exit 66 "$d" --config "$WORK_DIR/missing.toml"
 grep -q "missing.toml" <<<"$err" || fail "66 does not name the file: $err"
 
-cp "$SOURCE_DIR/deploy/config/daq.toml" "$WORK_DIR/daq.toml"
+cp "$SOURCE_DIR/deploy/config/daqd.toml" "$WORK_DIR/daq.toml"
 expect_exit 0 "$d" --config "$WORK_DIR/daq.toml" --print-config
 grep -q "kind = 'usb6008'" <<<"$out" || fail "example config: $out"
 expect_exit 0 "$d" --config "$WORK_DIR/daq.toml" --rate 1000 -s channels.pot=-1 --print-config
@@ -17,12 +17,12 @@ grep -q "scan_rate_hz = 1000.0" <<<"$out" || fail "--rate not applied: $out"
 grep -q "pot = -1" <<<"$out" || fail "--set not applied: $out"
 
 bad() {  # bad <toml snippet appended> <text the error must contain>
-  cp "$SOURCE_DIR/deploy/config/daq.toml" "$WORK_DIR/bad.toml"
+  cp "$SOURCE_DIR/deploy/config/daqd.toml" "$WORK_DIR/bad.toml"
   printf '%s\n' "$1" >>"$WORK_DIR/bad.toml"
   expect_exit 78 "$d" --config "$WORK_DIR/bad.toml" --print-config
   grep -q -- "$2" <<<"$err" || fail "error for '$1' does not mention '$2': $err"
 }
-bad '[extra]'                                        "bad.toml:$(($(wc -l <"$SOURCE_DIR/deploy/config/daq.toml") + 1)): unknown key 'extra' at the top level"
+bad '[extra]'                                        "bad.toml:$(($(wc -l <"$SOURCE_DIR/deploy/config/daqd.toml") + 1)): unknown key 'extra' at the top level"
 # A typo on the command line is refused as in the file, with the key it was meant to be.
 expect_exit 78 "$d" --config "$WORK_DIR/daq.toml" -s acquisition.decimat=5 --print-config
 grep -q "unknown key 'decimat' in \[acquisition\] (did you mean 'decimate'?)" <<<"$err" || fail "$err"

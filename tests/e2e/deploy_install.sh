@@ -11,12 +11,20 @@ for f in bin/pof bin/pof-lcm-spy lib/sysusers.d/pof.conf lib/sysctl.d/60-pof-lcm
   share/pofkit/examples/pof.env share/pofkit/examples/record.env share/pofkit/examples/daqd-LEFT_KNEE.toml \
   share/pofkit/examples/lcm-auth.conf share/doc/pofkit/deployment.md lib/systemd/system/pof.target lib/systemd/system/pof-record.service \
   lib/systemd/system/pof-daqd.service lib/systemd/system/pof-daqd@.service \
-  lib/systemd/system/pof-compensatord.service lib/systemd/system/pof-compensatord@.service; do
+  lib/systemd/system/pof-compensatord.service lib/systemd/system/pof-compensatord@.service \
+  lib/systemd/system/pof-multicast-route.service sbin/pof-setup-multicast bin/pof-gen-udev-rules; do
   [ -e "$prefix/$f" ] || fail "cmake --install did not install $f"
 done
 for r in "$SOURCE_DIR"/deploy/udev/*.rules; do
   [ -e "$r" ] || continue
   [ -e "$prefix/lib/udev/rules.d/$(basename "$r")" ] || fail "udev rule $(basename "$r") not installed"
+done
+grep -q "^ExecStart=$prefix/sbin/pof-setup-multicast$" "$prefix/lib/systemd/system/pof-multicast-route.service" ||
+  fail "pof-multicast-route.service does not run the installed pof-setup-multicast"
+for u in pof-daqd.service pof-daqd@.service pof-compensatord.service pof-compensatord@.service pof-record.service; do
+  grep -q '^Wants=.*pof-multicast-route.service' "$prefix/lib/systemd/system/$u" &&
+    grep -q '^After=.*pof-multicast-route.service' "$prefix/lib/systemd/system/$u" ||
+    fail "$u does not pull in the multicast route before it starts"
 done
 grep -q "^ExecStart=$prefix/bin/pof record " "$prefix/lib/systemd/system/pof-record.service" ||
   fail "units do not name the binaries under the install prefix: $(grep ExecStart "$prefix/lib/systemd/system/pof-record.service")"
@@ -45,7 +53,7 @@ for bin in pof-daqd pof-compensatord; do
 done
 cd "$units"
 SYSTEMD_UNIT_PATH="$units:" systemd-analyze verify --man=no \
-  pof.target pof-daqd.service pof-compensatord.service pof-record.service \
+  pof.target pof-daqd.service pof-compensatord.service pof-record.service pof-multicast-route.service \
   pof-daqd@LEFT_KNEE.service pof-compensatord@LEFT_KNEE.service pof-daqd@RIGHT_KNEE.service \
   >"$WORK_DIR/verify.out" 2>&1 || fail "systemd-analyze verify failed: $(cat "$WORK_DIR/verify.out")"
 [ ! -s "$WORK_DIR/verify.out" ] || fail "systemd-analyze verify warned: $(cat "$WORK_DIR/verify.out")"

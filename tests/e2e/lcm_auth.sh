@@ -1,5 +1,5 @@
 # The authenticated mode end to end (docs/deployment.md, "Authenticated mode"), on udpm loopback:
-#   - `pof keygen` writes a 0600 key and refuses to overwrite it (exit 74); a key file others may
+#   - `pof keygen` writes a 0600 key and refuses to overwrite it (exit 2, usage); a key file others may
 #     read stops pof-daqd, pof-compensatord and pof spy with exit 78 naming the file and its mode;
 #   - the real pof-daqd (sim backend) and pof-compensatord share a key; `pof record` and `pof spy`
 #     verify with it; stock lcm-logger listens too; a forger (lcm_hostile.py forge) captures signed
@@ -25,9 +25,12 @@ expect_exit 0 "$POF" keygen -o bus.key
 [ "$(stat -c %a bus.key)" = 600 ] || fail "pof keygen wrote mode $(stat -c %a bus.key)"
 grep -qE '^[0-9a-f]{64}$' bus.key || fail "pof keygen wrote: $(head -c 80 bus.key | od -c | head -2)"
 cp bus.key before.key
-expect_exit 74 "$POF" keygen -o bus.key
+expect_exit 2 "$POF" keygen -o bus.key
 grep -q "bus.key: exists" <<<"$err" || fail "pof keygen over an existing key: $err"
 cmp -s bus.key before.key || fail "pof keygen changed an existing key"
+ln -s nowhere.key dangling.key   # a dangling symlink is an existing name too: never followed
+expect_exit 2 "$POF" keygen -o dangling.key
+[ ! -e nowhere.key ] || fail "pof keygen wrote through a dangling symlink"
 install -m 0644 bus.key open.key
 expect_exit 78 "$BIN_DIR/pof-compensatord" --cal cal.toml --auth-key-file open.key --lcm-url "$URL" --duration 1
 grep -q "bus key file 'open.key': mode 0644 gives group or others access" <<<"$err" || fail "compensatord: $err"

@@ -11,11 +11,15 @@ source "$(dirname "$0")/lib.sh"
 BUILD_DIR=$(readlink -f "$BIN_DIR/..")
 prefix="$WORK_DIR/prefix"
 cmake --install "$BUILD_DIR" --prefix "$prefix" >install.log || fail "cmake --install failed: $(tail -5 install.log)"
+# Libraries, the CMake package and pofkit.pc are in the configured LIBDIR (lib/<multiarch> on Debian).
+libdir=$(sed -n 's/^CMAKE_INSTALL_LIBDIR:[A-Z]*=//p' "$BUILD_DIR/CMakeCache.txt")
+[ -n "$libdir" ] || fail "no CMAKE_INSTALL_LIBDIR in $BUILD_DIR/CMakeCache.txt"
 
 for f in include/pof/angle_t.hpp include/pof/raw_block_t.hpp include/pof_angle_t.h include/pof_raw_block_t.h \
   include/pof/core/compensator.hpp include/pof/core/calibration.hpp include/pof/bus/url.hpp include/pof/bus/channels.hpp \
-  include/pof/bus/auth.hpp include/pof/bus/auth_key.hpp lib/libpof_auth.a lib/libpof_core.a lib/libpof_lcmtypes_c.a lib/cmake/pofkit/pofkitConfig.cmake \
-  lib/cmake/pofkit/pofkitConfigVersion.cmake lib/cmake/pofkit/pofkitTargets.cmake lib/pkgconfig/pofkit.pc \
+  include/pof/bus/auth.hpp include/pof/bus/auth_key.hpp "$libdir"/libpof_auth.a "$libdir"/libpof_core.a "$libdir"/libpof_lcmtypes_c.a \
+  "$libdir"/cmake/pofkit/pofkitConfig.cmake "$libdir"/cmake/pofkit/pofkitConfigVersion.cmake \
+  "$libdir"/cmake/pofkit/pofkitTargets.cmake "$libdir"/pkgconfig/pofkit.pc \
   share/pofkit/lcmtypes/angle_t.lcm share/pofkit/lcmtypes/raw_block_t.lcm share/pofkit/plot/calibration_report.py \
   etc/pof/pof.env etc/pof/daqd.toml; do
   [ -e "$prefix/$f" ] || fail "the install lacks $f"
@@ -50,7 +54,7 @@ int main(void) {
   return b.seq == 7 && b.angle_deg == 42.5f && b.quality == POF_ANGLE_T_QUALITY_GAP ? 0 : 1;
 }
 C
-export PKG_CONFIG_PATH="$prefix/lib/pkgconfig"
+export PKG_CONFIG_PATH="$prefix/$libdir/pkgconfig"
 pkg-config --exists pofkit || fail "pkg-config does not find pofkit: $(pkg-config --print-errors pofkit 2>&1)"
 # shellcheck disable=SC2046  # pkg-config output is a word list by design
 cc -std=c11 -Wall -Werror c_client.c -o c_client $(pkg-config --cflags --libs pofkit) -lstdc++ -lm ||

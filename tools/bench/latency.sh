@@ -69,7 +69,7 @@ pipeline() {  # pipeline <scan rate> <decimate> <label>
 echo "| path | packet time + decimation delay [ms] | age p50 [ms] | age p99 [ms] | age max [ms] |"
 echo "|---|---|---|---|---|"
 raw_hop
-pipeline 2000 10 200Hz      # the shipped configuration (deploy/config/daq.toml)
+pipeline 2000 10 200Hz      # the shipped configuration (deploy/config/daqd.toml)
 pipeline 3333 1 maximum      # USB-6008's 10 kS/s aggregate over 3 channels, every scan published
 raw_p99=$(field age_p99_ms raw.out)
 while read -r label packet dec p99; do

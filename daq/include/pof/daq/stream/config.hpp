@@ -1,6 +1,6 @@
 #pragma once
 // pof-daqd settings: a plain struct (the habit of Drake's lcm/ settings structs), read from TOML
-// (/etc/pof/daq.toml in deployment; example in deploy/config/daq.toml) and overridden from the
+// (/etc/pof/daqd.toml in deployment; example in deploy/config/daqd.toml) and overridden from the
 // command line. Every error names the file and key and throws pof::ConfigError (exit 78).
 #include <cstdint>
 #include <filesystem>

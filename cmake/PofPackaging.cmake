@@ -104,14 +104,15 @@ compensates their hysteresis online and publishes the knee angle and
 per-cycle statistics over LCM.
 .
 This package holds the daemons pof-daqd and pof-compensatord, the pof
-command line (simulate, calibrate, compensate, record, spy, export), their
+command line (simulate, calibrate, compensate, record, spy, dash, export), their
 systemd units (pof.target), udev rules, the system user, the LCM
 socket-buffer sysctl, the message types for Java and Python, and the plot
 scripts.")
 set(CPACK_DEBIAN_RUNTIME_PACKAGE_SHLIBDEPS ON)
 # The Python package (pofkit.log reads logs into NumPy arrays) is for /usr/bin/python3 only
 # (dist-packages): python3 and NumPy are dependencies; matplotlib only draws the plots.
-set(CPACK_DEBIAN_RUNTIME_PACKAGE_DEPENDS "python3, python3-numpy")
+# `pof dash` serves Debian's Chart.js to the browser (never fetched at run time).
+set(CPACK_DEBIAN_RUNTIME_PACKAGE_DEPENDS "python3, python3-numpy, libjs-chart.js")
 set(CPACK_DEBIAN_RUNTIME_PACKAGE_RECOMMENDS "python3-matplotlib, liblcm-bin")
 set(CPACK_DEBIAN_RUNTIME_PACKAGE_CONTROL_EXTRA ${CMAKE_BINARY_DIR}/debian/conffiles
   ${PROJECT_SOURCE_DIR}/deploy/debian/postinst ${PROJECT_SOURCE_DIR}/deploy/debian/prerm

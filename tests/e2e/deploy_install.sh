@@ -12,7 +12,9 @@ for f in bin/pof bin/pof-lcm-spy lib/sysusers.d/pof.conf lib/sysctl.d/60-pof-lcm
   share/pofkit/examples/lcm-auth.conf share/doc/pofkit/deployment.md lib/systemd/system/pof.target lib/systemd/system/pof-record.service \
   lib/systemd/system/pof-daqd.service lib/systemd/system/pof-daqd@.service \
   lib/systemd/system/pof-compensatord.service lib/systemd/system/pof-compensatord@.service \
-  lib/systemd/system/pof-multicast-route.service sbin/pof-setup-multicast bin/pof-gen-udev-rules; do
+  lib/systemd/system/pof-multicast-route.service lib/systemd/system/pof-dash.service \
+  share/pofkit/dash/index.html share/pofkit/dash/dash.js share/pofkit/dash/dash.css \
+  sbin/pof-setup-multicast bin/pof-gen-udev-rules; do
   [ -e "$prefix/$f" ] || fail "cmake --install did not install $f"
 done
 for r in "$SOURCE_DIR"/deploy/udev/*.rules; do
@@ -21,7 +23,8 @@ for r in "$SOURCE_DIR"/deploy/udev/*.rules; do
 done
 grep -q "^ExecStart=$prefix/sbin/pof-setup-multicast$" "$prefix/lib/systemd/system/pof-multicast-route.service" ||
   fail "pof-multicast-route.service does not run the installed pof-setup-multicast"
-for u in pof-daqd.service pof-daqd@.service pof-compensatord.service pof-compensatord@.service pof-record.service; do
+for u in pof-daqd.service pof-daqd@.service pof-compensatord.service pof-compensatord@.service pof-record.service \
+  pof-dash.service; do
   grep -q '^Wants=.*pof-multicast-route.service' "$prefix/lib/systemd/system/$u" &&
     grep -q '^After=.*pof-multicast-route.service' "$prefix/lib/systemd/system/$u" ||
     fail "$u does not pull in the multicast route before it starts"
@@ -53,7 +56,7 @@ for bin in pof-daqd pof-compensatord; do
 done
 cd "$units"
 SYSTEMD_UNIT_PATH="$units:" systemd-analyze verify --man=no \
-  pof.target pof-daqd.service pof-compensatord.service pof-record.service pof-multicast-route.service \
+  pof.target pof-daqd.service pof-compensatord.service pof-record.service pof-dash.service pof-multicast-route.service \
   pof-daqd@LEFT_KNEE.service pof-compensatord@LEFT_KNEE.service pof-daqd@RIGHT_KNEE.service \
   >"$WORK_DIR/verify.out" 2>&1 || fail "systemd-analyze verify failed: $(cat "$WORK_DIR/verify.out")"
 [ ! -s "$WORK_DIR/verify.out" ] || fail "systemd-analyze verify warned: $(cat "$WORK_DIR/verify.out")"
@@ -62,7 +65,7 @@ SYSTEMD_UNIT_PATH="$units:" systemd-analyze verify --man=no \
 grep -q "@POF_" "$prefix/share/pofkit/examples/lcm-auth.conf" && fail "unsubstituted @POF_...@ in lcm-auth.conf"
 mkdir -p pof-.service.d && cp "$prefix/share/pofkit/examples/lcm-auth.conf" pof-.service.d/
 SYSTEMD_UNIT_PATH="$units:" systemd-analyze verify --man=no \
-  pof-daqd.service pof-compensatord.service pof-record.service pof-daqd@LEFT_KNEE.service \
+  pof-daqd.service pof-compensatord.service pof-record.service pof-dash.service pof-daqd@LEFT_KNEE.service \
   pof-compensatord@LEFT_KNEE.service >"$WORK_DIR/verify-auth.out" 2>&1 ||
   fail "systemd-analyze verify with lcm-auth.conf failed: $(cat "$WORK_DIR/verify-auth.out")"
 [ ! -s "$WORK_DIR/verify-auth.out" ] || fail "systemd-analyze verify warned with lcm-auth.conf: $(cat "$WORK_DIR/verify-auth.out")"

@@ -354,6 +354,11 @@ void Session::writer_loop() {
         fi.last_utime = e.utime;
         auto it = channels_.find(e.channel);
         if (it == channels_.end()) {
+          // The event is in the log already; only its per-channel bookkeeping is bounded.
+          if (!admit_channel(e.channel, channels_.size())) {
+            other_.note(e.channel, e.size);
+            continue;
+          }
           it = channels_.emplace(std::string(e.channel), ChannelStats{}).first;
           it->second.fingerprint = bus::fingerprint_of(e.data, e.size);
           it->second.type = bus::message_type_of(e.data, e.size);
@@ -531,6 +536,12 @@ std::string Session::manifest_text(const char* status) {
     }
     s.written = written_;
     if (!error_.empty()) m["error"] = error_;
+    // Events on names beyond the bound (pof/recorder/channel_cap.hpp): in the log, counted here.
+    m["other_channels"] = {{"events", other_.events},
+                           {"bytes", other_.bytes},
+                           {"examples", other_.examples},
+                           {"tracked_limit", kMaxTrackedChannels},
+                           {"pof_reserve", kPofChannelReserve}};
   }
   m["files"] = files;
   m["channels"] = chans;

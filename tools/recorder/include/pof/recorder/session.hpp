@@ -40,6 +40,7 @@
 
 #include "pof/bus/auth.hpp"
 #include "pof/bus/fingerprint.hpp"
+#include "pof/recorder/channel_cap.hpp"
 #include "pof/recorder/lcmlog_durable.hpp"
 #include "pof/recorder/pof_messages.hpp"
 
@@ -198,7 +199,9 @@ class Session {
     int64_t last_utime = 0;
   };
   std::vector<FileInfo> files_;
+  // At most kMaxTrackedChannels (+ kPofChannelReserve POF_*) names; the rest in other_.
   std::map<std::string, ChannelStats, std::less<>> channels_;
+  OtherChannels other_;
   uint64_t written_ = 0;
   Outcome outcome_ = Outcome::kRunning;
   std::string error_;

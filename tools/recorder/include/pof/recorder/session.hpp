@@ -153,6 +153,7 @@ class Session {
   std::filesystem::path base_;  // the output path, with a directory resolved to a file name
   std::filesystem::path manifest_path_;
   std::filesystem::path attach_dir_;
+  nlohmann::json recorder_;  // this process, for the manifest (pof/recorder/manifest_state.hpp)
   nlohmann::json attachments_ = nlohmann::json::array();
   std::unique_ptr<bus::Receiver> rx_;  // receive thread only, once started
   bool direct_ = false;                // rx_->direct(), kept for the manifest after rx_ is gone

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <vector>
 
@@ -80,11 +81,13 @@ void Daemon::stop() {
 }
 
 void Daemon::set_state(State s, const std::string& why) {
+  beat();
   {
     std::lock_guard lock(state_mu_);
     if (s == state_ && why == state_text_) return;
     state_ = s;
     state_text_ = why;
+    stalled_ = false;
     state_events_.emplace_back(s, why);
   }
   spdlog::info("state {}: {}", state_name(s), why);
@@ -95,6 +98,7 @@ bool Daemon::sleep_unless_stopped(int ms) {
   const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(ms);
   while (std::chrono::steady_clock::now() < until) {
     if (stop_.load()) return false;
+    beat();  // waiting on purpose is progress: the watchdog stays fed through a back-off
     std::this_thread::sleep_for(std::chrono::milliseconds(std::min(ms, 20)));
   }
   return !stop_.load();
@@ -202,6 +206,42 @@ void Daemon::watch_streaming() {
     state_events_.emplace_back(state_, state_text_);
   }
   spdlog::info("state {}: {}", state_name(State::kStreaming), "streaming from " + cfg_.device_kind);
+}
+
+void Daemon::watch_stall(const Liveness& live, Liveness::Clock::time_point now) {
+  using std::chrono::duration_cast;
+  using std::chrono::milliseconds;
+  std::string stalled_text;
+  {
+    // Under the lock the acquisition thread holds when it ends a session and sets a state, so a
+    // state it sets is never overwritten by a stall verdict about a session that is over.
+    std::lock_guard lock(state_mu_);
+    const std::int64_t armed = armed_scans_.load();
+    if (armed < 0) return;
+    if (!stalled_) {
+      if (state_ != State::kStreaming || !live.scans_stalled(now)) return;
+      stalled_ = true;
+      stalled_scans_ = live.scans();
+      state_ = State::kFault;
+      state_text_ = "acquisition stalled: no scans from " + cfg_.device_kind + " for " +
+                    std::to_string(duration_cast<milliseconds>(live.since_scans(now)).count()) +
+                    " ms (stall bound " + std::to_string(live.stall().count()) + " ms)";
+      state_events_.emplace_back(state_, state_text_);
+      stalled_text = state_text_;
+    } else {
+      if (state_ != State::kFault || live.scans() <= stalled_scans_) return;
+      stalled_ = false;
+      state_ = State::kStreaming;
+      state_text_ = "streaming from " + cfg_.device_kind;
+      state_events_.emplace_back(state_, state_text_);
+    }
+  }
+  if (!stalled_text.empty()) {
+    spdlog::warn("state {}: {}", state_name(State::kFault), stalled_text);
+  } else {
+    spdlog::info("state {}: streaming from {} again (scans resumed after a stall)", state_name(State::kStreaming),
+                 cfg_.device_kind);
+  }
 }
 
 std::string Daemon::probe_line() {
@@ -314,16 +354,38 @@ void Daemon::publisher_main() {
   const auto period = std::chrono::duration<double>(cfg_.status_period_s);
   auto next_status = std::chrono::steady_clock::now();
   // systemd (Type=notify, WatchdogSec): ready once publishing (a disconnected device is a state we
-  // publish, not a failure to start); the watchdog is fed from this loop, which turns at least once
-  // per status period, so a hung publisher gets the daemon restarted.
+  // publish, not a failure to start). The watchdog is fed from this loop, which turns at least
+  // every 50 ms, and only while the acquisition thread makes progress (scans, or its state machine
+  // turning): a hung publisher or a hung acquisition thread gets the daemon restarted.
+  const int stall_ms = stall_bound_ms(cfg_, cfg_.scan_rate_hz);
+  const int grace_ms = watchdog_grace_ms(cfg_, stall_ms);
+  Liveness live(std::chrono::milliseconds(stall_ms), std::chrono::milliseconds(grace_ms),
+                std::chrono::steady_clock::now());
+  spdlog::debug("stall bound {} ms; watchdog fed while the acquisition thread progressed within {} ms", stall_ms,
+                grace_ms);
   pof::service::ServiceNotifier notifier;
   notifier.ready("publishing " + raw_channel + " and " + status_channel);
   std::uint32_t logged_variant = 0;
+  std::int64_t late_run = 0;      // consecutive blocks published FLAG_LATE
+  std::int64_t late_max_us = 0;   // the oldest of them [us]
+  bool starved_logged = false;    // the watchdog is not being fed (logged once per episode)
   for (;;) {
-    notifier.watchdog_if_due();
+    {
+      const auto now = std::chrono::steady_clock::now();
+      live.observe(now, counters_.scans.load(), heartbeat_.load(std::memory_order_relaxed));
+      if (live.alive(now)) {
+        notifier.watchdog_if_due();
+        starved_logged = false;
+      } else if (!starved_logged) {
+        starved_logged = true;
+        spdlog::error("the acquisition thread made no progress for more than {} ms: no longer feeding the watchdog", grace_ms);
+      }
+    }
     (void)wake_.wait_until(
         std::min(next_status, std::chrono::steady_clock::now() + std::chrono::milliseconds(50)));
+    live.observe(std::chrono::steady_clock::now(), counters_.scans.load(), heartbeat_.load(std::memory_order_relaxed));
     watch_streaming();
+    watch_stall(live, std::chrono::steady_clock::now());
     if (const std::uint32_t v = counters_.variant.load(); v != logged_variant) {
       logged_variant = v;  // the first user with hardware reads this (docs/hardware-bringup.md)
       spdlog::info("{}: protocol variant: {}", cfg_.device_kind, describe_variant(v));
@@ -343,6 +405,27 @@ void Daemon::publisher_main() {
       }
       queue_.pop();
       msg.publish_utime = now_utime();
+      // A block handed over long after its scans were taken (the backlog of a stalled acquisition
+      // thread, or a publisher that fell behind) is old data: flagged, so that no consumer takes
+      // it as the current state of the knee. Its timestamps stay those of the scans.
+      // Judged on the published fields themselves (publish_utime against the newest scan's time),
+      // so a consumer can check the flag; a forward step of the host clock while streaming ages
+      // the timestamps as much and is flagged too.
+      const std::int64_t newest_scan =
+          msg.scan_rate_hz > 0 ? msg.utime + std::llround(static_cast<double>(msg.n_scans - 1) * 1e6 / msg.scan_rate_hz)
+                               : msg.utime;
+      if (block_is_late(newest_scan, msg.publish_utime, stall_ms)) {
+        msg.flags |= int32_t{pof::raw_block_t::FLAG_LATE};
+        if (late_run++ == 0)
+          spdlog::warn("raw blocks held up by {} ms or more: published flagged FLAG_LATE",
+                       (msg.publish_utime - newest_scan) / 1000);
+        late_max_us = std::max(late_max_us, msg.publish_utime - newest_scan);
+      } else if (late_run > 0) {
+        spdlog::info("{} raw blocks published flagged FLAG_LATE (the oldest {} ms old); blocks are current again",
+                     late_run, late_max_us / 1000);
+        late_run = 0;
+        late_max_us = 0;
+      }
       const int len = msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
       if (len <= 0) {
         // The buffer is sized for the largest block the backend may queue: a bug, not the bus's doing.

@@ -14,6 +14,7 @@
 #include "pof/daq/stream/acquisition.hpp"
 #include "pof/daq/stream/config.hpp"
 #include "pof/daq/stream/doorbell.hpp"
+#include "pof/daq/stream/liveness.hpp"
 
 namespace lcm {
 class LCM;
@@ -27,7 +28,10 @@ namespace pof::daq {
 /// Lifecycle (daq_status_t STATE_*). Every wait has a reason and a deadline:
 ///   kStarting      opening/configuring, then waiting for the first scans; bounded by
 ///                  command_timeout_ms per command and data_timeout_ms for data
-///   kStreaming     scans arrive (set once they do); a transfer silent for data_timeout_ms is an error
+///   kStreaming     scans arrive (set once they do); a transfer silent for data_timeout_ms is an error.
+///                  No scan for the stall bound (liveness.hpp) while the session is open: the
+///                  publisher reports kFault "acquisition stalled: ..." until scans come again
+///                  (then kStreaming, "... resumed after ..."), whatever the backend is doing
 ///   kDisconnected  device absent; retry every retry_ms, forever (a service never gives up)
 ///   kFault         device present but failing (or the backend threw, breaking its contract);
 ///                  retry after retry_ms, doubling per consecutive failure up to 30 s (reset
@@ -82,6 +86,11 @@ class Daemon {
   [[nodiscard]] int retry_delay_ms(int failures) const;
   /// Publisher thread: `starting` becomes `streaming` once scans of the open session arrive.
   void watch_streaming();
+  /// Publisher thread: `streaming` becomes `fault` (stalled) when the open session delivered no
+  /// scan for the stall bound, and `streaming` again once scans move.
+  void watch_stall(const Liveness& live, Liveness::Clock::time_point now);
+  /// Acquisition thread: the state machine turned (it opens, waits or backs off: no scans then).
+  void beat() { heartbeat_.fetch_add(1, std::memory_order_relaxed); }
 
   DaqConfig cfg_;
   std::unique_ptr<Backend> backend_;
@@ -99,12 +108,20 @@ class Daemon {
   std::atomic<double> published_rate_hz_{0.0};
   // counters_.scans when the current session was opened; -1 between sessions.
   std::atomic<std::int64_t> armed_scans_{-1};
+  // Advanced by the acquisition thread at every turn of its state machine (not while a backend
+  // streams: scans are the proof then). The publisher feeds the watchdog only when this or the
+  // scan count moved within the grace (liveness.hpp).
+  std::atomic<std::int64_t> heartbeat_{0};
   // State changes, queued so that the publisher sends one status per change even when several
   // happen between two of its wake-ups (control path: allocation is fine here).
   std::mutex state_mu_;
   State state_ = State::kStarting;
   std::string state_text_ = "starting";
   std::deque<std::pair<State, std::string>> state_events_;
+  // The publisher set kFault because the open session stalled (guarded by state_mu_); any state
+  // the acquisition thread sets clears it.
+  bool stalled_ = false;
+  std::int64_t stalled_scans_ = 0;  // counters_.scans when the stall was reported
   DeviceIdentity identity_;  // of the device opened last (guarded by state_mu_)
   std::thread acq_thread_;
   std::thread pub_thread_;

@@ -68,6 +68,17 @@ while read -r f; do
 done <files.txt
 [ "$total" -ge 10000 ] || fail "only $total events recorded before the kill"
 echo "after SIGKILL: $total events in $nfiles files, seq 0..$((expect_seq - 1)) without gaps"
+# The killed session's manifest still says `recording`; a reader tells it is over: --check of any
+# of its files says INTERRUPTED, and the next recorder in the directory marks it `interrupted`.
+grep -q "session INTERRUPTED (run.manifest.json says 'recording', but its recorder (pid $rec) is gone" check.out ||
+  fail "--check does not say the session was interrupted: $(cat check.out)"
+expect_exit 0 "$POF" record -q -o next.lcmlog --lcm-url "$URL" --duration 0.2
+grep -q "run.manifest.json: said 'recording' but its recorder is gone: marked 'interrupted'" <<<"$err" ||
+  fail "the next recorder did not mark the interrupted session: $err"
+"$PY" -c 'import json, sys; m = json.load(open("run.manifest.json")); sys.exit(m["status"] != "interrupted" or "is gone" not in m["interrupted"]["why"])' ||
+  fail "run.manifest.json after the next recorder: $(head -c 300 run.manifest.json)"
+"$PY" -c 'import json, sys; sys.exit(json.load(open("next.manifest.json"))["status"] != "stopped")' ||
+  fail "the next recorder's own manifest: $(head -c 300 next.manifest.json)"
 
 # --- power loss mid-write: a torn tail -----------------------------------------------------------
 last=$(tail -n 1 files.txt)

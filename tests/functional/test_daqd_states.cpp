@@ -40,13 +40,17 @@ using Transition = std::pair<int, std::string>;  // daq_status_t.state, state_te
 
 class Rig {
  public:
-  explicit Rig(int retry_ms = 10) {
+  // A session the test holds open without scans is reported stalled after `stall_ms`
+  // (daemon.stall_ms): a minute, except in the test about stalls, so that a slow host never turns
+  // another test's hold into a stall.
+  explicit Rig(int retry_ms = 10, int stall_ms = 60000) {
     cfg_.device_kind = "fake";
     cfg_.sensor_id = "FAKE";
     cfg_.scan_rate_hz = kRateHz;
     cfg_.decimate = kDecimate;
     cfg_.block_scans = kBlockScans;
     cfg_.retry_ms = retry_ms;
+    cfg_.stall_ms = stall_ms;
     cfg_.lcm_url = "memq://";
     auto fake = std::make_unique<FakeBackend>(cfg_.channels().size(), kRateHz);
     fake_ = fake.get();
@@ -299,4 +303,55 @@ TEST(DaqdStates, AFiniteSourceEndsTheDaemonWithItsReason) {
   EXPECT_EQ(r.raw().size(), 4U);
   expect_seq_continuous(r);
   expect_scan_indices(r, {});
+}
+
+// A session that stops delivering scans while it stays open (a device read that blocks, a frozen
+// acquisition thread) is not reported as streaming once the stall bound has passed: `fault` with
+// the reason, `streaming` again when scans come. The scans it hands over after the stall keep
+// their indices (no gap) but are old: every such block carries FLAG_LATE, and none before it.
+TEST(DaqdStates, AStallLeavesStreamingAndTheBacklogAfterItIsFlaggedLate) {
+  constexpr int kStallMs = 200;
+  Rig r(/*retry_ms=*/10, kStallMs);
+  r.fake().push(Attempt::opens().scans(10).hold().scans(100).hold());
+  r.daemon().start();
+  ASSERT_TRUE(r.until([&] { return r.count(kStreaming) == 1 && r.raw().size() == 1; }));
+  ASSERT_TRUE(r.until([&] { return r.count(kFault) == 1; })) << "no stall reported";
+  // Hold on past the stall: the backlog's newest scan (index 109, 109 ms after the first) must be
+  // more than the stall bound old when it is handed over.
+  const auto hold_until = std::chrono::steady_clock::now() + milliseconds(3 * kStallMs);
+  ASSERT_TRUE(r.until([&] { return std::chrono::steady_clock::now() >= hold_until; }));
+  r.fake().release();
+  ASSERT_TRUE(r.until([&] { return r.count(kStreaming) == 2 && r.raw().size() == 11; }))
+      << "streaming states " << r.count(kStreaming) << ", blocks " << r.raw().size();
+  EXPECT_LT(r.stop(), kStopBound);
+
+  const auto t = r.transitions();
+  ASSERT_GE(t.size(), 6U);
+  EXPECT_EQ(t[0], kOpening);
+  EXPECT_EQ(t[1], kConfigured);
+  EXPECT_EQ(t[2], kStreamingT);
+  EXPECT_EQ(t[3].first, kFault);
+  EXPECT_EQ(t[3].second.rfind("acquisition stalled: no scans from fake for ", 0), 0U) << t[3].second;
+  EXPECT_NE(t[3].second.find("(stall bound 200 ms)"), std::string::npos) << t[3].second;
+  EXPECT_EQ(t[4], kStreamingT);
+  EXPECT_EQ(t.back(), kStoppedOnRequest);  // the second hold may be reported stalled before it
+  // Reported within the bound plus the publisher's turn, with slack for a loaded host.
+  for (const auto& s : r.status()) {
+    if (s.state != kFault) continue;
+    const std::int64_t after_last_block_us = s.utime - r.raw()[0].publish_utime;
+    EXPECT_GE(after_last_block_us, (kStallMs - 60) * 1000) << s.state_text;
+    EXPECT_LT(after_last_block_us, (kStallMs + 2000) * 1000) << s.state_text;
+    break;
+  }
+  ASSERT_EQ(r.raw().size(), 11U);
+  EXPECT_EQ(r.raw()[0].flags, 0) << "a block published in time is not late";
+  for (std::size_t i = 1; i < r.raw().size(); ++i) {
+    const auto& b = r.raw()[i];
+    EXPECT_EQ(b.flags, raw_block_t::FLAG_LATE) << "block " << i << " flags " << b.flags;
+    EXPECT_EQ(b.first_scan, r.raw()[i - 1].first_scan + r.raw()[i - 1].n_scans) << "block " << i;
+    EXPECT_GT(b.publish_utime - b.utime, kStallMs * 1000) << "block " << i;
+  }
+  expect_seq_continuous(r);
+  EXPECT_EQ(r.status().back().dropped_scans, 0);
+  EXPECT_EQ(r.status().back().scans, 110);
 }

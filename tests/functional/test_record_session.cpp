@@ -189,3 +189,48 @@ void record_authenticated(bool liblcm) {
 
 TEST(RecordSession, AuthenticatedRecvmmsgPathRecordsOnlyVerifiedMessages) { record_authenticated(false); }
 TEST(RecordSession, AuthenticatedLiblcmPathRecordsOnlyVerifiedMessages) { record_authenticated(true); }
+
+// A flood of distinct channel names (any local process can publish them): every message is in the
+// log, but the manifest keeps a row for at most kMaxTrackedChannels names (POF_* names a reserve
+// beyond it) and counts the rest in "other_channels", so its size no longer follows the flood.
+TEST(RecordSession, ManyDistinctChannelsAreAllRecordedButTrackedOnlyUpToTheBound) {
+  TempDir d;
+  SessionOptions o;
+  o.lcm_url = random_udpm_url();
+  o.output = d.path() / "flood.lcmlog";
+  o.channels = "FLOOD_.*|POF_.*";  // not liblcm's LCM_SELF_TEST probe
+  Session s(o);
+  s.start();
+  lcm::LCM tx(o.lcm_url);
+  ASSERT_TRUE(tx.good());
+  constexpr uint64_t kFlood = 3000;
+  pof::angle_t a{};
+  const std::size_t size = pof::test::encode(a).size();
+  for (uint64_t i = 0; i < kFlood; ++i) {
+    tx.publish("FLOOD_" + std::to_string(i), &a);
+    if (i % 500 == 499) {  // flow control
+      ASSERT_TRUE(wait_received(s, i + 1)) << s.poll().received;
+    }
+  }
+  for (int i = 0; i < 3; ++i) {
+    a.seq = i;
+    tx.publish("POF_ANGLE_LEFT_KNEE", &a);  // after the flood: still tracked
+  }
+  ASSERT_TRUE(wait_received(s, kFlood + 3)) << s.poll().received;
+  const SessionStats st = s.stop();
+  EXPECT_EQ(st.written, kFlood + 3);
+  std::size_t logged = 0;
+  for (const auto& f : st.files) logged += read_log(f).size();
+  EXPECT_EQ(logged, kFlood + 3) << "every message is recorded, tracked or not";
+  const auto m = nlohmann::json::parse(std::ifstream(st.manifest));
+  EXPECT_EQ(m["channels"].size(), kMaxTrackedChannels + 1);
+  EXPECT_EQ(m["channels"]["POF_ANGLE_LEFT_KNEE"]["events"], 3);
+  EXPECT_EQ(m["channels"]["POF_ANGLE_LEFT_KNEE"]["seq"]["gaps"], 0);
+  EXPECT_EQ(m["other_channels"]["events"], kFlood - kMaxTrackedChannels);
+  EXPECT_EQ(m["other_channels"]["bytes"], (kFlood - kMaxTrackedChannels) * size);
+  EXPECT_EQ(m["other_channels"]["tracked_limit"], kMaxTrackedChannels);
+  EXPECT_EQ(m["other_channels"]["examples"].size(), kOtherExamples);
+  EXPECT_EQ(m["counters"]["written"], kFlood + 3);
+  // The manifest stays small: ~150 bytes per tracked row, whatever the number of names.
+  EXPECT_LT(fs::file_size(st.manifest), 400u * 1024u);
+}

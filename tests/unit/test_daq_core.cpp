@@ -10,6 +10,7 @@
 #include "pof/base/toml_reader.hpp"
 #include "pof/daq/stream/config.hpp"
 #include "pof/daq/stream/doorbell.hpp"
+#include "pof/daq/stream/liveness.hpp"
 #include "pof/daq/stream/scan_clock.hpp"
 #include "pof/daq/stream/spsc_queue.hpp"
 #include "pof/base/errors.hpp"
@@ -224,4 +225,58 @@ TEST(Doorbell, ARingFromAnotherThreadWakesASleepingWaiter) {
     EXPECT_TRUE(bell.wait_until(std::chrono::steady_clock::now() + std::chrono::seconds(60))) << "round " << round;
     ringer.join();
   }
+}
+
+// The stall bound (docs/daq.md, "Watchdog and stalls"): 10 block periods, or 10 x 32 device scans
+// when a hand-over is longer, never under 500 ms; daemon.stall_ms overrides it.
+TEST(Liveness, StallBoundFollowsTheBlockPeriodWithAFloor) {
+  pof::daq::DaqConfig c;  // 2000 scans/s, decimate 10, 1 scan per block: 5-ms blocks
+  EXPECT_EQ(pof::daq::stall_bound_ms(c, c.scan_rate_hz), 500);
+  c.block_scans = 50;  // 250-ms blocks
+  EXPECT_EQ(pof::daq::stall_bound_ms(c, c.scan_rate_hz), 2500);
+  c.block_scans = 1;
+  c.decimate = 1;
+  c.scan_rate_hz = 40;  // 32 scans take 800 ms: a hand-over, not a block, sets the bound
+  EXPECT_EQ(pof::daq::stall_bound_ms(c, c.scan_rate_hz), 8000);
+  c.stall_ms = 1234;
+  EXPECT_EQ(pof::daq::stall_bound_ms(c, c.scan_rate_hz), 1234);
+  // The watchdog waits the stall bound plus the longest wait a backend makes on purpose.
+  c.data_timeout_ms = 2000;
+  c.command_timeout_ms = 1000;
+  EXPECT_EQ(pof::daq::watchdog_grace_ms(c, 500), 2500);
+  const auto t = config_error("schema_version = 1\n[daemon]\nstall_ms = -1");
+  EXPECT_NE(t.find("daemon.stall_ms"), std::string::npos) << t;
+  toml::table tt = toml::parse("schema_version = 1\n[daemon]\nstall_ms = 750\n");
+  EXPECT_EQ(pof::daq::config_from_table(tt, "t.toml").stall_ms, 750);
+}
+
+// Scans or the state machine's heartbeat keep the acquisition alive for the watchdog; only scans
+// keep a stream from being stalled. A frozen thread is neither, whatever the publisher does.
+TEST(Liveness, ScansKeepItStreamingAndEitherKindOfProgressFeedsTheWatchdog) {
+  using std::chrono::milliseconds;
+  const auto t0 = pof::daq::Liveness::Clock::now();
+  pof::daq::Liveness live(milliseconds(500), milliseconds(1500), t0);
+  live.observe(t0, 100, 0);
+  EXPECT_FALSE(live.scans_stalled(t0 + milliseconds(500)));
+  EXPECT_TRUE(live.scans_stalled(t0 + milliseconds(501)));
+  EXPECT_TRUE(live.alive(t0 + milliseconds(1500)));
+  EXPECT_FALSE(live.alive(t0 + milliseconds(1501)));
+  // The same counts sampled again are no progress: the publisher turning proves nothing.
+  for (int ms = 0; ms <= 2000; ms += 50) live.observe(t0 + milliseconds(ms), 100, 0);
+  EXPECT_FALSE(live.alive(t0 + milliseconds(2000)));
+  EXPECT_EQ(live.since_scans(t0 + milliseconds(2000)), milliseconds(2000));
+  // The heartbeat (reconnecting, backing off) feeds the watchdog but is not scans.
+  live.observe(t0 + milliseconds(2100), 100, 1);
+  EXPECT_TRUE(live.alive(t0 + milliseconds(2100)));
+  EXPECT_TRUE(live.scans_stalled(t0 + milliseconds(2100)));
+  live.observe(t0 + milliseconds(2200), 101, 1);
+  EXPECT_FALSE(live.scans_stalled(t0 + milliseconds(2600)));
+  EXPECT_EQ(live.scans(), 101);
+}
+
+TEST(Liveness, ABlockPublishedLongAfterItsLastScanIsLate) {
+  EXPECT_FALSE(pof::daq::block_is_late(1'000'000, 1'004'000, 500));   // one transfer behind
+  EXPECT_FALSE(pof::daq::block_is_late(1'000'000, 1'500'000, 500));
+  EXPECT_TRUE(pof::daq::block_is_late(1'000'000, 1'500'001, 500));
+  EXPECT_TRUE(pof::daq::block_is_late(1'000'000, 4'000'000, 500));    // the backlog of a 3-s stall
 }

@@ -1,5 +1,6 @@
 // The crash-safe LCM log writer, check and repair (tools/recorder/include/pof/recorder/lcmlog_durable.hpp).
 #include <sys/resource.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <csignal>
@@ -11,6 +12,7 @@
 
 #include <gtest/gtest.h>
 #include <lcm/lcm-cpp.hpp>
+#include <nlohmann/json.hpp>
 #include <pof/angle_t.hpp>
 #include <pof/cycle_stats_t.hpp>
 #include <pof/compensator_status_t.hpp>
@@ -21,6 +23,7 @@
 #include "pof/bus/channel_filter.hpp"
 #include "pof/bus/fingerprint.hpp"
 #include "pof/recorder/lcmlog_durable.hpp"
+#include "pof/recorder/manifest_state.hpp"
 #include "pof/recorder/pof_messages.hpp"
 #include "temp_dir.hpp"
 
@@ -303,4 +306,72 @@ TEST(RepairLog, RefusesAFileARecorderIsStillWriting) {
   w.close();
   EXPECT_FALSE(log_is_being_written(p));
   EXPECT_FALSE(repair_log(p).changed);
+}
+
+// A manifest that says "recording" is taken as "interrupted" once its recorder is gone: a killed
+// recorder never writes its final status (pof/recorder/manifest_state.hpp).
+TEST(ManifestState, ARecordingWhoseRecorderIsGoneIsInterrupted) {
+  TempDir d;
+  nlohmann::json m = {{"status", "recording"}, {"recorder", this_recorder()}, {"files", nlohmann::json::array()}};
+  EXPECT_EQ(manifest_state(m, d.path()).status, "recording") << "this process is alive";
+  // A process that has exited (and been reaped): its pid no longer names it.
+  const pid_t child = ::fork();
+  if (child == 0) ::_exit(0);
+  ASSERT_GT(child, 0);
+  int wst = 0;
+  ASSERT_EQ(::waitpid(child, &wst, 0), child);
+  m["recorder"]["pid"] = static_cast<long>(child);
+  const ManifestState gone = manifest_state(m, d.path());
+  EXPECT_EQ(gone.status, "interrupted");
+  EXPECT_NE(gone.why.find("is gone"), std::string::npos) << gone.why;
+  // The same pid with another start time is another process (pid reuse).
+  m["recorder"] = this_recorder();
+  m["recorder"]["start_ticks"] = m["recorder"]["start_ticks"].get<std::uint64_t>() + 1;
+  EXPECT_EQ(manifest_state(m, d.path()).status, "interrupted");
+  m["recorder"] = this_recorder();
+  m["recorder"]["boot_id"] = "another-boot";
+  EXPECT_NE(manifest_state(m, d.path()).why.find("restarted"), std::string::npos);
+  // Another host: cannot be checked from here, so it is left as written.
+  m["recorder"] = this_recorder();
+  m["recorder"]["host"] = "elsewhere";
+  EXPECT_EQ(manifest_state(m, d.path()).status, "recording");
+  // A final status is taken as written.
+  m["status"] = "stopped";
+  EXPECT_EQ(manifest_state(m, d.path()).status, "stopped");
+  // A manifest from before "recorder": alive only while a recorder holds one of its log files.
+  nlohmann::json old = {{"status", "recording"}, {"files", {{{"name", "s.lcmlog"}}}}};
+  {
+    DurableLogWriter w(d.path() / "s.lcmlog");
+    EXPECT_EQ(manifest_state(old, d.path()).status, "recording");
+  }
+  EXPECT_EQ(manifest_state(old, d.path()).status, "interrupted");
+}
+
+TEST(ManifestState, TheNextRecorderMarksInterruptedManifestsAndFindsTheManifestOfALog) {
+  TempDir d;
+  const auto write = [&](const std::string& name, const nlohmann::json& m) {
+    std::ofstream(d.path() / name) << m.dump(2);
+  };
+  nlohmann::json dead = {{"status", "recording"}, {"recorder", this_recorder()}, {"files", nlohmann::json::array()}};
+  dead["recorder"]["start_ticks"] = 1;  // not this process's start: a recorder that is gone
+  write("a.manifest.json", dead);
+  write("b.manifest.json", {{"status", "recording"}, {"recorder", this_recorder()}});
+  write("c.manifest.json", {{"status", "stopped"}});
+  write("d.manifest.json.tmp", dead);  // not a manifest name
+  const auto marked = mark_interrupted(d.path());
+  ASSERT_EQ(marked.size(), 1U);
+  EXPECT_EQ(marked[0].filename(), "a.manifest.json");
+  const auto a = nlohmann::json::parse(std::ifstream(d.path() / "a.manifest.json"));
+  EXPECT_EQ(a["status"], "interrupted");
+  EXPECT_NE(a["interrupted"]["why"].get<std::string>().find("is gone"), std::string::npos);
+  EXPECT_TRUE(a["interrupted"].contains("found_utc"));
+  EXPECT_EQ(read_manifest_state(d.path() / "b.manifest.json").status, "recording");
+  EXPECT_EQ(read_manifest_state(d.path() / "c.manifest.json").status, "stopped");
+  EXPECT_TRUE(mark_interrupted(d.path()).empty()) << "marked once";
+  // The manifest of a log, rotated or not.
+  std::ofstream(d.path() / "a.0003.lcmlog") << "";
+  std::ofstream(d.path() / "b.lcmlog") << "";
+  EXPECT_EQ(manifest_of_log(d.path() / "a.0003.lcmlog"), d.path() / "a.manifest.json");
+  EXPECT_EQ(manifest_of_log(d.path() / "b.lcmlog"), d.path() / "b.manifest.json");
+  EXPECT_TRUE(manifest_of_log(d.path() / "x.lcmlog").empty());
 }

@@ -177,3 +177,38 @@ TEST(SpyMonitor, SignedMessagesAndAuthenticationCounters) {
   EXPECT_NE(text.find("authenticated (key 1a2b3c4d): dropped unsigned 1  bad_mac 2  stale 3  replayed 4"), std::string::npos)
       << text;
 }
+
+// Any local process can publish on any name: the spy keeps a row for at most kMaxTrackedChannels
+// names (POF_* names a reserve beyond it) and counts messages on the rest together, so a flood of
+// distinct names neither grows it without bound nor hides pofkit's own channels.
+TEST(SpyMonitor, DistinctChannelNamesAreBoundedAndTheRestCountedTogether) {
+  using pof::recorder::kMaxTrackedChannels;
+  using pof::recorder::kPofChannelReserve;
+  Monitor m;
+  pof::angle_t a{};
+  const auto b = enc(a);
+  constexpr std::size_t kFlood = 20000;
+  for (std::size_t i = 0; i < kFlood; ++i) feed(m, "FLOOD_" + std::to_string(i), b, 1);
+  EXPECT_EQ(m.channels().size(), kMaxTrackedChannels);
+  EXPECT_EQ(m.other_channels().events, kFlood - kMaxTrackedChannels);
+  EXPECT_EQ(m.other_channels().bytes, (kFlood - kMaxTrackedChannels) * b.size());
+  EXPECT_EQ(m.other_channels().examples.size(), pof::recorder::kOtherExamples);
+  EXPECT_EQ(m.other_channels().examples.front(), "FLOOD_1024");
+  EXPECT_EQ(m.total_messages(), kFlood);
+  // pofkit's own channels still get their rows after the flood, and a tracked name keeps its row.
+  for (int i = 0; i < 3; ++i) feed(m, "POF_ANGLE_LEFT_KNEE", b, 2);
+  feed(m, "FLOOD_0", b, 2);
+  ASSERT_EQ(m.channels().count("POF_ANGLE_LEFT_KNEE"), 1U);
+  EXPECT_EQ(m.channels().at("POF_ANGLE_LEFT_KNEE").count, 3U);
+  EXPECT_EQ(m.channels().at("FLOOD_0").count, 2U);
+  // ... but a flood of POF_* names is bounded too.
+  for (std::size_t i = 0; i < kFlood; ++i) feed(m, "POF_FLOOD_" + std::to_string(i), b, 3);
+  EXPECT_EQ(m.channels().size(), kMaxTrackedChannels + kPofChannelReserve);
+  EXPECT_EQ(m.other_channels().events, 2 * kFlood - kMaxTrackedChannels - (kPofChannelReserve - 1));
+  m.tick(4);
+  pof::spy::RenderOptions o;
+  o.ansi = false;
+  const std::string text = pof::spy::render(m, o);
+  EXPECT_NE(text.find("(other channels)"), std::string::npos);
+  EXPECT_NE(text.find("not tracked: more than 1024 channels (e.g. FLOOD_1024, FLOOD_1025"), std::string::npos);
+}

@@ -21,6 +21,7 @@
 #include "pof/base/errors.hpp"
 #include "pof/bus/fingerprint.hpp"
 #include "pof/recorder/lcmlog_durable.hpp"
+#include "pof/recorder/manifest_state.hpp"
 #include "pof/recorder/pof_messages.hpp"
 #include "pof/recorder/session.hpp"
 #include "pof/service/cli_checks.hpp"
@@ -82,6 +83,16 @@ bool check_one(const std::string& file) {
   }
   if (rec::log_is_being_written(file))
     std::printf("  (being recorded right now: the tail may still be in flight)\n");
+  // The session's manifest: a killed recorder's still says "recording" (pof/recorder/manifest_state.hpp).
+  if (const auto manifest = rec::manifest_of_log(file); !manifest.empty()) {
+    const rec::ManifestState st = rec::read_manifest_state(manifest);
+    if (st.status == "interrupted")
+      std::printf("  session INTERRUPTED (%s says 'recording', but %s): the log holds what was written before\n",
+                  manifest.filename().c_str(), st.why.c_str());
+    else if (!st.status.empty())
+      std::printf("  session %s (%s)%s%s\n", st.status.c_str(), manifest.filename().c_str(), st.why.empty() ? "" : ": ",
+                  st.why.c_str());
+  }
   if (c.clean()) {
     std::printf("  clean: ends on a complete event\n");
   } else if (c.events_after_damage == 0) {

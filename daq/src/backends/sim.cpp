@@ -2,10 +2,19 @@
 // scan rate and handed over in the same chunk sizes a USB transfer would carry (~4 ms), so the
 // daemon downstream behaves as with hardware. Used for CPU/latency figures without a spinning
 // emulator (docs/virtual-usb.md, item 5).
+//
+// Test hook: $POF_SIM_STALL="<at_s>:<for_s>" blocks the acquisition thread once, <at_s> seconds
+// into the stream, for <for_s> seconds without a word to the daemon, as a device read that hangs
+// would; then the scans of that time are handed over at once (the pacing deadlines are absolute),
+// as a device FIFO would. docs/daq.md, "Watchdog and stalls", says what the daemon must do then.
 
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <numbers>
+#include <stdexcept>
+#include <string>
+#include <thread>
 #include <vector>
 
 #include "pof/daq/stream/backend.hpp"
@@ -21,6 +30,34 @@ namespace pof::daq {
 namespace {
 
 using pof::lcmutil::now_utime;
+
+struct StallHook {
+  double at_s = -1;  // < 0: none
+  double for_s = 0;
+};
+
+// $POF_SIM_STALL, "<at_s>:<for_s>" (both >= 0, for_s <= 3600); anything else is a configuration
+// error naming the variable, so that a test never runs without the stall it asked for.
+StallHook stall_hook_from_env() {
+  const char* env = std::getenv("POF_SIM_STALL");
+  if (env == nullptr || *env == '\0') return {};
+  const std::string v(env);
+  const auto colon = v.find(':');
+  StallHook h;
+  try {
+    std::size_t used_at = 0;
+    std::size_t used_for = 0;
+    if (colon == std::string::npos) throw std::invalid_argument("no ':'");
+    h.at_s = std::stod(v.substr(0, colon), &used_at);
+    h.for_s = std::stod(v.substr(colon + 1), &used_for);
+    if (used_at != colon || used_for != v.size() - colon - 1 || !(h.at_s >= 0) || !(h.for_s >= 0) ||
+        h.for_s > 3600)
+      throw std::invalid_argument("out of range");
+  } catch (const std::exception&) {
+    throw pof::ConfigError("POF_SIM_STALL: expected <at_s>:<for_s> (seconds, e.g. 2:3), got '" + v + "'");
+  }
+  return h;
+}
 
 class SyntheticSource final : public SampleSource {
  public:
@@ -81,6 +118,7 @@ class SimBackend final : public Backend {
     source_ = make_sample_source(scenario_, cfg.scan_rate_hz, cfg.reference_ai >= 0, cfg.pot_ai >= 0);
     chunk_ = std::max<std::size_t>(1, static_cast<std::size_t>(cfg.scan_rate_hz * 0.004));
     buf_.assign(chunk_ * n_ch_, 0.0F);
+    stall_ = stall_hook_from_env();
   }
   OpenStatus open(std::string&) override { return OpenStatus::kOk; }
   StreamEnd stream(ScanSink& sink, const std::atomic<bool>& stop, std::string& why) override {
@@ -91,6 +129,10 @@ class SimBackend final : public Backend {
     while (!stop.load(std::memory_order_relaxed)) {
       // Sleep until the chunk's last scan exists (absolute deadline: no accumulated drift).
       sleep_until(t0, static_cast<double>(sent + chunk_) / cfg_.scan_rate_hz);
+      if (stall_.at_s >= 0 && static_cast<double>(sent) >= stall_.at_s * cfg_.scan_rate_hz) {
+        stall_.at_s = -1;  // once per process
+        hang(stop, stall_.for_s);
+      }
       const std::size_t n = source_->next(buf_);
       if (n == 0) {
         why = "scenario '" + scenario_ + "' finished";
@@ -106,7 +148,16 @@ class SimBackend final : public Backend {
   [[nodiscard]] double device_scan_rate_hz() const override { return cfg_.scan_rate_hz; }
 
  private:
+  // The stall hook: this thread does nothing for `s` seconds (it still sees a stop request, so
+  // that a test's SIGTERM ends the daemon in time).
+  static void hang(const std::atomic<bool>& stop, double s) {
+    const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(s);
+    while (std::chrono::steady_clock::now() < until && !stop.load(std::memory_order_relaxed))
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+
   DaqConfig cfg_;
+  StallHook stall_;
   std::string scenario_;
   std::size_t n_ch_;
   std::unique_ptr<SampleSource> source_;

@@ -96,6 +96,7 @@ DaqConfig config_from_table(const toml::table& root, const std::string& source) 
   r.with_section("daemon", [&](pof::TomlSection& d) {
     c.retry_ms = d.get_or("retry_ms", c.retry_ms, integer_in(10, 600000));
     c.status_period_s = d.get_or("status_period_s", c.status_period_s, number_in(0.05, 3600.0));
+    c.stall_ms = d.get_or("stall_ms", c.stall_ms, integer_in(0, 3600000));
   });
   r.finish();
 
@@ -182,7 +183,7 @@ std::string to_toml(const DaqConfig& c) {
                           {"sensor_id", c.sensor_id},
                           {"queue_blocks", c.queue_blocks},
                           {"auth_key_file", c.auth_key_file}}},
-      {"daemon", toml::table{{"retry_ms", c.retry_ms}, {"status_period_s", c.status_period_s}}},
+      {"daemon", toml::table{{"retry_ms", c.retry_ms}, {"status_period_s", c.status_period_s}, {"stall_ms", c.stall_ms}}},
   };
   std::ostringstream os;
   os << t << "\n";

@@ -22,6 +22,7 @@
 #include "pof/bus/url.hpp"
 #include "pof/io/atomic_file.hpp"
 #include "pof/lcm/utime.hpp"
+#include "pof/recorder/manifest_state.hpp"
 
 namespace pof::recorder {
 namespace fs = std::filesystem;
@@ -113,6 +114,7 @@ Session::Session(SessionOptions options) : opt_(std::move(options)) {
   }
 
   url_ = bus::resolve_url(opt_.lcm_url, opt_.recv_buf_bytes);
+  recorder_ = this_recorder();
   const bus::UdpmUrl udpm = bus::parse_udpm_url(url_);
   port_ = udpm.ok() ? udpm.port : 0;  // 0: not udpm (no kernel socket statistics)
 }
@@ -175,6 +177,9 @@ void Session::start() {
                    socks.front().rcvbuf_bytes / 2, opt_.recv_buf_bytes, bus::rmem_max());
     }
   }
+  // A session of an earlier recorder that was killed still says "recording": say what it is.
+  for (const auto& p : mark_interrupted(base_.parent_path()))
+    spdlog::warn("{}: said 'recording' but its recorder is gone: marked 'interrupted'", p.string());
   if (!open_next_file()) throw pof::IoError(error_);
   // The hand-off arena never reallocates (a realloc would copy up to handoff_bytes inside the
   // receive thread's critical section while datagrams pile up in the kernel). Reserving is virtual
@@ -354,6 +359,11 @@ void Session::writer_loop() {
         fi.last_utime = e.utime;
         auto it = channels_.find(e.channel);
         if (it == channels_.end()) {
+          // The event is in the log already; only its per-channel bookkeeping is bounded.
+          if (!admit_channel(e.channel, channels_.size())) {
+            other_.note(e.channel, e.size);
+            continue;
+          }
           it = channels_.emplace(std::string(e.channel), ChannelStats{}).first;
           it->second.fingerprint = bus::fingerprint_of(e.data, e.size);
           it->second.type = bus::message_type_of(e.data, e.size);
@@ -491,6 +501,9 @@ std::string Session::manifest_text(const char* status) {
   char host[256] = {};
   ::gethostname(host, sizeof host - 1);
   m["host"] = host;
+  // Who records: a reader tells a live session from one whose recorder was killed
+  // (pof/recorder/manifest_state.hpp).
+  m["recorder"] = recorder_;
   m["lcm_url"] = url_;
   m["receiver"] = receiver_name();
   m["channel_regex"] = opt_.channels;
@@ -531,6 +544,12 @@ std::string Session::manifest_text(const char* status) {
     }
     s.written = written_;
     if (!error_.empty()) m["error"] = error_;
+    // Events on names beyond the bound (pof/recorder/channel_cap.hpp): in the log, counted here.
+    m["other_channels"] = {{"events", other_.events},
+                           {"bytes", other_.bytes},
+                           {"examples", other_.examples},
+                           {"tracked_limit", kMaxTrackedChannels},
+                           {"pof_reserve", kPofChannelReserve}};
   }
   m["files"] = files;
   m["channels"] = chans;

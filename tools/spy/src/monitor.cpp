@@ -88,6 +88,11 @@ std::string daq_state_name(int8_t s) {
 void Monitor::on_message(std::string_view channel, const void* data, std::size_t size, int64_t recv_utime) {
   auto it = channels_.find(std::string(channel));
   if (it == channels_.end()) {
+    if (!recorder::admit_channel(channel, channels_.size())) {
+      ++total_;
+      other_.note(channel, size);
+      return;
+    }
     it = channels_.emplace(std::string(channel), ChannelView{}).first;
     it->second.name = std::string(channel);
   }
@@ -179,17 +184,24 @@ std::string render(const Monitor& m, const RenderOptions& o) {
     if (c.unverified > 0) s += fmt("  SIGNED, NOT VERIFIED %llu", static_cast<unsigned long long>(c.unverified));
     s += "\n";
   }
+  if (const auto& other = m.other_channels(); other.events > 0) {
+    std::string examples;
+    for (const auto& e : other.examples) examples += (examples.empty() ? "" : ", ") + e;
+    s += fmt("%-26s %-19s %9s %10llu %7s  not tracked: more than %zu channels (e.g. %s)\n", "(other channels)", "-",
+             "-", static_cast<unsigned long long>(other.events), "-", recorder::kMaxTrackedChannels, examples.c_str());
+  }
 
   for (const auto& [name, c] : m.channels()) {
     if (c.raw) {
       const auto& r = *c.raw;
       s += "\n" + heading(o, fmt("%s  raw block", name.c_str())) +
-           fmt("  sensor_id %s  %.1f scans/s  %d scans/block  first_scan %lld  age %.1f ms%s%s%s\n",
+           fmt("  sensor_id %s  %.1f scans/s  %d scans/block  first_scan %lld  age %.1f ms%s%s%s%s\n",
                r.sensor_id.empty() ? "-" : r.sensor_id.c_str(), r.scan_rate_hz, r.n_scans,
                static_cast<long long>(r.first_scan), static_cast<double>(r.publish_utime - r.utime) / 1e3,
                (r.flags & pof::raw_block_t::FLAG_SIMULATED) != 0 ? "  SIMULATED" : "",
                (r.flags & pof::raw_block_t::FLAG_GAP) != 0 ? "  GAP" : "",
-               (r.flags & pof::raw_block_t::FLAG_OVER_RANGE) != 0 ? "  OVER_RANGE" : "");
+               (r.flags & pof::raw_block_t::FLAG_OVER_RANGE) != 0 ? "  OVER_RANGE" : "",
+               (r.flags & pof::raw_block_t::FLAG_LATE) != 0 ? "  LATE" : "");
       std::string line = "   latest:";
       if (r.n_scans > 0 && static_cast<std::size_t>(r.n_scans) == r.volts.size()) {
         const auto& last = r.volts.back();

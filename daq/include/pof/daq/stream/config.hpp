@@ -53,6 +53,8 @@ struct DaqConfig {
   // [daemon]
   int retry_ms = 500;                   // wait between attempts to open the device
   double status_period_s = 1.0;
+  int stall_ms = 0;                     // a stream without scans this long is reported stalled (and its
+                                        // late blocks flagged); 0 = auto (pof/daq/stream/liveness.hpp)
 
   /// The wired channels in scan order, named per the raw_block_t contract.
   [[nodiscard]] std::vector<ChannelMap> channels() const;

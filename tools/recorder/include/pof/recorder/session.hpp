@@ -40,6 +40,7 @@
 
 #include "pof/bus/auth.hpp"
 #include "pof/bus/fingerprint.hpp"
+#include "pof/recorder/channel_cap.hpp"
 #include "pof/recorder/lcmlog_durable.hpp"
 #include "pof/recorder/pof_messages.hpp"
 
@@ -152,6 +153,7 @@ class Session {
   std::filesystem::path base_;  // the output path, with a directory resolved to a file name
   std::filesystem::path manifest_path_;
   std::filesystem::path attach_dir_;
+  nlohmann::json recorder_;  // this process, for the manifest (pof/recorder/manifest_state.hpp)
   nlohmann::json attachments_ = nlohmann::json::array();
   std::unique_ptr<bus::Receiver> rx_;  // receive thread only, once started
   bool direct_ = false;                // rx_->direct(), kept for the manifest after rx_ is gone
@@ -198,7 +200,9 @@ class Session {
     int64_t last_utime = 0;
   };
   std::vector<FileInfo> files_;
+  // At most kMaxTrackedChannels (+ kPofChannelReserve POF_*) names; the rest in other_.
   std::map<std::string, ChannelStats, std::less<>> channels_;
+  OtherChannels other_;
   uint64_t written_ = 0;
   Outcome outcome_ = Outcome::kRunning;
   std::string error_;

@@ -1,7 +1,9 @@
 #pragma once
-// The model behind `pof spy`: every channel seen, its rate, counts, sequence gaps and the latest
+// The model behind `pof spy`: each channel seen, its rate, counts, sequence gaps and the latest
 // decoded value of pofkit's own types (lcmtypes/*.lcm); unknown channels are kept by fingerprint
-// and size. No LCM, no terminal: messages in (bytes + receive time), text out, so it is unit-tested
+// and size. At most pof::recorder::kMaxTrackedChannels names get a row (POF_* names a reserve
+// beyond it: pof/recorder/channel_cap.hpp); messages on further names are counted together as
+// "other channels", so that a flood of names cannot grow the spy without bound. No LCM, no terminal: messages in (bytes + receive time), text out, so it is unit-tested
 // without a network. A message that still carries an authenticated-mode trailer (the spy was given
 // no key, so nothing verified it) is shown from the LCM message in front of the trailer and counted
 // as SIGNED, NOT VERIFIED on its channel.
@@ -24,6 +26,7 @@
 
 #include "pof/bus/auth_trailer.hpp"
 #include "pof/bus/fingerprint.hpp"
+#include "pof/recorder/channel_cap.hpp"
 #include "pof/recorder/pof_messages.hpp"
 
 namespace pof::spy {
@@ -60,9 +63,12 @@ class Monitor {
 
   [[nodiscard]] const std::map<std::string, ChannelView>& channels() const { return channels_; }
   [[nodiscard]] uint64_t total_messages() const { return total_; }
+  /// Messages on channels beyond the bound (no row of their own).
+  [[nodiscard]] const recorder::OtherChannels& other_channels() const { return other_; }
 
  private:
   std::map<std::string, ChannelView> channels_;
+  recorder::OtherChannels other_;
   uint64_t total_ = 0;
 };
 

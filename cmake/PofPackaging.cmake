@@ -57,6 +57,6 @@ set(CPACK_DEBIAN_RUNTIME_PACKAGE_RECOMMENDS "python3-matplotlib, liblcm-bin")
 set(CPACK_DEBIAN_RUNTIME_PACKAGE_CONTROL_EXTRA
   ${CMAKE_BINARY_DIR}/debian/conffiles ${PROJECT_SOURCE_DIR}/deploy/debian/postinst)
 set(CPACK_DEBIAN_DEV_PACKAGE_NAME pofkit-dev)
-set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS "liblcm-dev, libeigen3-dev, libsodium-dev, pkg-config")
+set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS "liblcm-dev, libeigen3-dev, libsodium-dev, libtomlplusplus-dev, pkg-config")
 set(CPACK_DEBIAN_DEV_PACKAGE_SECTION libdevel)
 include(CPack)

@@ -27,7 +27,8 @@ has "$runtime" usr/bin/pof usr/bin/pof-daqd usr/bin/pof-compensatord \
 for r in "$SOURCE_DIR"/deploy/udev/*.rules; do has "$runtime" "usr/lib/udev/rules.d/$(basename "$r")"; done
 has "$dev" usr/include/pof/angle_t.hpp usr/include/pof_angle_t.h usr/include/pof/core/compensator.hpp \
   usr/include/pof/bus/auth.hpp usr/include/pof/bus/auth_key.hpp usr/lib/libpof_auth.a \
-  usr/lib/libpof_core.a usr/lib/libpof_lcmtypes_c.a usr/lib/cmake/pofkit/pofkitConfig.cmake \
+  usr/lib/libpof_core.a usr/lib/libpof_calibration_io.a usr/lib/libpof_base.a usr/include/pof/io/calibration_file.hpp \
+  usr/lib/libpof_lcmtypes_c.a usr/lib/cmake/pofkit/pofkitConfig.cmake \
   usr/lib/pkgconfig/pofkit.pc usr/share/pofkit/lcmtypes/angle_t.lcm
 if dpkg-deb -c "$runtime" | awk '$6 ~ /^\.\/usr\/include\// {f=1} END {exit !f}'; then fail "headers in the runtime package"; fi
 
@@ -37,9 +38,10 @@ for lib in libc6 liblcm libusb-1.0 libhidapi libsodium; do
   case "$depends" in *"$lib"*) ;; *) fail "pofkit Depends lacks $lib: $depends" ;; esac
 done
 [ "$(dpkg-deb -f "$dev" Package)" = pofkit-dev ] || fail "dev package name: $(dpkg-deb -f "$dev" Package)"
-# pofkit::auth (libpof_auth.a) links libsodium: pofkitConfig.cmake and pofkit.pc need its -dev package.
+# pofkit::auth (libpof_auth.a) links libsodium, pofkit::io (libpof_base.a) toml++: pofkitConfig.cmake
+# and pofkit.pc need their -dev packages.
 dev_depends=$(dpkg-deb -f "$dev" Depends)
-for pkg in liblcm-dev libeigen3-dev libsodium-dev pkg-config; do
+for pkg in liblcm-dev libeigen3-dev libsodium-dev libtomlplusplus-dev pkg-config; do
   case "$dev_depends" in *"$pkg"*) ;; *) fail "pofkit-dev Depends lacks $pkg: $dev_depends" ;; esac
 done
 mkdir -p ctl && dpkg-deb -e "$runtime" ctl

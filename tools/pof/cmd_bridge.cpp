@@ -272,9 +272,10 @@ void run_bridge(const BridgeArgs& a) {
   });
   char where[INET_ADDRSTRLEN] = "?";
   ::inet_ntop(AF_INET, &dest.sin_addr, where, sizeof where);
-  std::fprintf(stderr, "pof bridge: %s (channels '%s') -> udp %s:%u, at most %g Hz per channel%s\n", url.c_str(),
-               a.channels.c_str(), where, unsigned(ntohs(dest.sin_port)), a.max_rate_hz,
-               a.raw ? ", raw blocks as block means" : "");
+  char rate[48] = "every message";
+  if (a.max_rate_hz > 0) std::snprintf(rate, sizeof rate, "at most %g Hz per channel", a.max_rate_hz);
+  std::fprintf(stderr, "pof bridge: %s (channels '%s') -> udp %s:%u, %s%s\n", url.c_str(), a.channels.c_str(), where,
+               unsigned(ntohs(dest.sin_port)), rate, a.raw ? ", raw blocks as block means" : "");
   const auto t0 = std::chrono::steady_clock::now();
   for (;;) {
     int wait_ms = 1000;

@@ -122,12 +122,13 @@ set(CPACK_DEBIAN_DEV_PACKAGE_NAME pofkit-dev)
 set(CPACK_DEBIAN_DEV_DESCRIPTION "POF knee-angle sensing: SDK for exoskeleton controller clients
 The development files of pofkit for a controller that consumes its angles:
 the LCM message types (C and C++ headers, a C library, the .lcm files),
-the pure sensor model (libpof_core), the authenticated mode's verifier and
+the pure sensor model (libpof_core), the calibration file reader
+(libpof_calibration_io, libpof_base), the authenticated mode's verifier and
 key files (libpof_auth), a CMake package (find_package(pofkit)), a
 pkg-config file and example clients.")
 # The SDK is the runtime's exact version: the types jar, the .lcm files and the headers of one
 # release describe one wire format.
 set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS
-  "pofkit (= ${PROJECT_VERSION}), liblcm-dev, libeigen3-dev, libsodium-dev, pkg-config")
+  "pofkit (= ${PROJECT_VERSION}), liblcm-dev, libeigen3-dev, libsodium-dev, libtomlplusplus-dev, pkg-config")
 set(CPACK_DEBIAN_DEV_PACKAGE_SECTION libdevel)
 include(CPack)

@@ -46,7 +46,7 @@ multiarch=$(dpkg-architecture -qDEB_HOST_MULTIARCH 2>/dev/null || gcc -print-mul
 ml="usr/lib/$multiarch"
 has "$dev" usr/include/pof/angle_t.hpp usr/include/pof_angle_t.h usr/include/pof/core/compensator.hpp \
   usr/include/pof/bus/auth.hpp usr/include/pof/bus/auth_key.hpp "$ml/libpof_auth.a" \
-  "$ml/libpof_core.a" "$ml/libpof_lcmtypes_c.a" "$ml/cmake/pofkit/pofkitConfig.cmake" \
+  "$ml/libpof_core.a" "$ml/libpof_calibration_io.a" "$ml/libpof_base.a" usr/include/pof/io/calibration_file.hpp "$ml/libpof_lcmtypes_c.a" "$ml/cmake/pofkit/pofkitConfig.cmake" \
   "$ml/pkgconfig/pofkit.pc" usr/share/pofkit/lcmtypes/angle_t.lcm usr/share/doc/pofkit-dev/copyright \
   usr/share/doc/pofkit-dev/changelog.gz
 if dpkg-deb -c "$dev" | awk '$6 ~ /^\.\/usr\/lib\/[^\/]*\.a$/ || $6 ~ /^\.\/usr\/lib\/(cmake|pkgconfig)\// {f=1} END {exit !f}'; then
@@ -60,9 +60,10 @@ for lib in libc6 liblcm libusb-1.0 libhidapi libsodium; do
   case "$depends" in *"$lib"*) ;; *) fail "pofkit Depends lacks $lib: $depends" ;; esac
 done
 [ "$(dpkg-deb -f "$dev" Package)" = pofkit-dev ] || fail "dev package name: $(dpkg-deb -f "$dev" Package)"
-# pofkit::auth (libpof_auth.a) links libsodium: pofkitConfig.cmake and pofkit.pc need its -dev package.
+# pofkit::auth (libpof_auth.a) links libsodium, pofkit::io (libpof_base.a) toml++: pofkitConfig.cmake
+# and pofkit.pc need their -dev packages.
 dev_depends=$(dpkg-deb -f "$dev" Depends)
-for pkg in liblcm-dev libeigen3-dev libsodium-dev pkg-config; do
+for pkg in liblcm-dev libeigen3-dev libsodium-dev libtomlplusplus-dev pkg-config; do
   case "$dev_depends" in *"$pkg"*) ;; *) fail "pofkit-dev Depends lacks $pkg: $dev_depends" ;; esac
 done
 # The SDK pins the runtime of its own version; the Python package's NumPy is declared.

@@ -5,8 +5,8 @@
 //       coarse at 100k msg/s); prints "sent N in T s (R msg/s)".
 //   pof-testpub --lcm-url URL session --duration S [--suffix _LEFT_KNEE]
 //       a plausible live session: POF_RAW at 100 blocks/s (10 scans of sensor/reference/pot),
-//       POF_ANGLE at 100 Hz following a 0..90 deg sine, POF_STATS every 2 s, POF_DAQ_STATUS at 1 Hz,
-//       and an unknown channel FOREIGN_TELEMETRY (not one of our types).
+//       POF_ANGLE at 100 Hz following a 0..90 deg sine (angle_sigma_deg NaN), POF_STATS every 2 s,
+//       POF_DAQ_STATUS at 1 Hz, and an unknown channel FOREIGN_TELEMETRY (not one of our types).
 //   pof-testpub --lcm-url URL angles --rate R --duration S [--suffix _LEFT_KNEE]
 //       POF_ANGLE at R msg/s (a 0..90 deg, 2 s sine; every 500th flagged QUALITY_GAP) and POF_STATS
 //       once a second with values that differ per cycle (rmse_comp_deg = 0.01 * cycle, ...);
@@ -186,6 +186,7 @@ int main(int argc, char** argv) {
               : a.velocity_rad_s < -0.05f ? pof::angle_t::PHASE_EXTENSION
                                           : pof::angle_t::PHASE_HOLD;
     a.quality = k < 5 ? int32_t{pof::angle_t::QUALITY_SETTLING} : 0;
+    a.angle_sigma_deg = std::nanf("");  // as with the paper's model: no estimator, no sigma
     lcm.publish("POF_ANGLE" + suffix, &a);
     if (k % 100 == 0) {
       pof::daq_status_t s{};

@@ -1,6 +1,8 @@
 # A controller project uses pofkit as a dependency: `cmake --install` gives headers, the
 # pure core and the C/C++/Python message types, a CMake package and a pkg-config file;
-# examples/cpp_client builds out of tree against that prefix alone (find_package(pofkit)), a C program
+# examples/cpp_client builds out of tree against that prefix alone (find_package(pofkit)) and its
+# embedded compensator, given the cal.toml the installed `pof calibrate` wrote, compensates a
+# recording to the very angles of `pof compensate` (pofkit::io + pofkit::core), a C program
 # builds with pkg-config, and the installed daemons (sim backend) feed live angles to the C++ client
 # and to the Python client (examples/python) running on the installed Python package. Then the
 # authenticated mode: the installed daemons sign with a bus key, and the C++ client, given the key
@@ -17,7 +19,8 @@ libdir=$(sed -n 's/^CMAKE_INSTALL_LIBDIR:[A-Z]*=//p' "$BUILD_DIR/CMakeCache.txt"
 
 for f in include/pof/angle_t.hpp include/pof/raw_block_t.hpp include/pof_angle_t.h include/pof_raw_block_t.h \
   include/pof/core/compensator.hpp include/pof/core/calibration.hpp include/pof/bus/url.hpp include/pof/bus/channels.hpp \
-  include/pof/bus/auth.hpp include/pof/bus/auth_key.hpp "$libdir"/libpof_auth.a "$libdir"/libpof_core.a "$libdir"/libpof_lcmtypes_c.a \
+  include/pof/bus/auth.hpp include/pof/bus/auth_key.hpp include/pof/io/calibration_file.hpp include/pof/base/errors.hpp \
+  "$libdir"/libpof_auth.a "$libdir"/libpof_core.a "$libdir"/libpof_calibration_io.a "$libdir"/libpof_base.a "$libdir"/libpof_lcmtypes_c.a \
   "$libdir"/cmake/pofkit/pofkitConfig.cmake "$libdir"/cmake/pofkit/pofkitConfigVersion.cmake \
   "$libdir"/cmake/pofkit/pofkitTargets.cmake "$libdir"/pkgconfig/pofkit.pc \
   share/pofkit/lcmtypes/angle_t.lcm share/pofkit/lcmtypes/raw_block_t.lcm share/pofkit/plot/calibration_report.py \
@@ -37,6 +40,27 @@ cmake -S "$SOURCE_DIR/examples/cpp_client" -B client -G Ninja -DCMAKE_PREFIX_PAT
   -DCMAKE_BUILD_TYPE=Release >client-configure.log 2>&1 || fail "find_package(pofkit) failed: $(tail -20 client-configure.log)"
 cmake --build client >client-build.log 2>&1 || fail "example client build failed: $(tail -30 client-build.log)"
 client/pof-embedded-compensator || fail "the installed pofkit::core compensates wrongly"
+
+# The compensator embedded from a calibration file (pofkit::io): the installed pof calibrates, the
+# client loads cal.toml through the SDK and compensates a held-out recording scan by scan; its
+# angles must be `pof compensate`'s (the same loader, the same OnlineCompensator), and a damaged
+# calibration is refused with pofkit's exit code and the key named.
+"$prefix/bin/pof" sim paper -o sdk-cal.csv --seed 21 2>/dev/null
+"$prefix/bin/pof" sim paper -o sdk-run.csv --seconds 20 --seed 22 2>/dev/null
+"$prefix/bin/pof" calibrate sdk-cal.csv -o sdk-cal.toml --no-plots >/dev/null 2>&1 || fail "installed pof calibrate failed"
+"$prefix/bin/pof" compensate sdk-run.csv --cal sdk-cal.toml --csv sdk-pof.csv >/dev/null 2>&1 || fail "pof compensate failed"
+client/pof-calibrated-compensator sdk-cal.toml sdk-run.csv sdk-client.csv || fail "the SDK did not compensate from sdk-cal.toml"
+"$PY" - sdk-pof.csv sdk-client.csv <<'PY' || fail "the SDK's angles are not pof compensate's"
+import csv, math, sys
+pof, sdk = (list(csv.DictReader(open(p))) for p in sys.argv[1:])
+assert len(pof) == len(sdk) == 4000, f"{len(pof)} and {len(sdk)} scans"
+worst = max(abs(float(a["angle_deg"]) - float(b["angle_deg"])) for a, b in zip(pof, sdk))
+assert worst < 1e-9 and all(a["quality"] == b["quality"] for a, b in zip(pof, sdk)), f"differ by {worst} deg"
+print(f"SDK embedded compensator from cal.toml: {len(sdk)} scans, the angles of pof compensate (max diff {worst:.1e} deg)")
+PY
+sed 's/^reference_level_v = .*/reference_level_v = "four"/' sdk-cal.toml >bad-cal.toml
+expect_exit 78 client/pof-calibrated-compensator bad-cal.toml sdk-run.csv
+[[ "$err" == *"bad-cal.toml"*"reference_level_v"* ]] || fail "bad calibration through the SDK: $err"
 
 # A C program through pkg-config: encode and decode an angle with the installed C types.
 cat >c_client.c <<'C'

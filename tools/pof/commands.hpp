@@ -16,5 +16,6 @@ void add_spy(CLI::App& app);
 void add_dash(CLI::App& app);
 void add_export(CLI::App& app);
 void add_keygen(CLI::App& app);
+void add_bridge(CLI::App& app);
 
 }  // namespace pof::cli

@@ -25,6 +25,7 @@ int main(int argc, char** argv) {
   pof::cli::add_dash(app);
   pof::cli::add_export(app);
   pof::cli::add_keygen(app);
+  pof::cli::add_bridge(app);
 
   // The subcommands run inside the parse (their callbacks), so their exceptions go through
   // run_main's table too.

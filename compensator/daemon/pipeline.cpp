@@ -184,6 +184,10 @@ void Pipeline::on_block(const pof::raw_block_t& b, std::int64_t publish_utime, S
   // value enters the angle or the model's memory; as after any invalid sample, the velocity
   // estimator settles again on the next good scans (QUALITY_SETTLING). No scan is lost.
   const bool doubtful = (b.flags & pof::raw_block_t::FLAG_DOUBTFUL) != 0;
+  // A late block (raw_block_t.FLAG_LATE: pof-daqd's backlog after an acquisition stall) is right but
+  // old: compensated as usual, so the model's memory stays whole, and every angle of it says so, so
+  // that no controller takes the backlog for the knee's present (docs/daq.md, "Watchdog and stalls").
+  const std::int32_t late = (b.flags & pof::raw_block_t::FLAG_LATE) != 0 ? core::quality::kLate : 0;
   if (last_seq_ && !restart) {
     // b.seq > *last_seq_ >= 0 and b.first_scan >= *next_scan_ >= 0: the differences cannot overflow.
     sat_add(counters_.lost_blocks, b.seq - *last_seq_ - 1);
@@ -228,7 +232,7 @@ void Pipeline::on_block(const pof::raw_block_t& b, std::int64_t publish_utime, S
     sum_uncomp_ += cs.angle_uncomp_deg;
     sum_sigma_ += cs.angle_sigma_deg;
     sum_ref_ += ref;
-    window_quality_ |= cs.quality;
+    window_quality_ |= cs.quality | late;
     ++in_window_;
     if (in_window_ == k_) {
       pending_.utime = (window_first_utime_ + utime) / 2;

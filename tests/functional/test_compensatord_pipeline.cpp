@@ -204,6 +204,26 @@ TEST_F(PipelineTest, APotChannelWithoutItsCalibrationIsNamedInTheStatus) {
   EXPECT_FALSE(std::isnan(out2.angles.back().angle_ref_deg));
 }
 
+TEST_F(PipelineTest, ALateBlockIsCompensatedAndEveryAngleOfItFlaggedLate) {
+  Pipeline p(paper_calibration(), "x", PipelineSettings{});
+  Pipeline reference(paper_calibration(), "x", PipelineSettings{});
+  Collect out, ref_out;
+  for (size_t i = 0; i < 120; ++i) {
+    pof::raw_block_t b = (*blocks_)[i];
+    reference.on_block(b, 0, ref_out);
+    if (i >= 100 && i < 110) b.flags |= pof::raw_block_t::FLAG_LATE;  // a stall's backlog
+    p.on_block(b, 0, out);
+  }
+  ASSERT_EQ(out.angles.size(), ref_out.angles.size());
+  for (size_t k = 0; k < out.angles.size(); ++k) {
+    const bool late = k >= 100 * kScansPerBlock && k < 110 * kScansPerBlock;
+    EXPECT_EQ((out.angles[k].quality & pof::angle_t::QUALITY_LATE) != 0, late) << k;
+    // Nothing else changes: the angle and the model's memory are those of an on-time stream.
+    EXPECT_EQ(out.angles[k].angle_deg, ref_out.angles[k].angle_deg) << k;
+    EXPECT_EQ(out.angles[k].quality & ~pof::angle_t::QUALITY_LATE, ref_out.angles[k].quality) << k;
+  }
+}
+
 TEST_F(PipelineTest, LostBlockIsCountedAndResetsTheEstimator) {
   Pipeline p(paper_calibration(), "x", PipelineSettings{});
   Collect out;

@@ -16,6 +16,7 @@ static_assert(q::kScansLost == A::QUALITY_GAP);
 static_assert(q::kVelocityExtrapolated == A::QUALITY_VELOCITY_EXTRAPOLATED);
 static_assert(q::kAngleExtrapolated == A::QUALITY_ANGLE_EXTRAPOLATED);
 static_assert(q::kSettling == A::QUALITY_SETTLING);
+static_assert(q::kLate == A::QUALITY_LATE);
 static_assert(static_cast<int>(pof::core::Direction::kHold) == A::PHASE_HOLD);
 static_assert(static_cast<int>(pof::core::Direction::kFlexion) == A::PHASE_FLEXION);
 static_assert(static_cast<int>(pof::core::Direction::kExtension) == A::PHASE_EXTENSION);

@@ -52,7 +52,8 @@ std::string quality_names(int32_t q) {
       {pof::angle_t::QUALITY_GAP, "GAP"},
       {pof::angle_t::QUALITY_VELOCITY_EXTRAPOLATED, "VELOCITY_EXTRAPOLATED"},
       {pof::angle_t::QUALITY_ANGLE_EXTRAPOLATED, "ANGLE_EXTRAPOLATED"},
-      {pof::angle_t::QUALITY_SETTLING, "SETTLING"}};
+      {pof::angle_t::QUALITY_SETTLING, "SETTLING"},
+      {pof::angle_t::QUALITY_LATE, "LATE"}};
   std::string s;
   int32_t rest = q;
   for (const auto& [bit, name] : kNames) {

@@ -14,6 +14,7 @@ inline constexpr std::int32_t kScansLost = 8;              // scans lost before 
 inline constexpr std::int32_t kVelocityExtrapolated = 16;  // |velocity| outside the calibrated range
 inline constexpr std::int32_t kAngleExtrapolated = 32;     // angle outside the calibrated range
 inline constexpr std::int32_t kSettling = 64;              // velocity estimator not yet settled
+inline constexpr std::int32_t kLate = 128;                 // the scan's block came late (an acquisition stall's backlog)
 }  // namespace quality
 
 }  // namespace pof::core

@@ -133,7 +133,8 @@ int Usb1208lsModel::on_control(const std::uint8_t* setup, std::span<std::uint8_t
         }
       }
     }
-    const std::size_t n = std::min(data.size(), last_report_.size());
+    // 104 bytes: [WP]'s reading, the 105-byte struct without its record number [7].
+    const std::size_t n = std::min(data.size(), opt_.report_bytes);
     std::copy_n(last_report_.begin(), n, data.begin());
     return static_cast<int>(n);
   }

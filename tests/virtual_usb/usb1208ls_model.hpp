@@ -16,6 +16,12 @@
 
 namespace pof::vusb {
 
+/// How the virtual device answers where the public sources leave it open (mcc_usb1208ls.hpp [7]).
+struct MccOptions {
+  pof::daq::mcc::ReportLayout layout = pof::daq::mcc::ReportLayout::kRecordFirst;
+  std::size_t report_bytes = pof::daq::mcc::kScanReportBytes;  // 105, or 104 (data-first only)
+};
+
 class Usb1208lsModel final : public DeviceModel {
  public:
   // Interface 0 (HID), HID class descriptor, interrupt-IN 0x81 of 8 bytes.
@@ -24,9 +30,8 @@ class Usb1208lsModel final : public DeviceModel {
 
   /// `layout`: where the device puts data and scan index in a feature report: the public sources
   /// disagree (daq/include/pof/daq/protocol/mcc_usb1208ls.hpp [7]).
-  Usb1208lsModel(double clock_ppm, AnalogBench& bench,
-                 pof::daq::mcc::ReportLayout layout = pof::daq::mcc::ReportLayout::kRecordFirst)
-      : ppm_(clock_ppm), bench_(bench), layout_(layout) {}
+  Usb1208lsModel(double clock_ppm, AnalogBench& bench, MccOptions o = {})
+      : ppm_(clock_ppm), bench_(bench), layout_(o.layout), opt_(o) {}
 
   void on_out(std::uint8_t, std::span<const std::uint8_t>, std::int64_t) override {}
   InResult on_in(std::uint8_t ep, std::span<std::uint8_t> buf, std::int64_t now_us) override;
@@ -53,6 +58,7 @@ class Usb1208lsModel final : public DeviceModel {
   double ppm_;
   AnalogBench& bench_;
   pof::daq::mcc::ReportLayout layout_;
+  MccOptions opt_;
   std::vector<std::uint8_t> channels_;
   pof::daq::mcc::Gain gain_ = pof::daq::mcc::kSe10V;
   bool queue_loaded_ = false;

@@ -297,6 +297,7 @@ int main(int argc, char** argv) {
   bool padding_noise = false;
   double steady_volts = kNaN;
   std::string report_layout = "record-first";
+  int report_bytes = 105;
   std::string expect_variant;
   double clock_ppm = 0;
   int lcm_port = 0;
@@ -343,6 +344,9 @@ int main(int argc, char** argv) {
   app.add_option("--steady-volts", steady_volts, "NI inputs at this level (+-1 LSB) instead of the knee");
   app.add_option("--report-layout", report_layout, "USB-1208LS feature-report layout")
       ->check(CLI::IsMember({"record-first", "data-first"}));
+  app.add_option("--report-bytes", report_bytes,
+                 "USB-1208LS scan report length on the wire: 105, or 104 (wjasper Python: data-first, no record number)")
+      ->check(CLI::IsMember({104, 105}));
   app.add_option("--expect-variant", expect_variant,
                  "text the last status's protocol_variant must contain");
   app.add_option("--clock-ppm", clock_ppm, "device clock error [ppm]");
@@ -441,9 +445,11 @@ int main(int argc, char** argv) {
                                                  !device_serial.empty())},
           *ni);
     } else {
-      mcc = std::make_unique<pof::vusb::Usb1208lsModel>(
-          clock_ppm, *bench,
-          report_layout == "data-first" ? pof::daq::mcc::ReportLayout::kDataFirst : pof::daq::mcc::ReportLayout::kRecordFirst);
+      pof::vusb::MccOptions mo;
+      mo.layout = report_layout == "data-first" || report_bytes == 104 ? pof::daq::mcc::ReportLayout::kDataFirst
+                                                                       : pof::daq::mcc::ReportLayout::kRecordFirst;
+      mo.report_bytes = static_cast<std::size_t>(report_bytes);
+      mcc = std::make_unique<pof::vusb::Usb1208lsModel>(clock_ppm, *bench, mo);
       dev = std::make_unique<pof::vusb::UsbdevfsDevice>(
           testbed, pof::vusb::UsbIds{0x09db, 0x007a, descriptors(0x09db, 0x007a, pof::vusb::Usb1208lsModel::kInterfaceHex, pof::vusb::Usb1208lsModel::kInterfaceLen)},
           *mcc);

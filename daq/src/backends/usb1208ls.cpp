@@ -1,11 +1,12 @@
 // MCC USB-1208LS backend over hidapi (libusb flavour, so that the same usbdevfs emulation serves
 // the tests). Protocol: protocol/mcc_usb1208ls.hpp.
 //
-// Acquisition: back-to-back single-execution AInScans (protocol [9]) read as 105-byte feature
-// reports; the report's scan index must be the next expected one, a repeat means "not ready yet"
-// (the device answers a feature request with its last report, per the public driver's polling
-// loop [7]). The report layout is detected from the first reports of a session (protocol [7]):
-// reports are held back until it is known, so nothing is published from a guessed layout.
+// Acquisition: back-to-back single-execution AInScans (protocol [9]) read as 104- or 105-byte
+// feature reports (the length decides: protocol [7]); the report's scan index must be the next
+// expected one, a repeat means "not ready yet" (the device answers a feature request with its
+// last report, per the public driver's polling loop [7]). The report layout is detected from the
+// first reports of a session (protocol [7]): reports are held back until it is known, so
+// nothing is published from a guessed layout.
 // A channel list the device cannot queue (3, 5-7) is padded (protocol [9]); the padding inputs
 // are scanned and their samples dropped here.
 // hidapi is synchronous: the acquisition thread polls with a 1 ms pause between empty answers.
@@ -16,6 +17,7 @@
 #include <chrono>
 #include <cstdio>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "pof/daq/stream/backend.hpp"
@@ -47,7 +49,8 @@ class Usb1208lsBackend final : public Backend {
     // The device scans the queue at the timer rate: the aggregate sample rate is rate x queue.
     timer_ = mcc::scan_timer(cfg.scan_rate_hz * static_cast<double>(n_queue_));
     rate_hz_ = timer_ ? timer_->actual_rate_hz / static_cast<double>(n_queue_) : cfg.scan_rate_hz;
-    if (cfg.mcc_single_reads) rate_hz_ = cfg.scan_rate_hz;  // host-paced
+    single_ = cfg.mcc_single_reads;
+    if (single_) rate_hz_ = cfg.scan_rate_hz;  // host-paced
     // A scan: whole reports and whole queue cycles, ~1 s of data, within the 16-bit count.
     const std::size_t unit = mcc::kSamplesPerScanReport * n_queue_;
     std::size_t burst = static_cast<std::size_t>(rate_hz_ * static_cast<double>(n_queue_)) / unit * unit;
@@ -90,10 +93,12 @@ class Usb1208lsBackend final : public Backend {
   }
 
   StreamEnd stream(ScanSink& sink, const std::atomic<bool>& stop, std::string& why) override {
-    if (cfg_.mcc_single_reads) return stream_single(sink, stop, why);
+    if (single_) return stream_single(sink, stop, why);
     bool continuous = false;
     carry_n_ = 0;
     held_n_ = 0;
+    size_layout_.reset();
+    variant_sent_ = false;
     if (detector_.decided()) sink.on_variant(variant_bits());
     while (!stop.load(std::memory_order_relaxed)) {
       const auto count = static_cast<std::uint16_t>(burst_samples_);
@@ -119,12 +124,18 @@ class Usb1208lsBackend final : public Backend {
           why = "MCC USB-1208LS: reading a scan report failed (device removed?)";
           return StreamEnd::kDisconnected;
         }
-        if (static_cast<std::size_t>(n) != buf.size()) {
+        // hidapi counts the report id byte it skipped: n - 1 bytes came on the wire [7].
+        const auto wire_n = static_cast<std::size_t>(n > 0 ? n - 1 : 0);
+        if (!mcc::is_scan_report_size(wire_n) || (size_layout_ && wire_n != size_layout_->first)) {
           sink.on_usb_error();
-          why = "MCC USB-1208LS: short scan report (" + std::to_string(n) + " bytes)";
+          why = "MCC USB-1208LS: scan report of " + std::to_string(wire_n) +
+                " bytes (expected 104 or 105, the same every time)";
           return StreamEnd::kError;
         }
+        if (!size_layout_) size_layout_.emplace(wire_n, mcc::layout_for_size(wire_n));
+        if (wire_n < mcc::kScanReportBytes) buf[mcc::kScanReportBytes] = 0;  // not on the wire
         const mcc::ScanReport wire(buf.data() + 1, mcc::kScanReportBytes);
+        if (size_layout_->second && !detector_.decided()) detector_.force(*size_layout_->second);
         const bool next = detector_.decided() ? mcc::scan_index(wire, detector_.layout()) == expect
                                               : detector_.is_next(wire, expect);
         if (!next) {
@@ -149,10 +160,17 @@ class Usb1208lsBackend final : public Backend {
             why = "MCC USB-1208LS: cannot tell the feature-report layout (both scan-index fields count)";
             return StreamEnd::kError;
           }
+        }
+        if (held_n_ > 0) {  // the layout is known: publish what was held back
           sink.on_variant(variant_bits());
           for (std::size_t i = 0; i < held_n_; ++i) deliver_report(sink, held_[i]);
           held_n_ = 0;
+          variant_sent_ = true;
           continue;
+        }
+        if (!variant_sent_) {  // the layout told by the report's length: nothing held back
+          sink.on_variant(variant_bits());
+          variant_sent_ = true;
         }
         deliver_report(sink, buf);
       }
@@ -225,9 +243,12 @@ class Usb1208lsBackend final : public Backend {
   using Report = std::array<std::uint8_t, mcc::kScanReportBytes + 1>;  // report id + report
 
   [[nodiscard]] std::uint32_t variant_bits() const {
-    return detector_.layout() == mcc::ReportLayout::kRecordFirst ? kVariantLayoutRecordFirst
-                                                                 : kVariantLayoutDataFirst;
+    std::uint32_t bits = detector_.layout() == mcc::ReportLayout::kRecordFirst ? kVariantLayoutRecordFirst
+                                                                               : kVariantLayoutDataFirst;
+    if (size_layout_ && size_layout_->first == mcc::kScanReportBytesNoRecord) bits |= kVariantReport104;
+    return bits;
   }
+
 
   void deliver_report(ScanSink& sink, const Report& buf) {
     const mcc::ScanReport wire(buf.data() + 1, mcc::kScanReportBytes);
@@ -266,8 +287,12 @@ class Usb1208lsBackend final : public Backend {
   std::size_t n_ch_ = 0;     // configured channels (published)
   std::size_t n_queue_ = 0;  // channels scanned (n_ch_ padded to 1, 2, 4 or 8 [9])
   mcc::LayoutDetector detector_;
+  // (wire bytes, the layout that length implies) of the session's first report [7]
+  std::optional<std::pair<std::size_t, std::optional<mcc::ReportLayout>>> size_layout_;
+  bool single_ = false;  // single AIn reads (acquisition.mcc_mode = "single")
   std::array<Report, mcc::LayoutDetector::kLayoutReports + 2> held_{};
   std::size_t held_n_ = 0;
+  bool variant_sent_ = false;  // this session's variant told to the sink
   mcc::Gain gain_ = mcc::kSe10V;
   std::optional<mcc::ScanTimer> timer_;
   double rate_hz_ = 0;

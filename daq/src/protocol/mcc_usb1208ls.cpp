@@ -119,6 +119,15 @@ const char* layout_name(ReportLayout l) {
   return l == ReportLayout::kRecordFirst ? "record-first (index at 102)" : "data-first (index at 101)";
 }
 
+std::optional<ReportLayout> layout_for_size(std::size_t wire_bytes) {
+  if (wire_bytes == kScanReportBytesNoRecord) return ReportLayout::kDataFirst;
+  return std::nullopt;
+}
+
+bool is_scan_report_size(std::size_t wire_bytes) {
+  return wire_bytes == kScanReportBytes || wire_bytes == kScanReportBytesNoRecord;
+}
+
 namespace {
 std::int16_t sign12(unsigned v) {
   return static_cast<std::int16_t>((v & 0x800U) != 0U ? static_cast<int>(v) - 0x1000 : static_cast<int>(v));
@@ -157,6 +166,12 @@ void LayoutDetector::accept(ScanReport r, std::uint16_t expect) {
     if (scan_index(r, static_cast<ReportLayout>(k)) != expect) possible_[k] = false;
   }
   ++seen_;
+}
+
+void LayoutDetector::force(ReportLayout l) {
+  possible_[0] = l == ReportLayout::kRecordFirst;
+  possible_[1] = l == ReportLayout::kDataFirst;
+  seen_ = kLayoutReports;
 }
 
 bool LayoutDetector::decided() const {

@@ -19,6 +19,7 @@ std::string describe_variant(std::uint32_t bits) {
   add(kVariantLayoutRecordFirst, "report layout record-first (index at 102)");
   add(kVariantLayoutDataFirst, "report layout data-first (index at 101)");
   add(kVariantPaddingSet, "padding bits set in samples");
+  add(kVariantReport104, "scan report 104 bytes (no record number)");
   return s;
 }
 

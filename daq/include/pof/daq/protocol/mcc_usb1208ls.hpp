@@ -28,6 +28,11 @@
 //     [W] {record no, data[96], error, read addr[2], write addr[2], scan index[2], extra}: index
 //     at bytes 102-103; [WP] and [RD]: data from byte 0, index at 101-102. The backend detects
 //     the layout from which index field counts 1, 2, 3 ... (detect_layout below).
+//     [WP] asks hidapi for 105 bytes including the report id, i.e. 104 on the wire, and unpacks
+//     them as [W]'s struct without the record number: {data[96], error, read addr[2], write
+//     addr[2], scan index[2], extra} = 104 bytes. A device may therefore answer the GET_REPORT
+//     with 104 or 105 bytes; the length decides (layout_for_size): 104 can only be data-first,
+//     105 is either and is detected from the scan index as above.
 //  8. Rates [M]: continuous scanning at most 1.2 kS/s aggregate; burst mode (options 0x2, the
 //     device signals the end of a block with an input report holding 0xA5 [W][WP]) at most 8 kS/s
 //     but at most 4096 samples (its FIFO); software-paced (one AIn per sample) about 50 S/s.
@@ -48,7 +53,8 @@ inline constexpr std::uint16_t kVendorId = 0x09DB;
 inline constexpr std::uint16_t kProductId = 0x007A;
 inline constexpr std::size_t kOutReportBytes = 9;       // [2] with report id 0
 inline constexpr std::size_t kInReportBytes = 8;        // [2]
-inline constexpr std::size_t kScanReportBytes = 105;    // [7]
+inline constexpr std::size_t kScanReportBytes = 105;    // [7] the longer reading
+inline constexpr std::size_t kScanReportBytesNoRecord = 104;  // [7] [WP]: no record number
 inline constexpr std::size_t kSamplesPerScanReport = 64;
 inline constexpr double kClockHz = 6e6;                 // [6]
 inline constexpr double kMinTimerRateHz = 100.0;        // [6] aggregate
@@ -112,6 +118,11 @@ enum class ReportLayout : std::uint8_t {
   kDataFirst,    // [WP], [RD]: data 0-95, scan index 101-102
 };
 const char* layout_name(ReportLayout l);
+/// [7] the layout a report of `wire_bytes` can only have: 104 -> data-first; nullopt for 105
+/// (either: detect it from the scan index) and for any other length (not a scan report).
+std::optional<ReportLayout> layout_for_size(std::size_t wire_bytes);
+/// [7] whether `wire_bytes` is the length of a scan report (104 or 105).
+bool is_scan_report_size(std::size_t wire_bytes);
 
 using ScanReport = std::span<const std::uint8_t, kScanReportBytes>;
 /// [7] the scan index of a report read with layout `l`.
@@ -135,6 +146,8 @@ class LayoutDetector {
   bool is_next(ScanReport report, std::uint16_t expect) const;
   /// Records a report accepted by is_next().
   void accept(ScanReport report, std::uint16_t expect);
+  /// The layout is known from elsewhere (the report's length: layout_for_size).
+  void force(ReportLayout l);
   [[nodiscard]] bool decided() const;
   [[nodiscard]] ReportLayout layout() const;
 

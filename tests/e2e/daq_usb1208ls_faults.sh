@@ -1,5 +1,5 @@
 # MCC USB-1208LS where the public sources leave the device's behaviour open (docs/daq.md,
-# "Protocol fact" 14), each against a virtual device answering the way one source reads it;
+# "Protocol facts" 14-15), each against a virtual device answering the way one source reads it;
 # the checker compares every published volt with what the device digitised (1 LSB) unless the
 # block is flagged doubtful. 250 scans/s, 3 channels scanned as a queue of 4 (1000 S/s). The rate
 # bound is 5 %: the measured slope reads the emulator's pacing on a loaded host (242.6 of 250.7
@@ -18,5 +18,21 @@ vdaq --model 1208ls --duration 3 --rate 250 --decimate 1 --block-scans 10 --repo
      --expect-variant "record-first" --min-rate-ratio 0.95
 summary
 at_most "$(report max_value_error_lsb)" 1.0 || fail "105-byte reports: value error above 1 LSB"
+
+# 2. Seams: executions of 768 samples (192 scans, 0.77 s), as the daemon used to run them. The
+#    device is idle between two; every seam must be published as a FLAG_GAP hole whose length is
+#    within 1 scan of the scans the device did not take (the checker knows them).
+vdaq --model 1208ls --duration 5 --rate 250 --decimate 1 --block-scans 10 --min-seams 4 \
+     --max-dropped 1000 --max-seam-error 1 --min-rate-ratio 0.95 -- -s acquisition.segment_scans=192
+summary
+echo "seams $(report seams): not taken $(report seam_scans_not_taken), flagged $(report seam_gaps), dropped $(report seam_dropped_scans), max error $(report max_seam_length_error_scans) scans"
+[ "$(report seam_gaps)" -ge 4 ] || fail "seams not flagged: $(report seam_gaps)"
+at_most "$(report max_value_error_lsb)" 1.0 || fail "seams: value error above 1 LSB"
+#    With decimation the partial window at each seam goes with the hole (published scans are
+#    then ~6 % fewer than the rate: 0.51-s executions, a window of 5 lost at each seam).
+vdaq --model 1208ls --duration 5 --rate 250 --decimate 5 --block-scans 2 --min-seams 4 \
+     --max-dropped 1000 --max-seam-error 5 --min-rate-ratio 0.9 -- -s acquisition.segment_scans=190
+summary
+at_most "$(report max_value_error_lsb)" 1.0 || fail "seams, decimated: value error above 1 LSB"
 
 echo ok

@@ -38,8 +38,21 @@ class Usb1208lsModel final : public DeviceModel {
   int on_control(const std::uint8_t* setup, std::span<std::uint8_t> data, std::int64_t now_us) override;
 
   /// The volts of scan `idx`, channel `ch` (of the queue) of session `session` as the device
-  /// digitised them.
+  /// digitised them; `idx` is the bench scan (bench_scan_of).
   [[nodiscard]] double volts_sent(int session, std::int64_t idx, std::size_t ch);
+  /// The seam between two executions of a session: the device idle, the bench went on.
+  struct Seam {
+    int session;
+    std::int64_t scans_before;  // scans the session's executions delivered before it
+    std::int64_t skipped;       // scans the device did not take
+  };
+  std::vector<Seam> seams;
+  /// The bench scan of the `delivered`-th scan the session's executions delivered.
+  [[nodiscard]] std::int64_t bench_scan_of(int session, std::int64_t delivered) const;
+  /// Sessions whose data came from AInScans (else from single AIn reads).
+  std::vector<int> scan_sessions;
+  [[nodiscard]] bool scanned(int session) const;
+
   /// Single AIn reads: the volts of read `idx` of channel `ch` (11-bit single-ended coding); the
   /// k-th read of every channel samples bench scan k of the session.
   [[nodiscard]] double volts_single(int session, std::int64_t idx, std::size_t ch);
@@ -59,6 +72,9 @@ class Usb1208lsModel final : public DeviceModel {
   AnalogBench& bench_;
   pof::daq::mcc::ReportLayout layout_;
   MccOptions opt_;
+  double end_us_ = -1;                // when the session's last execution took its last sample
+  std::int64_t delivered_ = 0;        // scans the session's executions delivered so far
+  void begin_session();
   std::vector<std::uint8_t> channels_;
   pof::daq::mcc::Gain gain_ = pof::daq::mcc::kSe10V;
   bool queue_loaded_ = false;

@@ -124,6 +124,14 @@ struct Checker {
   long seq_gaps = 0;
   long gap_scans = 0;        // index advance across FLAG_GAP blocks
   std::vector<std::pair<std::int64_t, long>> gap_events;  // (receive time [us], index advance) per FLAG_GAP block
+  // USB-1208LS: scans its executions delivered in the session (the values' truth follows the
+  // device, whatever index the daemon gives them), the seams matched, and their flagging.
+  std::int64_t mcc_delivered = 0;
+  std::size_t mcc_seams_seen = 0;  // of mcc->seams, those the published stream has passed
+  long seam_gaps = 0;              // seams published as FLAG_GAP
+  long unflagged_seams = 0;        // seams published without FLAG_GAP
+  double max_seam_length_error = 0;  // |published index advance - scans the device skipped|
+  long seam_dropped = 0;           // the index advance over flagged seams
   long doubtful_blocks = 0;  // FLAG_DOUBTFUL: values not checked (the daemon does not vouch for them)
   long utime_backsteps = 0;  // blocks stamped at or before the previous one
   std::int64_t max_utime_backstep_us = 0;
@@ -180,7 +188,61 @@ struct Checker {
     const bool doubtful = (b.flags & int32_t{pof::raw_block_t::FLAG_DOUBTFUL}) != 0;
     if (doubtful) ++doubtful_blocks;
     const bool gap = (b.flags & int32_t{pof::raw_block_t::FLAG_GAP}) != 0;
-    if (gap) {
+    bool handled = false;  // USB-1208LS: sessions and seams told from the device
+    if (mcc != nullptr) {
+      std::lock_guard dlock(*dev_mu);
+      if (blocks == 1 || (gap && mcc->sessions != session)) {  // the device's current session
+        if (gap) {
+          ++gaps;
+          if (next_first >= 0) gap_scans += b.first_scan - next_first;
+          gap_events.emplace_back(recv, next_first >= 0 ? static_cast<long>(b.first_scan - next_first) : 0L);
+        }
+        session = mcc->sessions;
+        local = 0;
+        mcc_delivered = 0;
+        mcc_seams_seen = 0;
+        while (mcc_seams_seen < mcc->seams.size() && mcc->seams[mcc_seams_seen].session != session) ++mcc_seams_seen;
+      } else {
+        // Seams of this session the block's scans cross (at most one: executions are long).
+        const std::int64_t advance = next_first >= 0 ? b.first_scan - next_first : 0;
+        std::size_t k = mcc_seams_seen;
+        while (k < mcc->seams.size() && mcc->seams[k].session != session) ++k;
+        if (k < mcc->seams.size() && mcc->seams[k].scans_before <= mcc_delivered + std::int64_t{b.n_scans} * decimate - 1 &&
+            mcc->seams[k].scans_before >= mcc_delivered - decimate) {
+          const auto& sm = mcc->seams[k];
+          if (gap) {
+            ++seam_gaps;
+            seam_dropped += advance;
+            // The hole published: the scans not taken plus those of a partial decimation window
+            // the daemon dropped with them (taken, never published), rounded to whole windows.
+            const std::int64_t hole = sm.skipped + (sm.scans_before - mcc_delivered);
+            max_seam_length_error = std::max(max_seam_length_error,
+                                             std::abs(static_cast<double>(advance * decimate - hole)));
+            mcc_delivered = sm.scans_before;  // a partial decimation window went with the hole
+          } else {
+            ++unflagged_seams;
+            if (first_error.empty()) {
+              first_error = "seam after scan " + std::to_string(sm.scans_before) + " (" + std::to_string(sm.skipped) +
+                            " scans not taken) published without FLAG_GAP";
+            }
+          }
+          mcc_seams_seen = k + 1;
+        } else if (gap) {
+          ++gaps;  // a gap the device did not cause
+          gap_events.emplace_back(recv, static_cast<long>(advance));
+        }
+        if (!gap && advance != 0) {
+          ++index_jumps;
+          if (first_error.empty()) {
+            first_error = "first_scan " + std::to_string(b.first_scan) + " expected " + std::to_string(next_first);
+          }
+        }
+        local += advance;
+      }
+      handled = true;
+    }
+    if (handled) {
+    } else if (gap) {
       ++gaps;
       ++session;
       local = 0;
@@ -217,8 +279,9 @@ struct Checker {
           const std::int64_t idx = j * decimate + d;
           const auto ch = static_cast<std::size_t>(c);
           want += ni ? pof::daq::ni::code_to_volts(ni->code(session, idx, ch), ni->bits(), range_v)
-                     : mcc->single_reads_seen ? mcc->volts_single(session, idx, ch)
-                                              : mcc->volts_sent(session, idx, ch);
+                     : !mcc->scanned(session)
+                         ? mcc->volts_single(session, idx, ch)
+                         : mcc->volts_sent(session, mcc->bench_scan_of(session, mcc_delivered + k * decimate + d), ch);
         }
         want /= decimate;
         if (doubtful) continue;  // flagged: not published as good
@@ -234,7 +297,10 @@ struct Checker {
         }
       }
     }
-    bench->forget_before(session, local * decimate);  // verified: the bench may drop them
+    if (mcc == nullptr) bench->forget_before(session, local * decimate);  // verified: the bench may drop them
+    else if (mcc->scanned(session)) bench->forget_before(session, mcc->bench_scan_of(session, mcc_delivered));
+    else bench->forget_before(session, local * decimate);
+    if (mcc != nullptr) mcc_delivered += std::int64_t{b.n_scans} * decimate;
     if (ni != nullptr) {
       const double half = (decimate - 1) / 2.0;
       const double t_first = truth_us(session, static_cast<double>(local * decimate) + half);
@@ -298,6 +364,8 @@ int main(int argc, char** argv) {
   double steady_volts = kNaN;
   std::string report_layout = "record-first";
   int report_bytes = 105;
+  double max_seam_error = 1;
+  long min_seams = 0;
   std::string expect_variant;
   double clock_ppm = 0;
   int lcm_port = 0;
@@ -347,6 +415,9 @@ int main(int argc, char** argv) {
   app.add_option("--report-bytes", report_bytes,
                  "USB-1208LS scan report length on the wire: 105, or 104 (wjasper Python: data-first, no record number)")
       ->check(CLI::IsMember({104, 105}));
+  app.add_option("--max-seam-error", max_seam_error,
+                 "USB-1208LS: bound on |published hole - scans the device did not take| per seam");
+  app.add_option("--min-seams", min_seams, "USB-1208LS: seams (idle device between executions) that must be seen");
   app.add_option("--expect-variant", expect_variant,
                  "text the last status's protocol_variant must contain");
   app.add_option("--clock-ppm", clock_ppm, "device clock error [ppm]");
@@ -685,6 +756,26 @@ int main(int argc, char** argv) {
       if (ni->protocol_errors != 0) failures.push_back("the daemon sent frames the device did not understand");
     }
     if (mcc) {
+      std::vector<double> skipped;
+      for (const auto& sm : mcc->seams) skipped.push_back(static_cast<double>(sm.skipped));
+      r["seams"] = mcc->seams.size();
+      r["seam_scans_not_taken"] = stats(skipped);
+      r["seam_gaps"] = checker.seam_gaps;
+      r["seam_dropped_scans"] = checker.seam_dropped;
+      r["unflagged_seams"] = checker.unflagged_seams;
+      r["max_seam_length_error_scans"] = checker.max_seam_length_error;
+      r["device_scan_sessions"] = mcc->scan_sessions.size();
+      if (checker.unflagged_seams > 0) {
+        failures.push_back(std::to_string(checker.unflagged_seams) + " seams between executions published without FLAG_GAP: " +
+                           checker.first_error);
+      }
+      if (checker.max_seam_length_error > max_seam_error) {
+        failures.push_back("a seam's published hole is " + std::to_string(checker.max_seam_length_error) +
+                           " scans off what the device did not take");
+      }
+      if (static_cast<long>(mcc->seams.size()) < min_seams) {
+        failures.push_back("seams " + std::to_string(mcc->seams.size()) + " < " + std::to_string(min_seams));
+      }
       r["device_protocol_errors"] = mcc->protocol_errors;
       if (mcc->protocol_errors != 0) failures.push_back("the daemon sent commands the USB-1208LS refuses");
     }

@@ -6,7 +6,8 @@
 // expected one, a repeat means "not ready yet" (the device answers a feature request with its
 // last report, per the public driver's polling loop [7]). The report layout is detected from the
 // first reports of a session (protocol [7]): reports are held back until it is known, so
-// nothing is published from a guessed layout.
+// nothing is published from a guessed layout. Every seam between executions is published as
+// lost scans (FLAG_GAP).
 // A channel list the device cannot queue (3, 5-7) is padded (protocol [9]); the padding inputs
 // are scanned and their samples dropped here.
 // hidapi is synchronous: the acquisition thread polls with a 1 ms pause between empty answers.
@@ -51,11 +52,14 @@ class Usb1208lsBackend final : public Backend {
     rate_hz_ = timer_ ? timer_->actual_rate_hz / static_cast<double>(n_queue_) : cfg.scan_rate_hz;
     single_ = cfg.mcc_single_reads;
     if (single_) rate_hz_ = cfg.scan_rate_hz;  // host-paced
-    // A scan: whole reports and whole queue cycles, ~1 s of data, within the 16-bit count.
+    // An execution: whole reports and whole queue cycles, as long as the 16-bit count allows
+    // [9] (each seam between two is a hole, published as such), or acquisition.segment_scans.
     const std::size_t unit = mcc::kSamplesPerScanReport * n_queue_;
-    std::size_t burst = static_cast<std::size_t>(rate_hz_ * static_cast<double>(n_queue_)) / unit * unit;
+    std::size_t burst = mcc::kMaxScanCount / unit * unit;
+    if (cfg.segment_scans > 0) {
+      burst = std::min<std::size_t>(burst, static_cast<std::size_t>(cfg.segment_scans) * n_queue_ / unit * unit);
+    }
     if (burst < 2 * unit) burst = 2 * unit;  // the layout is known within the first scan [7]
-    while (burst > 32768) burst -= unit;
     burst_samples_ = burst;
     volts_.assign(mcc::kSamplesPerScanReport + n_queue_, 0.0F);
   }
@@ -94,7 +98,6 @@ class Usb1208lsBackend final : public Backend {
 
   StreamEnd stream(ScanSink& sink, const std::atomic<bool>& stop, std::string& why) override {
     if (single_) return stream_single(sink, stop, why);
-    bool continuous = false;
     carry_n_ = 0;
     held_n_ = 0;
     size_layout_.reset();
@@ -107,8 +110,10 @@ class Usb1208lsBackend final : public Backend {
         sink.on_usb_error();
         return StreamEnd::kError;
       }
-      sink.on_segment_start(sent_us, now_utime(), continuous);
-      continuous = true;
+      // [9] never continuous: the device was idle since the last execution's last sample (the
+      // seam), so the scans it did not take are published as lost (FLAG_GAP, dropped_scans).
+      sink.on_segment_start(sent_us, now_utime(), false);
+      carry_n_ = 0;  // an execution is whole queue cycles
       std::uint16_t expect = 1;
       std::size_t got = 0;
       auto last_progress = std::chrono::steady_clock::now();

@@ -36,11 +36,18 @@
 //  8. Rates [M]: continuous scanning at most 1.2 kS/s aggregate; burst mode (options 0x2, the
 //     device signals the end of a block with an input report holding 0xA5 [W][WP]) at most 8 kS/s
 //     but at most 4096 samples (its FIFO); software-paced (one AIn per sample) about 50 S/s.
-//  9. OUR DESIGN: continuous acquisition = back-to-back single-execution, non-burst AInScans of
-//     ~1 s (multiple of 64 samples and of the queue length), scan index carried over, as for the
-//     NI devices; aggregate rate limited to [8]'s 1.2 kS/s. Burst mode is not used (a 4096-sample
-//     block then a pause is not a stream). A channel list of 3, 5, 6 or 7 is padded to the next
-//     allowed queue length with unused inputs whose samples are dropped (queue_length).
+//  9. OUR DESIGN: continuous acquisition = back-to-back single-execution, non-burst AInScans as
+//     long as the 16-bit count allows (65 s at 1 kS/s; whole reports and queue cycles,
+//     acquisition.segment_scans shortens them), aggregate rate limited to [8]'s 1.2 kS/s. The
+//     device is idle between the last sample of one execution and the start of the next (the
+//     seam: the read of the last report plus the AInScan command, 10-18 ms): every seam is
+//     published as lost scans (FLAG_GAP, dropped_scans = its length from the host clock), never
+//     hidden behind a continuous index. Continuous execution (options bit 0 clear, [WP] docstring
+//     "count is equal to packet size (64)") is not used: no public program runs it, so how its
+//     scan index wraps and what an overrun looks like is unknown. Burst mode is not used (a
+//     4096-sample block then a pause is not a stream). A channel list of 3, 5, 6 or 7 is padded
+//     to the next allowed queue length with unused inputs whose samples are dropped
+//     (queue_length).
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -55,6 +62,7 @@ inline constexpr std::size_t kOutReportBytes = 9;       // [2] with report id 0
 inline constexpr std::size_t kInReportBytes = 8;        // [2]
 inline constexpr std::size_t kScanReportBytes = 105;    // [7] the longer reading
 inline constexpr std::size_t kScanReportBytesNoRecord = 104;  // [7] [WP]: no record number
+inline constexpr std::uint16_t kMaxScanCount = 65535;   // [3] 16-bit count (lo, hi bytes)
 inline constexpr std::size_t kSamplesPerScanReport = 64;
 inline constexpr double kClockHz = 6e6;                 // [6]
 inline constexpr double kMinTimerRateHz = 100.0;        // [6] aggregate

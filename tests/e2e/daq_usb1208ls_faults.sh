@@ -1,5 +1,5 @@
 # MCC USB-1208LS where the public sources leave the device's behaviour open (docs/daq.md,
-# "Protocol facts" 14-15), each against a virtual device answering the way one source reads it;
+# "Protocol facts" 14-16), each against a virtual device answering the way one source reads it;
 # the checker compares every published volt with what the device digitised (1 LSB) unless the
 # block is flagged doubtful. 250 scans/s, 3 channels scanned as a queue of 4 (1000 S/s). The rate
 # bound is 5 %: the measured slope reads the emulator's pacing on a loaded host (242.6 of 250.7
@@ -34,5 +34,16 @@ vdaq --model 1208ls --duration 5 --rate 250 --decimate 5 --block-scans 2 --min-s
      --max-dropped 1000 --max-seam-error 5 --min-rate-ratio 0.9 -- -s acquisition.segment_scans=190
 summary
 at_most "$(report max_value_error_lsb)" 1.0 || fail "seams, decimated: value error above 1 LSB"
+
+# 3. Single-ended scan samples offset-coded like the AIn reply (no public source ran a
+#    single-ended scan): told from an AIn reading at open, every value exact, none over range.
+vdaq --model 1208ls --duration 3 --rate 250 --decimate 1 --block-scans 10 --se-scan-coding offset \
+     --expect-variant "single-ended scan samples offset-coded" --min-rate-ratio 0.95
+summary
+at_most "$(report max_value_error_lsb)" 1.0 || fail "offset-coded scans: value error above 1 LSB"
+[ "$(report doubtful_blocks)" = 0 ] || fail "offset-coded scans: $(report doubtful_blocks) doubtful blocks"
+vdaq --model 1208ls --duration 3 --rate 250 --decimate 1 --block-scans 10 --se-scan-coding twos \
+     --expect-variant "single-ended scan samples two's complement" --min-rate-ratio 0.95
+summary
 
 echo ok

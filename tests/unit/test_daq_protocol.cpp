@@ -234,6 +234,22 @@ TEST(MccUsb1208ls, A104ByteReportIsDataFirstByItsLength) {
   EXPECT_EQ(d.layout(), mcc::ReportLayout::kDataFirst);
 }
 
+TEST(MccUsb1208ls, SingleEndedScanCodingIsToldFromAnAInReading) {
+  // [5][7] an AIn reading of +3.00 V single-ended: 307 counts (x 10 / 0x3FF).
+  const std::int16_t ain = 307;
+  // The same input in a scan field, two's complement (307) or offset like the AIn reply (307 + 0x400).
+  EXPECT_EQ(mcc::se_scan_coding_from(ain, 305), mcc::SeScanCoding::kTwosComplement);
+  EXPECT_EQ(mcc::se_scan_coding_from(ain, 305 + 0x400), mcc::SeScanCoding::kOffset);
+  // Read the other way the offset field is 13.0 V: over range, never a value.
+  EXPECT_EQ(mcc::se_scan_counts(307 + 0x400, mcc::SeScanCoding::kTwosComplement), 307 + 0x400);
+  EXPECT_EQ(mcc::se_scan_counts(307 + 0x400, mcc::SeScanCoding::kOffset), 307);
+  // Negative inputs: -5 V = -512 counts.
+  EXPECT_EQ(mcc::se_scan_coding_from(-512, mcc::scan_field12(-510)), mcc::SeScanCoding::kTwosComplement);
+  EXPECT_EQ(mcc::se_scan_coding_from(-512, static_cast<unsigned>(-510 + 0x400)), mcc::SeScanCoding::kOffset);
+  // The input moved by 5 V between the readings: neither coding within 2.5 V, no verdict.
+  EXPECT_FALSE(mcc::se_scan_coding_from(ain, static_cast<unsigned>(307 + 0x200)));
+}
+
 TEST(MccUsb1208ls, QueueLengthAndVoltsFactors) {
   // [3]: the queue holds 1, 2, 4 or 8 entries (wjasper usb-1208LS.c, usb_1208LS.py).
   EXPECT_EQ(mcc::queue_length(1), 1U);

@@ -143,7 +143,12 @@ int Usb1208lsModel::on_control(const std::uint8_t* setup, std::span<std::uint8_t
       if (last_index_ < ready_reports) {
         std::array<std::int16_t, mcc::kSamplesPerScanReport> s{};
         const std::int64_t base = session_sample_ + std::int64_t{last_index_} * 64;
-        for (std::size_t i = 0; i < s.size(); ++i) s[i] = counts(sessions, base + static_cast<std::int64_t>(i));
+        for (std::size_t i = 0; i < s.size(); ++i) {
+          s[i] = counts(sessions, base + static_cast<std::int64_t>(i));
+          // Single-ended samples coded like the AIn reply (an 11-bit offset) instead of 12-bit
+          // two's complement: the reading no public source rules out [7].
+          if (opt_.se_scan_offset && gain_ == mcc::kSe10V) s[i] = static_cast<std::int16_t>(s[i] + 0x400);
+        }
         ++last_index_;
         mcc::encode_scan_report(s, last_index_, static_cast<std::uint8_t>(last_index_),
                                 std::span<std::uint8_t, mcc::kScanReportBytes>(last_report_.data(), mcc::kScanReportBytes),

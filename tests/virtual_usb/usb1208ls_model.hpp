@@ -20,6 +20,7 @@ namespace pof::vusb {
 struct MccOptions {
   pof::daq::mcc::ReportLayout layout = pof::daq::mcc::ReportLayout::kRecordFirst;
   std::size_t report_bytes = pof::daq::mcc::kScanReportBytes;  // 105, or 104 (data-first only)
+  bool se_scan_offset = false;   // single-ended scan samples offset-coded like the AIn reply
 };
 
 class Usb1208lsModel final : public DeviceModel {

@@ -364,6 +364,7 @@ int main(int argc, char** argv) {
   double steady_volts = kNaN;
   std::string report_layout = "record-first";
   int report_bytes = 105;
+  std::string se_scan_coding = "twos";
   double max_seam_error = 1;
   long min_seams = 0;
   std::string expect_variant;
@@ -415,6 +416,9 @@ int main(int argc, char** argv) {
   app.add_option("--report-bytes", report_bytes,
                  "USB-1208LS scan report length on the wire: 105, or 104 (wjasper Python: data-first, no record number)")
       ->check(CLI::IsMember({104, 105}));
+  app.add_option("--se-scan-coding", se_scan_coding,
+                 "USB-1208LS single-ended scan samples: twos (12-bit two's complement) or offset (as the AIn reply)")
+      ->check(CLI::IsMember({"twos", "offset"}));
   app.add_option("--max-seam-error", max_seam_error,
                  "USB-1208LS: bound on |published hole - scans the device did not take| per seam");
   app.add_option("--min-seams", min_seams, "USB-1208LS: seams (idle device between executions) that must be seen");
@@ -520,6 +524,7 @@ int main(int argc, char** argv) {
       mo.layout = report_layout == "data-first" || report_bytes == 104 ? pof::daq::mcc::ReportLayout::kDataFirst
                                                                        : pof::daq::mcc::ReportLayout::kRecordFirst;
       mo.report_bytes = static_cast<std::size_t>(report_bytes);
+      mo.se_scan_offset = se_scan_coding == "offset";
       mcc = std::make_unique<pof::vusb::Usb1208lsModel>(clock_ppm, *bench, mo);
       dev = std::make_unique<pof::vusb::UsbdevfsDevice>(
           testbed, pof::vusb::UsbIds{0x09db, 0x007a, descriptors(0x09db, 0x007a, pof::vusb::Usb1208lsModel::kInterfaceHex, pof::vusb::Usb1208lsModel::kInterfaceLen)},

@@ -5,9 +5,9 @@
 // feature reports (the length decides: protocol [7]); the report's scan index must be the next
 // expected one, a repeat means "not ready yet" (the device answers a feature request with its
 // last report, per the public driver's polling loop [7]). The report layout is detected from the
-// first reports of a session (protocol [7]): reports are held back until it is known, so
-// nothing is published from a guessed layout. Every seam between executions is published as
-// lost scans (FLAG_GAP).
+// first reports of a session (protocol [7]) and, single-ended, the scan coding from an AIn
+// reading taken at open: reports are held back until both are known, so nothing is published
+// from a guess. Every seam between executions is published as lost scans (FLAG_GAP).
 // A channel list the device cannot queue (3, 5-7) is padded (protocol [9]); the padding inputs
 // are scanned and their samples dropped here.
 // hidapi is synchronous: the acquisition thread polls with a 1 ms pause between empty answers.
@@ -93,13 +93,37 @@ class Usb1208lsBackend final : public Backend {
     for (std::size_t i = 0; i < nq; ++i) {
       if (!write(q[i], why)) return OpenStatus::kFault;
     }
+    if (single_) return OpenStatus::kOk;
+    // [7] evidence for the single-ended scan coding: an AIn reading of the first queued input,
+    // compared with its first scan sample once the scan runs.
+    probe_ain_.reset();
+    if (gain_ == mcc::kSe10V) {
+      std::int16_t counts = 0;
+      if (!ain(ai_[0], counts, why)) return OpenStatus::kFault;
+      probe_ain_ = counts;
+    }
     return OpenStatus::kOk;
+  }
+
+  bool ain(std::uint8_t channel, std::int16_t& counts, std::string& why) {
+    if (!write(mcc::ain_report(channel, gain_), why)) return false;
+    std::array<std::uint8_t, mcc::kInReportBytes> in{};
+    const int n = hid_read_timeout(dev_, in.data(), in.size(), 1500);  // [2]
+    if (n < 2) {
+      why = n < 0 ? "MCC USB-1208LS: reading an AIn reply failed (device removed?)"
+                  : "MCC USB-1208LS: no AIn reply within 1.5 s";
+      return false;
+    }
+    counts = gain_ == mcc::kSe10V ? mcc::decode_ain_single_ended(in[0], in[1])
+                                  : mcc::decode_ain_differential(in[0], in[1]);
+    return true;
   }
 
   StreamEnd stream(ScanSink& sink, const std::atomic<bool>& stop, std::string& why) override {
     if (single_) return stream_single(sink, stop, why);
     carry_n_ = 0;
     held_n_ = 0;
+    se_coding_.reset();
     size_layout_.reset();
     variant_sent_ = false;
     if (detector_.decided()) sink.on_variant(variant_bits());
@@ -166,7 +190,8 @@ class Usb1208lsBackend final : public Backend {
             return StreamEnd::kError;
           }
         }
-        if (held_n_ > 0) {  // the layout is known: publish what was held back
+        if (held_n_ > 0) {  // the layout is known: decide the single-ended coding, then publish
+          if (gain_ == mcc::kSe10V && !se_coding_) decide_se_coding(held_[0]);
           sink.on_variant(variant_bits());
           for (std::size_t i = 0; i < held_n_; ++i) deliver_report(sink, held_[i]);
           held_n_ = 0;
@@ -174,6 +199,7 @@ class Usb1208lsBackend final : public Backend {
           continue;
         }
         if (!variant_sent_) {  // the layout told by the report's length: nothing held back
+          if (gain_ == mcc::kSe10V && !se_coding_) decide_se_coding(buf);
           sink.on_variant(variant_bits());
           variant_sent_ = true;
         }
@@ -251,9 +277,22 @@ class Usb1208lsBackend final : public Backend {
     std::uint32_t bits = detector_.layout() == mcc::ReportLayout::kRecordFirst ? kVariantLayoutRecordFirst
                                                                                : kVariantLayoutDataFirst;
     if (size_layout_ && size_layout_->first == mcc::kScanReportBytesNoRecord) bits |= kVariantReport104;
+    if (gain_ == mcc::kSe10V) {
+      if (!se_coding_ || !*se_coding_) bits |= kVariantSeScanUndecided;
+      else bits |= **se_coding_ == mcc::SeScanCoding::kOffset ? kVariantSeScanOffset : kVariantSeScanTwos;
+    }
     return bits;
   }
 
+  // [7] the first sample of a session's first report is the first queued input, read by AIn at
+  // open: the coding under which both agree is the device's; none (no probe, or the input moved
+  // by more than 2.5 V) leaves the session's blocks flagged doubtful.
+  void decide_se_coding(const Report& first) {
+    std::array<std::int16_t, mcc::kSamplesPerScanReport> s{};
+    (void)mcc::decode_scan_report(mcc::ScanReport(first.data() + 1, mcc::kScanReportBytes), s, detector_.layout());
+    se_coding_ = probe_ain_ ? mcc::se_scan_coding_from(*probe_ain_, mcc::scan_field12(s[0]))
+                            : std::optional<mcc::SeScanCoding>{};
+  }
 
   void deliver_report(ScanSink& sink, const Report& buf) {
     const mcc::ScanReport wire(buf.data() + 1, mcc::kScanReportBytes);
@@ -271,8 +310,12 @@ class Usb1208lsBackend final : public Backend {
     std::size_t out = 0;
     std::int32_t flags = error ? int32_t{pof::raw_block_t::FLAG_DEVICE_ERROR} : 0;
     const int fs = mcc::full_scale_counts(gain_);
+    const bool se = gain_ == mcc::kSe10V;
+    const bool offset = se && se_coding_ && *se_coding_ && **se_coding_ == mcc::SeScanCoding::kOffset;
+    if (se && (!se_coding_ || !*se_coding_)) flags |= int32_t{pof::raw_block_t::FLAG_DOUBTFUL};
     for (std::size_t i = 0; i < carry_n_; ++i) volts_[out++] = carry_[i];
     for (auto c : s) {
+      if (offset) c = mcc::se_scan_counts(mcc::scan_field12(c), mcc::SeScanCoding::kOffset);
       if (c >= fs || c <= -fs - 1) flags |= int32_t{pof::raw_block_t::FLAG_OVER_RANGE};
       volts_[out++] = static_cast<float>(mcc::scan_counts_to_volts(c, gain_));
     }
@@ -294,6 +337,8 @@ class Usb1208lsBackend final : public Backend {
   mcc::LayoutDetector detector_;
   // (wire bytes, the layout that length implies) of the session's first report [7]
   std::optional<std::pair<std::size_t, std::optional<mcc::ReportLayout>>> size_layout_;
+  std::optional<std::int16_t> probe_ain_;                       // AIn counts at open [7]
+  std::optional<std::optional<mcc::SeScanCoding>> se_coding_;   // decided (or not) this session
   bool single_ = false;  // single AIn reads (acquisition.mcc_mode = "single")
   std::array<Report, mcc::LayoutDetector::kLayoutReports + 2> held_{};
   std::size_t held_n_ = 0;

@@ -20,6 +20,10 @@ std::string describe_variant(std::uint32_t bits) {
   add(kVariantLayoutDataFirst, "report layout data-first (index at 101)");
   add(kVariantPaddingSet, "padding bits set in samples");
   add(kVariantReport104, "scan report 104 bytes (no record number)");
+  add(kVariantSeScanOffset, "single-ended scan samples offset-coded (an AIn reading agreed)");
+  add(kVariantSeScanTwos, "single-ended scan samples two's complement (an AIn reading agreed)");
+  add(kVariantSeScanUndecided,
+      "single-ended scan coding undecided: no AIn reading agreed (blocks flagged doubtful)");
   return s;
 }
 

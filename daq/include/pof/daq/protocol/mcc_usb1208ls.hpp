@@ -33,6 +33,12 @@
 //     addr[2], scan index[2], extra} = 104 bytes. A device may therefore answer the GET_REPORT
 //     with 104 or 105 bytes; the length decides (layout_for_size): 104 can only be data-first,
 //     105 is either and is detected from the scan index as above.
+//     Single-ended scan samples: no public source ran a single-ended AInScan ([W] test program and
+//     [WP] scan only differential gains), while the single-ended AIn reply is 11-bit offset
+//     coded [5]. The coding is decided per session from evidence (se_scan_coding_from): an AIn
+//     reading of the first queued channel against the first scan sample of that channel read
+//     both ways; the two codings differ by 0x400 counts (10 V), so the verdict is unambiguous
+//     unless the input moved by more than 2.5 V between the two readings (tolerance 0x100).
 //  8. Rates [M]: continuous scanning at most 1.2 kS/s aggregate; burst mode (options 0x2, the
 //     device signals the end of a block with an input report holding 0xA5 [W][WP]) at most 8 kS/s
 //     but at most 4096 samples (its FIFO); software-paced (one AIn per sample) about 50 S/s.
@@ -131,6 +137,21 @@ const char* layout_name(ReportLayout l);
 std::optional<ReportLayout> layout_for_size(std::size_t wire_bytes);
 /// [7] whether `wire_bytes` is the length of a scan report (104 or 105).
 bool is_scan_report_size(std::size_t wire_bytes);
+
+/// [7] how single-ended scan samples are coded in their 12-bit field.
+enum class SeScanCoding : std::uint8_t {
+  kTwosComplement,  // as differential scan samples ([W] decode_scan_report)
+  kOffset,          // as the single-ended AIn reply: field - 0x400
+};
+/// The signed count of a 12-bit scan field under a coding.
+std::int16_t se_scan_counts(unsigned field12, SeScanCoding c);
+/// [7] the 12-bit field of a decoded (sign-extended) scan sample.
+unsigned scan_field12(std::int16_t decoded);
+/// [7] the coding under which scan sample field `field12` agrees with an AIn reading of the same
+/// input (`ain_counts`, decode_ain_single_ended) within `tolerance` counts while the other one
+/// does not; nullopt when neither or both agree (no evidence).
+std::optional<SeScanCoding> se_scan_coding_from(std::int16_t ain_counts, unsigned field12,
+                                                int tolerance = 0x100);
 
 using ScanReport = std::span<const std::uint8_t, kScanReportBytes>;
 /// [7] the scan index of a report read with layout `l`.

@@ -1,5 +1,5 @@
 # MCC USB-1208LS where the public sources leave the device's behaviour open (docs/daq.md,
-# "Protocol facts" 14-16), each against a virtual device answering the way one source reads it;
+# "Protocol facts" 14-17), each against a virtual device answering the way one source reads it;
 # the checker compares every published volt with what the device digitised (1 LSB) unless the
 # block is flagged doubtful. 250 scans/s, 3 channels scanned as a queue of 4 (1000 S/s). The rate
 # bound is 5 %: the measured slope reads the emulator's pacing on a loaded host (242.6 of 250.7
@@ -46,4 +46,17 @@ vdaq --model 1208ls --duration 3 --rate 250 --decimate 1 --block-scans 10 --se-s
      --expect-variant "single-ended scan samples two's complement" --min-rate-ratio 0.95
 summary
 
+# 4. A device that refuses the feature report (hid_get_feature_report -1 while AIn answers):
+#    a fault that says so, not a reconnect loop ...
+vdaq --model 1208ls --duration 3 --rate 250 --decimate 1 --block-scans 10 --refuse-feature \
+     --expect-no-data --expect-state 3
+summary
+grep -q "refuses the scan feature report" <<<"$(report states_seen)" || fail "state text: $(report states_seen)"
+[ "$(report status.reconnects)" = 0 ] || fail "refused feature report: reconnects $(report status.reconnects)"
+#    ... and with mcc_mode = "auto", software-paced AIn reads at 50 reads/s / 3 channels.
+vdaq --model 1208ls --duration 4 --rate 250 --decimate 1 --block-scans 1 --refuse-feature \
+     --expect-rate 16.6667 --min-rate-ratio 0.95 --expect-variant "software-paced AIn reads, 50 reads/s" \
+     -- -s 'acquisition.mcc_mode="auto"'
+summary
+at_most "$(report max_value_error_lsb)" 1.0 || fail "software-paced fallback: value error above 1 LSB"
 echo ok

@@ -113,6 +113,7 @@ void Usb1208lsModel::command(std::span<const std::uint8_t> r, std::int64_t now_u
       break;
     }
     case mcc::kAIn: {  // single read: 11-bit single-ended reply {lo, hi} [5]
+      if (sessions == 0) begin_session();  // a read before any queue was loaded
       single_reads_seen = true;
       const std::size_t ch = r.size() > 1 ? (r[1] & 7U) : 0;
       const auto raw = static_cast<unsigned>(se_counts(sessions, reads_[ch]++, ch) + 0x400);
@@ -136,6 +137,10 @@ int Usb1208lsModel::on_control(const std::uint8_t* setup, std::span<std::uint8_t
     return static_cast<int>(data.size());
   }
   if (type == 0xA1 && req == 0x01 && (value >> 8) == 3) {  // GET_REPORT feature: scan data
+    if (opt_.refuse_feature) {
+      ++feature_refusals;
+      return -32;  // EPIPE: hidapi-libusb returns -1
+    }
     if (running_) {
       const double elapsed = static_cast<double>(now_us - start_us_) / 1e6;
       const auto done = static_cast<long>(std::min<double>(count_, std::floor(elapsed * rate_hz)));

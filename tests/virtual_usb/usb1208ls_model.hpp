@@ -21,6 +21,7 @@ struct MccOptions {
   pof::daq::mcc::ReportLayout layout = pof::daq::mcc::ReportLayout::kRecordFirst;
   std::size_t report_bytes = pof::daq::mcc::kScanReportBytes;  // 105, or 104 (data-first only)
   bool se_scan_offset = false;   // single-ended scan samples offset-coded like the AIn reply
+  bool refuse_feature = false;   // every feature GET_REPORT stalls (hidapi returns -1)
 };
 
 class Usb1208lsModel final : public DeviceModel {
@@ -53,7 +54,7 @@ class Usb1208lsModel final : public DeviceModel {
   /// Sessions whose data came from AInScans (else from single AIn reads).
   std::vector<int> scan_sessions;
   [[nodiscard]] bool scanned(int session) const;
-
+  int feature_refusals = 0;
   /// Single AIn reads: the volts of read `idx` of channel `ch` (11-bit single-ended coding); the
   /// k-th read of every channel samples bench scan k of the session.
   [[nodiscard]] double volts_single(int session, std::int64_t idx, std::size_t ch);

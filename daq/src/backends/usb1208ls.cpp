@@ -8,6 +8,8 @@
 // first reports of a session (protocol [7]) and, single-ended, the scan coding from an AIn
 // reading taken at open: reports are held back until both are known, so nothing is published
 // from a guess. Every seam between executions is published as lost scans (FLAG_GAP).
+// At open the feature report is read once: a device that refuses it (protocol [9]) is a fault
+// with its reason, or, with acquisition.mcc_mode = "auto", read by single AIns instead.
 // A channel list the device cannot queue (3, 5-7) is padded (protocol [9]); the padding inputs
 // are scanned and their samples dropped here.
 // hidapi is synchronous: the acquisition thread polls with a 1 ms pause between empty answers.
@@ -88,12 +90,33 @@ class Usb1208lsBackend final : public Backend {
     }
     if (!write(mcc::ain_stop_report(), why)) return OpenStatus::kFault;
     detector_ = mcc::LayoutDetector{};  // another device may have been plugged in
+    // [9] the feature report the scan is read with, once before the scan: a device that refuses
+    // it (while it answers AIn) cannot scan.
+    if (!single_) {
+      Report probe{};
+      if (hid_get_feature_report(dev_, probe.data(), probe.size()) < 0) {
+        std::int16_t counts = 0;
+        if (!ain(ai_[0], counts, why)) return OpenStatus::kFault;  // not answering at all
+        if (!cfg_.mcc_fallback_single || reported_rate_) {
+          why = "MCC USB-1208LS: the device refuses the scan feature report (GET_REPORT fails while "
+                "AIn answers; known with hidapi-libusb): AInScan cannot be read. " +
+                std::string(reported_rate_ ? "The software-paced fallback needs a restart of pof-daqd (the published rate is set)"
+                                           : "Set acquisition.mcc_mode = \"auto\" for software-paced AIn reads (at most 50/s)");
+          return OpenStatus::kFault;
+        }
+        // [8] software-paced: at most kMaxSoftwarePacedHz AIn reads per second over the channels,
+        // for the rest of the process (the published rate is set at the first open).
+        single_ = true;
+        fallback_ = true;
+        rate_hz_ = mcc::kMaxSoftwarePacedHz / static_cast<double>(n_ch_);
+      }
+    }
     std::array<mcc::OutReport, 2> q{};
     const std::size_t nq = mcc::load_queue_reports(ai_, gain_, q);
     for (std::size_t i = 0; i < nq; ++i) {
       if (!write(q[i], why)) return OpenStatus::kFault;
     }
-    if (single_) return OpenStatus::kOk;
+    if (single_) return opened();
     // [7] evidence for the single-ended scan coding: an AIn reading of the first queued input,
     // compared with its first scan sample once the scan runs.
     probe_ain_.reset();
@@ -102,6 +125,11 @@ class Usb1208lsBackend final : public Backend {
       if (!ain(ai_[0], counts, why)) return OpenStatus::kFault;
       probe_ain_ = counts;
     }
+    return opened();
+  }
+
+  OpenStatus opened() {
+    reported_rate_ = true;  // the daemon reads device_scan_rate_hz() after the first kOk
     return OpenStatus::kOk;
   }
 
@@ -120,7 +148,10 @@ class Usb1208lsBackend final : public Backend {
   }
 
   StreamEnd stream(ScanSink& sink, const std::atomic<bool>& stop, std::string& why) override {
-    if (single_) return stream_single(sink, stop, why);
+    if (single_) {
+      if (fallback_) sink.on_variant(kVariantSoftwarePaced);
+      return stream_single(sink, stop, why);
+    }
     carry_n_ = 0;
     held_n_ = 0;
     se_coding_.reset();
@@ -339,7 +370,9 @@ class Usb1208lsBackend final : public Backend {
   std::optional<std::pair<std::size_t, std::optional<mcc::ReportLayout>>> size_layout_;
   std::optional<std::int16_t> probe_ain_;                       // AIn counts at open [7]
   std::optional<std::optional<mcc::SeScanCoding>> se_coding_;   // decided (or not) this session
-  bool single_ = false;  // single AIn reads (acquisition.mcc_mode = "single")
+  bool single_ = false;         // single AIn reads (configured, or the fallback)
+  bool fallback_ = false;       // single reads because the device refuses the feature report
+  bool reported_rate_ = false;  // an open succeeded: the daemon has read device_scan_rate_hz()
   std::array<Report, mcc::LayoutDetector::kLayoutReports + 2> held_{};
   std::size_t held_n_ = 0;
   bool variant_sent_ = false;  // this session's variant told to the sink

@@ -24,6 +24,9 @@ std::string describe_variant(std::uint32_t bits) {
   add(kVariantSeScanTwos, "single-ended scan samples two's complement (an AIn reading agreed)");
   add(kVariantSeScanUndecided,
       "single-ended scan coding undecided: no AIn reading agreed (blocks flagged doubtful)");
+  add(kVariantSoftwarePaced,
+      "scan feature report refused (GET_REPORT fails): software-paced AIn reads, 50 reads/s over "
+      "the channels (scan_rate_hz is the real rate)");
   return s;
 }
 

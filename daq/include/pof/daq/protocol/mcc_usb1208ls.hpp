@@ -50,10 +50,13 @@
 //     published as lost scans (FLAG_GAP, dropped_scans = its length from the host clock), never
 //     hidden behind a continuous index. Continuous execution (options bit 0 clear, [WP] docstring
 //     "count is equal to packet size (64)") is not used: no public program runs it, so how its
-//     scan index wraps and what an overrun looks like is unknown. Burst mode is not used (a
-//     4096-sample block then a pause is not a stream). A channel list of 3, 5, 6 or 7 is padded
-//     to the next allowed queue length with unused inputs whose samples are dropped
-//     (queue_length).
+//     scan index wraps and what an overrun looks like is unknown.
+//     A device that refuses the feature report (hid_get_feature_report -1 under hidapi-libusb
+//     while AIn works: a public user report against [W], confirmed by its author) cannot scan;
+//     with acquisition.mcc_mode = "auto" the backend then reads single AIns, host-paced at
+//     kMaxSoftwarePacedHz / channels scans/s, and says so. Burst mode is not used (a 4096-sample
+//     block then a pause is not a stream). A channel list of 3, 5, 6 or 7 is padded to the next
+//     allowed queue length with unused inputs whose samples are dropped (queue_length).
 #include <array>
 #include <cstddef>
 #include <cstdint>

@@ -54,6 +54,7 @@ enum Variant : std::uint32_t {
   kVariantSeScanOffset = 1U << 9,       // MCC single-ended scan samples offset-coded (AIn probe)
   kVariantSeScanTwos = 1U << 10,        // MCC single-ended scan samples two's complement (AIn probe)
   kVariantSeScanUndecided = 1U << 11,   // MCC single-ended scan coding not told (blocks doubtful)
+  kVariantSoftwarePaced = 1U << 12,     // MCC feature report refused: single AIn reads instead
 };
 /// Text for daq_status_t.protocol_variant, e.g. "reply header 00 01; samples big-endian".
 std::string describe_variant(std::uint32_t bits);

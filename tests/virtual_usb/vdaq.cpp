@@ -362,6 +362,7 @@ int main(int argc, char** argv) {
   int reply_header = 0;
   bool padding_noise = false;
   double steady_volts = kNaN;
+  int steady_noise_lsb = 1;
   std::string report_layout = "record-first";
   int report_bytes = 105;
   std::string se_scan_coding = "twos";
@@ -413,6 +414,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 1));
   app.add_flag("--padding-noise", padding_noise, "NI samples carry noise in their padding bits");
   app.add_option("--steady-volts", steady_volts, "NI inputs at this level (+-1 LSB) instead of the knee");
+  app.add_option("--steady-noise-lsb", steady_noise_lsb, "noise on the --steady-volts level: 1 (+-1 LSB) or 0 (none)")
+      ->check(CLI::Range(0, 1));
   app.add_option("--report-layout", report_layout, "USB-1208LS feature-report layout")
       ->check(CLI::IsMember({"record-first", "data-first"}));
   app.add_option("--report-bytes", report_bytes,
@@ -504,6 +507,7 @@ int main(int argc, char** argv) {
   no.reply_header = static_cast<std::uint8_t>(reply_header);
   no.padding_noise = padding_noise;
   no.steady_volts = steady_volts;
+  no.steady_noise_lsb = steady_noise_lsb;
   std::mutex replay_mu;
   if (!replay_pcap.empty()) {
     bench->begin_session();  // the recorded device's one session (the model sees no commands)

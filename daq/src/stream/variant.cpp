@@ -15,7 +15,9 @@ std::string describe_variant(std::uint32_t bits) {
   add(kVariantHeader0001, "reply header 00 01");
   add(kVariantBigEndian, "samples big-endian");
   add(kVariantLittleEndian, "samples little-endian");
-  add(kVariantOrderUndecided, "sample byte order undecided (blocks flagged doubtful)");
+  add(kVariantOrderUndecided,
+      "sample byte order undecided: the signal has not told it (a steady input reads smooth both "
+      "ways); blocks flagged doubtful until it moves or acquisition.sample_byte_order is set");
   add(kVariantLayoutRecordFirst, "report layout record-first (index at 102)");
   add(kVariantLayoutDataFirst, "report layout data-first (index at 101)");
   add(kVariantPaddingSet, "padding bits set in samples");

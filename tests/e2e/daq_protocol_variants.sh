@@ -26,6 +26,18 @@ vdaq --model 6008 --duration 2.5 --rate 1000 --decimate 1 --block-scans 10 --byt
 summary
 doubtful=$(report doubtful_blocks)
 [ "$doubtful" -gt 0 ] && [ "$doubtful" -le 30 ] || fail "doubtful blocks: $doubtful"
+# A perfectly steady input (no noise at all) reads smooth in both byte orders: nothing tells the
+# order, so every block stays doubtful and the status says why (read big-endian, this
+# little-endian +0.03 V would be -2.46 V) ...
+vdaq --model 6008 --duration 2.5 --rate 1000 --decimate 1 --block-scans 10 --byte-order little \
+     --steady-volts 0.03 --steady-noise-lsb 0 --expect-variant "sample byte order undecided: the signal has not told it"
+summary
+[ "$(report doubtful_blocks)" = "$(report blocks)" ] || fail "steady input: $(report doubtful_blocks) of $(report blocks) blocks doubtful"
+# ... until the configuration pins it (docs/daq.md, fact 9): then every value is exact.
+vdaq --model 6008 --duration 2.5 --rate 1000 --decimate 1 --block-scans 10 --byte-order little \
+     --steady-volts 0.03 --steady-noise-lsb 0 --daemon-byte-order little --expect-variant "samples little-endian"
+summary
+[ "$(report doubtful_blocks)" = 0 ] || fail "pinned byte order: $(report doubtful_blocks) doubtful blocks"
 # ... and big-endian (comedi's family) with the knee signal, with nonzero padding as well.
 vdaq --model 6008 --duration 2.5 --rate 1000 --decimate 1 --block-scans 10 --padding-noise \
      --expect-variant "big-endian"

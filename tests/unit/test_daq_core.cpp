@@ -149,6 +149,18 @@ TEST(DaqConfig, DefaultsAndOverrides) {
   EXPECT_THROW(pof::apply_toml_override(t, "novalue"), pof::ConfigError);
 }
 
+TEST(DaqConfig, Usb1208lsAutoModeScansWithASoftwarePacedFallback) {
+  // mcc_usb1208ls.hpp [9]: "auto" scans, and reads single AIns if the device refuses the
+  // scan's feature report; its rate limits are those of scan mode.
+  const auto c = pof::daq::config_from_table(
+      toml::parse("schema_version = 1\n[device]\nkind = 'usb1208ls'\n[acquisition]\nmcc_mode = 'auto'\n"), "t.toml");
+  EXPECT_TRUE(c.mcc_fallback_single);
+  EXPECT_FALSE(c.mcc_single_reads);
+  EXPECT_NE(pof::daq::to_toml(c).find("mcc_mode = 'auto'"), std::string::npos);
+  EXPECT_NE(config_error("schema_version = 1\n[device]\nkind = 'usb1208ls'\n[acquisition]\nmcc_mode = 'auto'\n"
+                         "scan_rate_hz = 10.0").find("acquisition.scan_rate_hz"), std::string::npos);
+}
+
 TEST(DaqConfig, EveryErrorNamesItsKey) {
   EXPECT_NE(config_error("").find("schema_version"), std::string::npos);
   EXPECT_NE(config_error("schema_version = 1\n[acquisition]\nscan_rate_hz = 'fast'").find("acquisition.scan_rate_hz"), std::string::npos);

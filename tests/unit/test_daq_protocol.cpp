@@ -211,6 +211,45 @@ TEST(MccUsb1208ls, ReportLayoutIsToldFromTheScanIndex) {
   }
 }
 
+TEST(MccUsb1208ls, A104ByteReportIsDataFirstByItsLength) {
+  // [7] wjasper's Python port reads 104 bytes on the wire (get_feature_report(0, 105) counts
+  // the report id) and unpacks the C struct without its record number.
+  EXPECT_EQ(mcc::layout_for_size(104), mcc::ReportLayout::kDataFirst);
+  EXPECT_FALSE(mcc::layout_for_size(105));  // either layout: told from the scan index
+  EXPECT_TRUE(mcc::is_scan_report_size(104));
+  EXPECT_TRUE(mcc::is_scan_report_size(105));
+  EXPECT_FALSE(mcc::is_scan_report_size(103));
+  EXPECT_FALSE(mcc::is_scan_report_size(106));
+  std::array<std::int16_t, 64> s{};
+  for (std::size_t i = 0; i < s.size(); ++i) s[i] = static_cast<std::int16_t>(static_cast<int>(i) * 53 - 1700);
+  std::array<std::uint8_t, 105> r{};
+  mcc::encode_scan_report(s, 0x0203, 0, r, mcc::ReportLayout::kDataFirst);
+  r[104] = 0xEE;  // not on the wire: whatever the 105th byte holds, nothing reads it
+  std::array<std::int16_t, 64> back{};
+  EXPECT_EQ(mcc::decode_scan_report(r, back, mcc::ReportLayout::kDataFirst), 0x0203);
+  EXPECT_EQ(back, s);
+  mcc::LayoutDetector d;
+  d.force(mcc::ReportLayout::kDataFirst);
+  EXPECT_TRUE(d.decided());
+  EXPECT_EQ(d.layout(), mcc::ReportLayout::kDataFirst);
+}
+
+TEST(MccUsb1208ls, SingleEndedScanCodingIsToldFromAnAInReading) {
+  // [5][7] an AIn reading of +3.00 V single-ended: 307 counts (x 10 / 0x3FF).
+  const std::int16_t ain = 307;
+  // The same input in a scan field, two's complement (307) or offset like the AIn reply (307 + 0x400).
+  EXPECT_EQ(mcc::se_scan_coding_from(ain, 305), mcc::SeScanCoding::kTwosComplement);
+  EXPECT_EQ(mcc::se_scan_coding_from(ain, 305 + 0x400), mcc::SeScanCoding::kOffset);
+  // Read the other way the offset field is 13.0 V: over range, never a value.
+  EXPECT_EQ(mcc::se_scan_counts(307 + 0x400, mcc::SeScanCoding::kTwosComplement), 307 + 0x400);
+  EXPECT_EQ(mcc::se_scan_counts(307 + 0x400, mcc::SeScanCoding::kOffset), 307);
+  // Negative inputs: -5 V = -512 counts.
+  EXPECT_EQ(mcc::se_scan_coding_from(-512, mcc::scan_field12(-510)), mcc::SeScanCoding::kTwosComplement);
+  EXPECT_EQ(mcc::se_scan_coding_from(-512, static_cast<unsigned>(-510 + 0x400)), mcc::SeScanCoding::kOffset);
+  // The input moved by 5 V between the readings: neither coding within 2.5 V, no verdict.
+  EXPECT_FALSE(mcc::se_scan_coding_from(ain, static_cast<unsigned>(307 + 0x200)));
+}
+
 TEST(MccUsb1208ls, QueueLengthAndVoltsFactors) {
   // [3]: the queue holds 1, 2, 4 or 8 entries (wjasper usb-1208LS.c, usb_1208LS.py).
   EXPECT_EQ(mcc::queue_length(1), 1U);

@@ -22,6 +22,7 @@ std::uint16_t Ni600xModel::code(int session, std::int64_t index, std::size_t ch)
   // low bits and the knee's motion the high ones, so a byte-order or justification error shows.
   if (!std::isnan(o_.steady_volts)) {  // a steady level with +-1 LSB of noise, as an ADC shows
     const auto c = ni::volts_to_code(o_.steady_volts, coding_.bits, o_.range_v);
+    if (o_.steady_noise_lsb == 0) return c;  // a perfectly steady input: no order reads rougher
     return static_cast<std::uint16_t>(c + static_cast<int>((index * 7 + static_cast<std::int64_t>(ch) * 3 + session) % 3) - 1);
   }
   return ni::volts_to_code(bench_.volts(session, index, ai_[ch % ai_.size()]), coding_.bits, o_.range_v);

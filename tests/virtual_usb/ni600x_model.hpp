@@ -29,6 +29,7 @@ struct NiOptions {
   std::uint8_t reply_header = 0;  // header byte 1 of every reply: 00 ([C]) or 01 (6008 sources)
   bool padding_noise = false;     // padding bits below the value carry noise (no source checks them)
   double steady_volts = std::numeric_limits<double>::quiet_NaN();  // every input at this level
+  int steady_noise_lsb = 1;  // +- this many LSB of noise on the steady level (0: none at all)
                                   // (+-1 LSB noise) instead of the simulated knee
   std::string serial;      // iSerialNumber string (descriptor index 3); empty = none
 };

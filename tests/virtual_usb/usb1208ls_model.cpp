@@ -15,6 +15,26 @@ void Usb1208lsModel::power_cycle() {
   replies_.clear();
 }
 
+void Usb1208lsModel::begin_session() {
+  sessions = bench_.begin_session();
+  session_sample_ = 0;
+  delivered_ = 0;
+  end_us_ = -1;
+  std::fill(reads_.begin(), reads_.end(), 0);
+}
+
+std::int64_t Usb1208lsModel::bench_scan_of(int session, std::int64_t delivered) const {
+  std::int64_t b = delivered;
+  for (const auto& s : seams) {
+    if (s.session == session && s.scans_before <= delivered) b += s.skipped;
+  }
+  return b;
+}
+
+bool Usb1208lsModel::scanned(int session) const {
+  return std::find(scan_sessions.begin(), scan_sessions.end(), session) != scan_sessions.end();
+}
+
 std::int16_t Usb1208lsModel::counts(int session, std::int64_t sample) {
   // AInScan: samples interleaved in queue order, 12-bit counts of the queue's gain.
   const std::size_t n = std::max<std::size_t>(1, channels_.size());
@@ -55,12 +75,14 @@ void Usb1208lsModel::command(std::span<const std::uint8_t> r, std::int64_t now_u
         channels_.clear();
         break;
       }
-      if (n != 2 || channels_.size() != 6) channels_.clear();  // 2 more after the first 6 of 8  // the second report of an 8-channel queue carries 2 more
+      const bool more = n == 2 && channels_.size() == 6;  // the second report of an 8-entry queue
+      if (!more) channels_.clear();
       for (std::size_t i = 0; i < std::min<std::size_t>(n, 6) && 2 + i < r.size(); ++i) {
         channels_.push_back(r[2 + i] & 0x7U);
         gain_ = static_cast<mcc::Gain>(r[2 + i] & 0x78U);
       }
       queue_loaded_ = true;
+      if (!more) begin_session();  // a (re)configuration: a new session
       break;
     }
     case mcc::kAInScan: {
@@ -74,10 +96,14 @@ void Usb1208lsModel::command(std::span<const std::uint8_t> r, std::int64_t now_u
       static constexpr std::uint8_t kSetup[8] = {0, 10, 6, 3, 1, 0, 0, 0};
       const double timer = static_cast<double>(r[3] - kSetup[prescale & 7U]);
       rate_hz = mcc::kClockHz / (static_cast<double>(1U << (prescale + 1U)) * (256.0 - timer)) * (1.0 + ppm_ * 1e-6);
-      if (queue_loaded_) {  // first burst after a (re)configuration: a new session
-        sessions = bench_.begin_session();
-        session_sample_ = 0;
-        queue_loaded_ = false;
+      queue_loaded_ = false;
+      const auto n = static_cast<std::int64_t>(std::max<std::size_t>(1, channels_.size()));
+      if (end_us_ >= 0) {
+        // A later execution of the session: the input went on while the device was idle.
+        const double idle_us = std::max(0.0, static_cast<double>(now_us) - end_us_);
+        const auto skipped = static_cast<std::int64_t>(std::llround(idle_us * 1e-6 * rate_hz / static_cast<double>(n)));
+        seams.push_back({sessions, delivered_, skipped});
+        session_sample_ += skipped * n;
       }
       ++bursts;
       std::fill(last_report_.begin(), last_report_.end(), 0);  // a new scan starts from index 0
@@ -87,11 +113,7 @@ void Usb1208lsModel::command(std::span<const std::uint8_t> r, std::int64_t now_u
       break;
     }
     case mcc::kAIn: {  // single read: 11-bit single-ended reply {lo, hi} [5]
-      if (queue_loaded_) {  // first read after a (re)configuration: a new session
-        sessions = bench_.begin_session();
-        std::fill(reads_.begin(), reads_.end(), 0);
-        queue_loaded_ = false;
-      }
+      if (sessions == 0) begin_session();  // a read before any queue was loaded
       single_reads_seen = true;
       const std::size_t ch = r.size() > 1 ? (r[1] & 7U) : 0;
       const auto raw = static_cast<unsigned>(se_counts(sessions, reads_[ch]++, ch) + 0x400);
@@ -115,6 +137,10 @@ int Usb1208lsModel::on_control(const std::uint8_t* setup, std::span<std::uint8_t
     return static_cast<int>(data.size());
   }
   if (type == 0xA1 && req == 0x01 && (value >> 8) == 3) {  // GET_REPORT feature: scan data
+    if (opt_.refuse_feature) {
+      ++feature_refusals;
+      return -32;  // EPIPE: hidapi-libusb returns -1
+    }
     if (running_) {
       const double elapsed = static_cast<double>(now_us - start_us_) / 1e6;
       const auto done = static_cast<long>(std::min<double>(count_, std::floor(elapsed * rate_hz)));
@@ -122,18 +148,28 @@ int Usb1208lsModel::on_control(const std::uint8_t* setup, std::span<std::uint8_t
       if (last_index_ < ready_reports) {
         std::array<std::int16_t, mcc::kSamplesPerScanReport> s{};
         const std::int64_t base = session_sample_ + std::int64_t{last_index_} * 64;
-        for (std::size_t i = 0; i < s.size(); ++i) s[i] = counts(sessions, base + static_cast<std::int64_t>(i));
+        for (std::size_t i = 0; i < s.size(); ++i) {
+          s[i] = counts(sessions, base + static_cast<std::int64_t>(i));
+          // Single-ended samples coded like the AIn reply (an 11-bit offset) instead of 12-bit
+          // two's complement: the reading no public source rules out [7].
+          if (opt_.se_scan_offset && gain_ == mcc::kSe10V) s[i] = static_cast<std::int16_t>(s[i] + 0x400);
+        }
         ++last_index_;
         mcc::encode_scan_report(s, last_index_, static_cast<std::uint8_t>(last_index_),
                                 std::span<std::uint8_t, mcc::kScanReportBytes>(last_report_.data(), mcc::kScanReportBytes),
                                 layout_);
+        if (!scanned(sessions)) scan_sessions.push_back(sessions);
         if (std::int64_t{last_index_} * 64 >= count_) {
           running_ = false;
           session_sample_ += count_;
+          const auto n = static_cast<std::int64_t>(std::max<std::size_t>(1, channels_.size()));
+          delivered_ += count_ / n;
+          end_us_ = static_cast<double>(start_us_) + static_cast<double>(count_) / rate_hz * 1e6;
         }
       }
     }
-    const std::size_t n = std::min(data.size(), last_report_.size());
+    // 104 bytes: [WP]'s reading, the 105-byte struct without its record number [7].
+    const std::size_t n = std::min(data.size(), opt_.report_bytes);
     std::copy_n(last_report_.begin(), n, data.begin());
     return static_cast<int>(n);
   }

@@ -16,6 +16,14 @@
 
 namespace pof::vusb {
 
+/// How the virtual device answers where the public sources leave it open (mcc_usb1208ls.hpp [7]).
+struct MccOptions {
+  pof::daq::mcc::ReportLayout layout = pof::daq::mcc::ReportLayout::kRecordFirst;
+  std::size_t report_bytes = pof::daq::mcc::kScanReportBytes;  // 105, or 104 (data-first only)
+  bool se_scan_offset = false;   // single-ended scan samples offset-coded like the AIn reply
+  bool refuse_feature = false;   // every feature GET_REPORT stalls (hidapi returns -1)
+};
+
 class Usb1208lsModel final : public DeviceModel {
  public:
   // Interface 0 (HID), HID class descriptor, interrupt-IN 0x81 of 8 bytes.
@@ -24,17 +32,29 @@ class Usb1208lsModel final : public DeviceModel {
 
   /// `layout`: where the device puts data and scan index in a feature report: the public sources
   /// disagree (daq/include/pof/daq/protocol/mcc_usb1208ls.hpp [7]).
-  Usb1208lsModel(double clock_ppm, AnalogBench& bench,
-                 pof::daq::mcc::ReportLayout layout = pof::daq::mcc::ReportLayout::kRecordFirst)
-      : ppm_(clock_ppm), bench_(bench), layout_(layout) {}
+  Usb1208lsModel(double clock_ppm, AnalogBench& bench, MccOptions o = {})
+      : ppm_(clock_ppm), bench_(bench), layout_(o.layout), opt_(o) {}
 
   void on_out(std::uint8_t, std::span<const std::uint8_t>, std::int64_t) override {}
   InResult on_in(std::uint8_t ep, std::span<std::uint8_t> buf, std::int64_t now_us) override;
   int on_control(const std::uint8_t* setup, std::span<std::uint8_t> data, std::int64_t now_us) override;
 
   /// The volts of scan `idx`, channel `ch` (of the queue) of session `session` as the device
-  /// digitised them.
+  /// digitised them; `idx` is the bench scan (bench_scan_of).
   [[nodiscard]] double volts_sent(int session, std::int64_t idx, std::size_t ch);
+  /// The seam between two executions of a session: the device idle, the bench went on.
+  struct Seam {
+    int session;
+    std::int64_t scans_before;  // scans the session's executions delivered before it
+    std::int64_t skipped;       // scans the device did not take
+  };
+  std::vector<Seam> seams;
+  /// The bench scan of the `delivered`-th scan the session's executions delivered.
+  [[nodiscard]] std::int64_t bench_scan_of(int session, std::int64_t delivered) const;
+  /// Sessions whose data came from AInScans (else from single AIn reads).
+  std::vector<int> scan_sessions;
+  [[nodiscard]] bool scanned(int session) const;
+  int feature_refusals = 0;
   /// Single AIn reads: the volts of read `idx` of channel `ch` (11-bit single-ended coding); the
   /// k-th read of every channel samples bench scan k of the session.
   [[nodiscard]] double volts_single(int session, std::int64_t idx, std::size_t ch);
@@ -53,6 +73,10 @@ class Usb1208lsModel final : public DeviceModel {
   double ppm_;
   AnalogBench& bench_;
   pof::daq::mcc::ReportLayout layout_;
+  MccOptions opt_;
+  double end_us_ = -1;                // when the session's last execution took its last sample
+  std::int64_t delivered_ = 0;        // scans the session's executions delivered so far
+  void begin_session();
   std::vector<std::uint8_t> channels_;
   pof::daq::mcc::Gain gain_ = pof::daq::mcc::kSe10V;
   bool queue_loaded_ = false;

@@ -124,6 +124,14 @@ struct Checker {
   long seq_gaps = 0;
   long gap_scans = 0;        // index advance across FLAG_GAP blocks
   std::vector<std::pair<std::int64_t, long>> gap_events;  // (receive time [us], index advance) per FLAG_GAP block
+  // USB-1208LS: scans its executions delivered in the session (the values' truth follows the
+  // device, whatever index the daemon gives them), the seams matched, and their flagging.
+  std::int64_t mcc_delivered = 0;
+  std::size_t mcc_seams_seen = 0;  // of mcc->seams, those the published stream has passed
+  long seam_gaps = 0;              // seams published as FLAG_GAP
+  long unflagged_seams = 0;        // seams published without FLAG_GAP
+  double max_seam_length_error = 0;  // |published index advance - scans the device skipped|
+  long seam_dropped = 0;           // the index advance over flagged seams
   long doubtful_blocks = 0;  // FLAG_DOUBTFUL: values not checked (the daemon does not vouch for them)
   long utime_backsteps = 0;  // blocks stamped at or before the previous one
   std::int64_t max_utime_backstep_us = 0;
@@ -180,7 +188,61 @@ struct Checker {
     const bool doubtful = (b.flags & int32_t{pof::raw_block_t::FLAG_DOUBTFUL}) != 0;
     if (doubtful) ++doubtful_blocks;
     const bool gap = (b.flags & int32_t{pof::raw_block_t::FLAG_GAP}) != 0;
-    if (gap) {
+    bool handled = false;  // USB-1208LS: sessions and seams told from the device
+    if (mcc != nullptr) {
+      std::lock_guard dlock(*dev_mu);
+      if (blocks == 1 || (gap && mcc->sessions != session)) {  // the device's current session
+        if (gap) {
+          ++gaps;
+          if (next_first >= 0) gap_scans += b.first_scan - next_first;
+          gap_events.emplace_back(recv, next_first >= 0 ? static_cast<long>(b.first_scan - next_first) : 0L);
+        }
+        session = mcc->sessions;
+        local = 0;
+        mcc_delivered = 0;
+        mcc_seams_seen = 0;
+        while (mcc_seams_seen < mcc->seams.size() && mcc->seams[mcc_seams_seen].session != session) ++mcc_seams_seen;
+      } else {
+        // Seams of this session the block's scans cross (at most one: executions are long).
+        const std::int64_t advance = next_first >= 0 ? b.first_scan - next_first : 0;
+        std::size_t k = mcc_seams_seen;
+        while (k < mcc->seams.size() && mcc->seams[k].session != session) ++k;
+        if (k < mcc->seams.size() && mcc->seams[k].scans_before <= mcc_delivered + std::int64_t{b.n_scans} * decimate - 1 &&
+            mcc->seams[k].scans_before >= mcc_delivered - decimate) {
+          const auto& sm = mcc->seams[k];
+          if (gap) {
+            ++seam_gaps;
+            seam_dropped += advance;
+            // The hole published: the scans not taken plus those of a partial decimation window
+            // the daemon dropped with them (taken, never published), rounded to whole windows.
+            const std::int64_t hole = sm.skipped + (sm.scans_before - mcc_delivered);
+            max_seam_length_error = std::max(max_seam_length_error,
+                                             std::abs(static_cast<double>(advance * decimate - hole)));
+            mcc_delivered = sm.scans_before;  // a partial decimation window went with the hole
+          } else {
+            ++unflagged_seams;
+            if (first_error.empty()) {
+              first_error = "seam after scan " + std::to_string(sm.scans_before) + " (" + std::to_string(sm.skipped) +
+                            " scans not taken) published without FLAG_GAP";
+            }
+          }
+          mcc_seams_seen = k + 1;
+        } else if (gap) {
+          ++gaps;  // a gap the device did not cause
+          gap_events.emplace_back(recv, static_cast<long>(advance));
+        }
+        if (!gap && advance != 0) {
+          ++index_jumps;
+          if (first_error.empty()) {
+            first_error = "first_scan " + std::to_string(b.first_scan) + " expected " + std::to_string(next_first);
+          }
+        }
+        local += advance;
+      }
+      handled = true;
+    }
+    if (handled) {
+    } else if (gap) {
       ++gaps;
       ++session;
       local = 0;
@@ -217,8 +279,9 @@ struct Checker {
           const std::int64_t idx = j * decimate + d;
           const auto ch = static_cast<std::size_t>(c);
           want += ni ? pof::daq::ni::code_to_volts(ni->code(session, idx, ch), ni->bits(), range_v)
-                     : mcc->single_reads_seen ? mcc->volts_single(session, idx, ch)
-                                              : mcc->volts_sent(session, idx, ch);
+                     : !mcc->scanned(session)
+                         ? mcc->volts_single(session, idx, ch)
+                         : mcc->volts_sent(session, mcc->bench_scan_of(session, mcc_delivered + k * decimate + d), ch);
         }
         want /= decimate;
         if (doubtful) continue;  // flagged: not published as good
@@ -234,7 +297,10 @@ struct Checker {
         }
       }
     }
-    bench->forget_before(session, local * decimate);  // verified: the bench may drop them
+    if (mcc == nullptr) bench->forget_before(session, local * decimate);  // verified: the bench may drop them
+    else if (mcc->scanned(session)) bench->forget_before(session, mcc->bench_scan_of(session, mcc_delivered));
+    else bench->forget_before(session, local * decimate);
+    if (mcc != nullptr) mcc_delivered += std::int64_t{b.n_scans} * decimate;
     if (ni != nullptr) {
       const double half = (decimate - 1) / 2.0;
       const double t_first = truth_us(session, static_cast<double>(local * decimate) + half);
@@ -296,7 +362,14 @@ int main(int argc, char** argv) {
   int reply_header = 0;
   bool padding_noise = false;
   double steady_volts = kNaN;
+  int steady_noise_lsb = 1;
   std::string report_layout = "record-first";
+  int report_bytes = 105;
+  std::string se_scan_coding = "twos";
+  bool refuse_feature = false;
+  double max_seam_error = 1;
+  double expect_rate = 0;
+  long min_seams = 0;
   std::string expect_variant;
   double clock_ppm = 0;
   int lcm_port = 0;
@@ -341,8 +414,23 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 1));
   app.add_flag("--padding-noise", padding_noise, "NI samples carry noise in their padding bits");
   app.add_option("--steady-volts", steady_volts, "NI inputs at this level (+-1 LSB) instead of the knee");
+  app.add_option("--steady-noise-lsb", steady_noise_lsb, "noise on the --steady-volts level: 1 (+-1 LSB) or 0 (none)")
+      ->check(CLI::Range(0, 1));
   app.add_option("--report-layout", report_layout, "USB-1208LS feature-report layout")
       ->check(CLI::IsMember({"record-first", "data-first"}));
+  app.add_option("--report-bytes", report_bytes,
+                 "USB-1208LS scan report length on the wire: 105, or 104 (wjasper Python: data-first, no record number)")
+      ->check(CLI::IsMember({104, 105}));
+  app.add_option("--se-scan-coding", se_scan_coding,
+                 "USB-1208LS single-ended scan samples: twos (12-bit two's complement) or offset (as the AIn reply)")
+      ->check(CLI::IsMember({"twos", "offset"}));
+  app.add_flag("--refuse-feature", refuse_feature,
+               "USB-1208LS: every feature GET_REPORT stalls (hid_get_feature_report returns -1)");
+  app.add_option("--max-seam-error", max_seam_error,
+                 "USB-1208LS: bound on |published hole - scans the device did not take| per seam");
+  app.add_option("--expect-rate", expect_rate,
+                 "published scan_rate_hz expected (0 = --rate / --decimate; a USB-1208LS software-paced fallback runs slower)");
+  app.add_option("--min-seams", min_seams, "USB-1208LS: seams (idle device between executions) that must be seen");
   app.add_option("--expect-variant", expect_variant,
                  "text the last status's protocol_variant must contain");
   app.add_option("--clock-ppm", clock_ppm, "device clock error [ppm]");
@@ -419,6 +507,7 @@ int main(int argc, char** argv) {
   no.reply_header = static_cast<std::uint8_t>(reply_header);
   no.padding_noise = padding_noise;
   no.steady_volts = steady_volts;
+  no.steady_noise_lsb = steady_noise_lsb;
   std::mutex replay_mu;
   if (!replay_pcap.empty()) {
     bench->begin_session();  // the recorded device's one session (the model sees no commands)
@@ -441,9 +530,13 @@ int main(int argc, char** argv) {
                                                  !device_serial.empty())},
           *ni);
     } else {
-      mcc = std::make_unique<pof::vusb::Usb1208lsModel>(
-          clock_ppm, *bench,
-          report_layout == "data-first" ? pof::daq::mcc::ReportLayout::kDataFirst : pof::daq::mcc::ReportLayout::kRecordFirst);
+      pof::vusb::MccOptions mo;
+      mo.layout = report_layout == "data-first" || report_bytes == 104 ? pof::daq::mcc::ReportLayout::kDataFirst
+                                                                       : pof::daq::mcc::ReportLayout::kRecordFirst;
+      mo.report_bytes = static_cast<std::size_t>(report_bytes);
+      mo.se_scan_offset = se_scan_coding == "offset";
+      mo.refuse_feature = refuse_feature;
+      mcc = std::make_unique<pof::vusb::Usb1208lsModel>(clock_ppm, *bench, mo);
       dev = std::make_unique<pof::vusb::UsbdevfsDevice>(
           testbed, pof::vusb::UsbIds{0x09db, 0x007a, descriptors(0x09db, 0x007a, pof::vusb::Usb1208lsModel::kInterfaceHex, pof::vusb::Usb1208lsModel::kInterfaceLen)},
           *mcc);
@@ -679,6 +772,27 @@ int main(int argc, char** argv) {
       if (ni->protocol_errors != 0) failures.push_back("the daemon sent frames the device did not understand");
     }
     if (mcc) {
+      std::vector<double> skipped;
+      for (const auto& sm : mcc->seams) skipped.push_back(static_cast<double>(sm.skipped));
+      r["seams"] = mcc->seams.size();
+      r["seam_scans_not_taken"] = stats(skipped);
+      r["seam_gaps"] = checker.seam_gaps;
+      r["seam_dropped_scans"] = checker.seam_dropped;
+      r["unflagged_seams"] = checker.unflagged_seams;
+      r["max_seam_length_error_scans"] = checker.max_seam_length_error;
+      r["device_feature_refusals"] = mcc->feature_refusals;
+      r["device_scan_sessions"] = mcc->scan_sessions.size();
+      if (checker.unflagged_seams > 0) {
+        failures.push_back(std::to_string(checker.unflagged_seams) + " seams between executions published without FLAG_GAP: " +
+                           checker.first_error);
+      }
+      if (checker.max_seam_length_error > max_seam_error) {
+        failures.push_back("a seam's published hole is " + std::to_string(checker.max_seam_length_error) +
+                           " scans off what the device did not take");
+      }
+      if (static_cast<long>(mcc->seams.size()) < min_seams) {
+        failures.push_back("seams " + std::to_string(mcc->seams.size()) + " < " + std::to_string(min_seams));
+      }
       r["device_protocol_errors"] = mcc->protocol_errors;
       if (mcc->protocol_errors != 0) failures.push_back("the daemon sent commands the USB-1208LS refuses");
     }
@@ -727,8 +841,9 @@ int main(int argc, char** argv) {
     failures.push_back("measured scan rate " + std::to_string(measured_rate) + " vs published " + std::to_string(checker.published_rate));
   }
   // The device's clock divisor rounds the configured rate (USB-1208LS: 6 MHz / 2^n / 8-bit timer).
-  if (!expect_no_data && std::abs(checker.published_rate - rate / decimate) > 0.005 * rate / decimate) {
-    failures.push_back("published scan_rate_hz " + std::to_string(checker.published_rate) + " expected " + std::to_string(rate / decimate));
+  const double want_rate = expect_rate > 0 ? expect_rate : rate / decimate;
+  if (!expect_no_data && std::abs(checker.published_rate - want_rate) > 0.005 * want_rate) {
+    failures.push_back("published scan_rate_hz " + std::to_string(checker.published_rate) + " expected " + std::to_string(want_rate));
   }
   if (max_ts_error_us >= 0 && !abs_ts.empty() && percentile(abs_ts, 99) > max_ts_error_us) {
     failures.push_back("timestamp error p99 " + std::to_string(percentile(abs_ts, 99)) + " us > " + std::to_string(max_ts_error_us));

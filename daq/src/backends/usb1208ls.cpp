@@ -1,11 +1,15 @@
 // MCC USB-1208LS backend over hidapi (libusb flavour, so that the same usbdevfs emulation serves
 // the tests). Protocol: protocol/mcc_usb1208ls.hpp.
 //
-// Acquisition: back-to-back single-execution AInScans (protocol [9]) read as 105-byte feature
-// reports; the report's scan index must be the next expected one, a repeat means "not ready yet"
-// (the device answers a feature request with its last report, per the public driver's polling
-// loop [7]). The report layout is detected from the first reports of a session (protocol [7]):
-// reports are held back until it is known, so nothing is published from a guessed layout.
+// Acquisition: back-to-back single-execution AInScans (protocol [9]) read as 104- or 105-byte
+// feature reports (the length decides: protocol [7]); the report's scan index must be the next
+// expected one, a repeat means "not ready yet" (the device answers a feature request with its
+// last report, per the public driver's polling loop [7]). The report layout is detected from the
+// first reports of a session (protocol [7]) and, single-ended, the scan coding from an AIn
+// reading taken at open: reports are held back until both are known, so nothing is published
+// from a guess. Every seam between executions is published as lost scans (FLAG_GAP).
+// At open the feature report is read once: a device that refuses it (protocol [9]) is a fault
+// with its reason, or, with acquisition.mcc_mode = "auto", read by single AIns instead.
 // A channel list the device cannot queue (3, 5-7) is padded (protocol [9]); the padding inputs
 // are scanned and their samples dropped here.
 // hidapi is synchronous: the acquisition thread polls with a 1 ms pause between empty answers.
@@ -16,6 +20,7 @@
 #include <chrono>
 #include <cstdio>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "pof/daq/stream/backend.hpp"
@@ -47,12 +52,16 @@ class Usb1208lsBackend final : public Backend {
     // The device scans the queue at the timer rate: the aggregate sample rate is rate x queue.
     timer_ = mcc::scan_timer(cfg.scan_rate_hz * static_cast<double>(n_queue_));
     rate_hz_ = timer_ ? timer_->actual_rate_hz / static_cast<double>(n_queue_) : cfg.scan_rate_hz;
-    if (cfg.mcc_single_reads) rate_hz_ = cfg.scan_rate_hz;  // host-paced
-    // A scan: whole reports and whole queue cycles, ~1 s of data, within the 16-bit count.
+    single_ = cfg.mcc_single_reads;
+    if (single_) rate_hz_ = cfg.scan_rate_hz;  // host-paced
+    // An execution: whole reports and whole queue cycles, as long as the 16-bit count allows
+    // [9] (each seam between two is a hole, published as such), or acquisition.segment_scans.
     const std::size_t unit = mcc::kSamplesPerScanReport * n_queue_;
-    std::size_t burst = static_cast<std::size_t>(rate_hz_ * static_cast<double>(n_queue_)) / unit * unit;
+    std::size_t burst = mcc::kMaxScanCount / unit * unit;
+    if (cfg.segment_scans > 0) {
+      burst = std::min<std::size_t>(burst, static_cast<std::size_t>(cfg.segment_scans) * n_queue_ / unit * unit);
+    }
     if (burst < 2 * unit) burst = 2 * unit;  // the layout is known within the first scan [7]
-    while (burst > 32768) burst -= unit;
     burst_samples_ = burst;
     volts_.assign(mcc::kSamplesPerScanReport + n_queue_, 0.0F);
   }
@@ -81,19 +90,73 @@ class Usb1208lsBackend final : public Backend {
     }
     if (!write(mcc::ain_stop_report(), why)) return OpenStatus::kFault;
     detector_ = mcc::LayoutDetector{};  // another device may have been plugged in
+    // [9] the feature report the scan is read with, once before the scan: a device that refuses
+    // it (while it answers AIn) cannot scan.
+    if (!single_) {
+      Report probe{};
+      if (hid_get_feature_report(dev_, probe.data(), probe.size()) < 0) {
+        std::int16_t counts = 0;
+        if (!ain(ai_[0], counts, why)) return OpenStatus::kFault;  // not answering at all
+        if (!cfg_.mcc_fallback_single || reported_rate_) {
+          why = "MCC USB-1208LS: the device refuses the scan feature report (GET_REPORT fails while "
+                "AIn answers; known with hidapi-libusb): AInScan cannot be read. " +
+                std::string(reported_rate_ ? "The software-paced fallback needs a restart of pof-daqd (the published rate is set)"
+                                           : "Set acquisition.mcc_mode = \"auto\" for software-paced AIn reads (at most 50/s)");
+          return OpenStatus::kFault;
+        }
+        // [8] software-paced: at most kMaxSoftwarePacedHz AIn reads per second over the channels,
+        // for the rest of the process (the published rate is set at the first open).
+        single_ = true;
+        fallback_ = true;
+        rate_hz_ = mcc::kMaxSoftwarePacedHz / static_cast<double>(n_ch_);
+      }
+    }
     std::array<mcc::OutReport, 2> q{};
     const std::size_t nq = mcc::load_queue_reports(ai_, gain_, q);
     for (std::size_t i = 0; i < nq; ++i) {
       if (!write(q[i], why)) return OpenStatus::kFault;
     }
+    if (single_) return opened();
+    // [7] evidence for the single-ended scan coding: an AIn reading of the first queued input,
+    // compared with its first scan sample once the scan runs.
+    probe_ain_.reset();
+    if (gain_ == mcc::kSe10V) {
+      std::int16_t counts = 0;
+      if (!ain(ai_[0], counts, why)) return OpenStatus::kFault;
+      probe_ain_ = counts;
+    }
+    return opened();
+  }
+
+  OpenStatus opened() {
+    reported_rate_ = true;  // the daemon reads device_scan_rate_hz() after the first kOk
     return OpenStatus::kOk;
   }
 
+  bool ain(std::uint8_t channel, std::int16_t& counts, std::string& why) {
+    if (!write(mcc::ain_report(channel, gain_), why)) return false;
+    std::array<std::uint8_t, mcc::kInReportBytes> in{};
+    const int n = hid_read_timeout(dev_, in.data(), in.size(), 1500);  // [2]
+    if (n < 2) {
+      why = n < 0 ? "MCC USB-1208LS: reading an AIn reply failed (device removed?)"
+                  : "MCC USB-1208LS: no AIn reply within 1.5 s";
+      return false;
+    }
+    counts = gain_ == mcc::kSe10V ? mcc::decode_ain_single_ended(in[0], in[1])
+                                  : mcc::decode_ain_differential(in[0], in[1]);
+    return true;
+  }
+
   StreamEnd stream(ScanSink& sink, const std::atomic<bool>& stop, std::string& why) override {
-    if (cfg_.mcc_single_reads) return stream_single(sink, stop, why);
-    bool continuous = false;
+    if (single_) {
+      if (fallback_) sink.on_variant(kVariantSoftwarePaced);
+      return stream_single(sink, stop, why);
+    }
     carry_n_ = 0;
     held_n_ = 0;
+    se_coding_.reset();
+    size_layout_.reset();
+    variant_sent_ = false;
     if (detector_.decided()) sink.on_variant(variant_bits());
     while (!stop.load(std::memory_order_relaxed)) {
       const auto count = static_cast<std::uint16_t>(burst_samples_);
@@ -102,8 +165,10 @@ class Usb1208lsBackend final : public Backend {
         sink.on_usb_error();
         return StreamEnd::kError;
       }
-      sink.on_segment_start(sent_us, now_utime(), continuous);
-      continuous = true;
+      // [9] never continuous: the device was idle since the last execution's last sample (the
+      // seam), so the scans it did not take are published as lost (FLAG_GAP, dropped_scans).
+      sink.on_segment_start(sent_us, now_utime(), false);
+      carry_n_ = 0;  // an execution is whole queue cycles
       std::uint16_t expect = 1;
       std::size_t got = 0;
       auto last_progress = std::chrono::steady_clock::now();
@@ -119,12 +184,18 @@ class Usb1208lsBackend final : public Backend {
           why = "MCC USB-1208LS: reading a scan report failed (device removed?)";
           return StreamEnd::kDisconnected;
         }
-        if (static_cast<std::size_t>(n) != buf.size()) {
+        // hidapi counts the report id byte it skipped: n - 1 bytes came on the wire [7].
+        const auto wire_n = static_cast<std::size_t>(n > 0 ? n - 1 : 0);
+        if (!mcc::is_scan_report_size(wire_n) || (size_layout_ && wire_n != size_layout_->first)) {
           sink.on_usb_error();
-          why = "MCC USB-1208LS: short scan report (" + std::to_string(n) + " bytes)";
+          why = "MCC USB-1208LS: scan report of " + std::to_string(wire_n) +
+                " bytes (expected 104 or 105, the same every time)";
           return StreamEnd::kError;
         }
+        if (!size_layout_) size_layout_.emplace(wire_n, mcc::layout_for_size(wire_n));
+        if (wire_n < mcc::kScanReportBytes) buf[mcc::kScanReportBytes] = 0;  // not on the wire
         const mcc::ScanReport wire(buf.data() + 1, mcc::kScanReportBytes);
+        if (size_layout_->second && !detector_.decided()) detector_.force(*size_layout_->second);
         const bool next = detector_.decided() ? mcc::scan_index(wire, detector_.layout()) == expect
                                               : detector_.is_next(wire, expect);
         if (!next) {
@@ -149,10 +220,19 @@ class Usb1208lsBackend final : public Backend {
             why = "MCC USB-1208LS: cannot tell the feature-report layout (both scan-index fields count)";
             return StreamEnd::kError;
           }
+        }
+        if (held_n_ > 0) {  // the layout is known: decide the single-ended coding, then publish
+          if (gain_ == mcc::kSe10V && !se_coding_) decide_se_coding(held_[0]);
           sink.on_variant(variant_bits());
           for (std::size_t i = 0; i < held_n_; ++i) deliver_report(sink, held_[i]);
           held_n_ = 0;
+          variant_sent_ = true;
           continue;
+        }
+        if (!variant_sent_) {  // the layout told by the report's length: nothing held back
+          if (gain_ == mcc::kSe10V && !se_coding_) decide_se_coding(buf);
+          sink.on_variant(variant_bits());
+          variant_sent_ = true;
         }
         deliver_report(sink, buf);
       }
@@ -225,8 +305,24 @@ class Usb1208lsBackend final : public Backend {
   using Report = std::array<std::uint8_t, mcc::kScanReportBytes + 1>;  // report id + report
 
   [[nodiscard]] std::uint32_t variant_bits() const {
-    return detector_.layout() == mcc::ReportLayout::kRecordFirst ? kVariantLayoutRecordFirst
-                                                                 : kVariantLayoutDataFirst;
+    std::uint32_t bits = detector_.layout() == mcc::ReportLayout::kRecordFirst ? kVariantLayoutRecordFirst
+                                                                               : kVariantLayoutDataFirst;
+    if (size_layout_ && size_layout_->first == mcc::kScanReportBytesNoRecord) bits |= kVariantReport104;
+    if (gain_ == mcc::kSe10V) {
+      if (!se_coding_ || !*se_coding_) bits |= kVariantSeScanUndecided;
+      else bits |= **se_coding_ == mcc::SeScanCoding::kOffset ? kVariantSeScanOffset : kVariantSeScanTwos;
+    }
+    return bits;
+  }
+
+  // [7] the first sample of a session's first report is the first queued input, read by AIn at
+  // open: the coding under which both agree is the device's; none (no probe, or the input moved
+  // by more than 2.5 V) leaves the session's blocks flagged doubtful.
+  void decide_se_coding(const Report& first) {
+    std::array<std::int16_t, mcc::kSamplesPerScanReport> s{};
+    (void)mcc::decode_scan_report(mcc::ScanReport(first.data() + 1, mcc::kScanReportBytes), s, detector_.layout());
+    se_coding_ = probe_ain_ ? mcc::se_scan_coding_from(*probe_ain_, mcc::scan_field12(s[0]))
+                            : std::optional<mcc::SeScanCoding>{};
   }
 
   void deliver_report(ScanSink& sink, const Report& buf) {
@@ -245,8 +341,12 @@ class Usb1208lsBackend final : public Backend {
     std::size_t out = 0;
     std::int32_t flags = error ? int32_t{pof::raw_block_t::FLAG_DEVICE_ERROR} : 0;
     const int fs = mcc::full_scale_counts(gain_);
+    const bool se = gain_ == mcc::kSe10V;
+    const bool offset = se && se_coding_ && *se_coding_ && **se_coding_ == mcc::SeScanCoding::kOffset;
+    if (se && (!se_coding_ || !*se_coding_)) flags |= int32_t{pof::raw_block_t::FLAG_DOUBTFUL};
     for (std::size_t i = 0; i < carry_n_; ++i) volts_[out++] = carry_[i];
     for (auto c : s) {
+      if (offset) c = mcc::se_scan_counts(mcc::scan_field12(c), mcc::SeScanCoding::kOffset);
       if (c >= fs || c <= -fs - 1) flags |= int32_t{pof::raw_block_t::FLAG_OVER_RANGE};
       volts_[out++] = static_cast<float>(mcc::scan_counts_to_volts(c, gain_));
     }
@@ -266,8 +366,16 @@ class Usb1208lsBackend final : public Backend {
   std::size_t n_ch_ = 0;     // configured channels (published)
   std::size_t n_queue_ = 0;  // channels scanned (n_ch_ padded to 1, 2, 4 or 8 [9])
   mcc::LayoutDetector detector_;
+  // (wire bytes, the layout that length implies) of the session's first report [7]
+  std::optional<std::pair<std::size_t, std::optional<mcc::ReportLayout>>> size_layout_;
+  std::optional<std::int16_t> probe_ain_;                       // AIn counts at open [7]
+  std::optional<std::optional<mcc::SeScanCoding>> se_coding_;   // decided (or not) this session
+  bool single_ = false;         // single AIn reads (configured, or the fallback)
+  bool fallback_ = false;       // single reads because the device refuses the feature report
+  bool reported_rate_ = false;  // an open succeeded: the daemon has read device_scan_rate_hz()
   std::array<Report, mcc::LayoutDetector::kLayoutReports + 2> held_{};
   std::size_t held_n_ = 0;
+  bool variant_sent_ = false;  // this session's variant told to the sink
   mcc::Gain gain_ = mcc::kSe10V;
   std::optional<mcc::ScanTimer> timer_;
   double rate_hz_ = 0;

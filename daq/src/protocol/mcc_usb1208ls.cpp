@@ -2,6 +2,7 @@
 #include "pof/daq/protocol/mcc_usb1208ls.hpp"
 
 #include <cmath>
+#include <cstdlib>
 #include <stdexcept>
 #include <string>
 
@@ -119,11 +120,37 @@ const char* layout_name(ReportLayout l) {
   return l == ReportLayout::kRecordFirst ? "record-first (index at 102)" : "data-first (index at 101)";
 }
 
+std::optional<ReportLayout> layout_for_size(std::size_t wire_bytes) {
+  if (wire_bytes == kScanReportBytesNoRecord) return ReportLayout::kDataFirst;
+  return std::nullopt;
+}
+
+bool is_scan_report_size(std::size_t wire_bytes) {
+  return wire_bytes == kScanReportBytes || wire_bytes == kScanReportBytesNoRecord;
+}
+
 namespace {
 std::int16_t sign12(unsigned v) {
   return static_cast<std::int16_t>((v & 0x800U) != 0U ? static_cast<int>(v) - 0x1000 : static_cast<int>(v));
 }
 }  // namespace
+
+unsigned scan_field12(std::int16_t decoded) { return static_cast<unsigned>(decoded) & 0xFFFU; }
+
+std::int16_t se_scan_counts(unsigned field12, SeScanCoding c) {
+  field12 &= 0xFFFU;
+  return c == SeScanCoding::kOffset ? static_cast<std::int16_t>(static_cast<int>(field12) - 0x400)
+                                    : sign12(field12);
+}
+
+std::optional<SeScanCoding> se_scan_coding_from(std::int16_t ain_counts, unsigned field12, int tolerance) {
+  const int d_twos = std::abs(se_scan_counts(field12, SeScanCoding::kTwosComplement) - ain_counts);
+  const int d_off = std::abs(se_scan_counts(field12, SeScanCoding::kOffset) - ain_counts);
+  const bool twos = d_twos <= tolerance;
+  const bool off = d_off <= tolerance;
+  if (twos == off) return std::nullopt;
+  return twos ? SeScanCoding::kTwosComplement : SeScanCoding::kOffset;
+}
 
 namespace {
 std::size_t data_at(ReportLayout l) { return l == ReportLayout::kRecordFirst ? 1 : 0; }
@@ -157,6 +184,12 @@ void LayoutDetector::accept(ScanReport r, std::uint16_t expect) {
     if (scan_index(r, static_cast<ReportLayout>(k)) != expect) possible_[k] = false;
   }
   ++seen_;
+}
+
+void LayoutDetector::force(ReportLayout l) {
+  possible_[0] = l == ReportLayout::kRecordFirst;
+  possible_[1] = l == ReportLayout::kDataFirst;
+  seen_ = kLayoutReports;
 }
 
 bool LayoutDetector::decided() const {

@@ -78,7 +78,11 @@ DaqConfig config_from_table(const toml::table& root, const std::string& source) 
                                       {{"auto", Order::kAuto}, {"big", Order::kBig}, {"little", Order::kLittle}});
     c.sample_byte_order_auto = order == Order::kAuto;
     c.sample_byte_order = order == Order::kLittle ? ni::ByteOrder::kLittle : ni::ByteOrder::kBig;
-    c.mcc_single_reads = a.get_enum_or("mcc_mode", false, {{"scan", false}, {"single", true}});
+    enum class MccMode { kScan, kSingle, kAuto };
+    const MccMode mode = a.get_enum_or("mcc_mode", MccMode::kScan,
+                                       {{"scan", MccMode::kScan}, {"single", MccMode::kSingle}, {"auto", MccMode::kAuto}});
+    c.mcc_single_reads = mode == MccMode::kSingle;
+    c.mcc_fallback_single = mode == MccMode::kAuto;
     c.command_timeout_ms = a.get_or("command_timeout_ms", c.command_timeout_ms, integer_in(10, 60000));
     c.data_timeout_ms = a.get_or("data_timeout_ms", c.data_timeout_ms, integer_in(10, 60000));
     if (c.transfer_bytes % 64 != 0) {
@@ -176,7 +180,7 @@ std::string to_toml(const DaqConfig& c) {
                    {"sample_byte_order", c.sample_byte_order_auto                           ? "auto"
                                          : c.sample_byte_order == ni::ByteOrder::kBig ? "big"
                                                                                        : "little"},
-                   {"mcc_mode", c.mcc_single_reads ? "single" : "scan"},
+                   {"mcc_mode", c.mcc_single_reads ? "single" : c.mcc_fallback_single ? "auto" : "scan"},
                    {"command_timeout_ms", c.command_timeout_ms},
                    {"data_timeout_ms", c.data_timeout_ms}}},
       {"lcm", toml::table{{"url", c.lcm_url},

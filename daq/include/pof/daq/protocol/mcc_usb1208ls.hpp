@@ -28,12 +28,33 @@
 //     [W] {record no, data[96], error, read addr[2], write addr[2], scan index[2], extra}: index
 //     at bytes 102-103; [WP] and [RD]: data from byte 0, index at 101-102. The backend detects
 //     the layout from which index field counts 1, 2, 3 ... (detect_layout below).
+//     [WP] asks hidapi for 105 bytes including the report id, i.e. 104 on the wire, and unpacks
+//     them as [W]'s struct without the record number: {data[96], error, read addr[2], write
+//     addr[2], scan index[2], extra} = 104 bytes. A device may therefore answer the GET_REPORT
+//     with 104 or 105 bytes; the length decides (layout_for_size): 104 can only be data-first,
+//     105 is either and is detected from the scan index as above.
+//     Single-ended scan samples: no public source ran a single-ended AInScan ([W] test program and
+//     [WP] scan only differential gains), while the single-ended AIn reply is 11-bit offset
+//     coded [5]. The coding is decided per session from evidence (se_scan_coding_from): an AIn
+//     reading of the first queued channel against the first scan sample of that channel read
+//     both ways; the two codings differ by 0x400 counts (10 V), so the verdict is unambiguous
+//     unless the input moved by more than 2.5 V between the two readings (tolerance 0x100).
 //  8. Rates [M]: continuous scanning at most 1.2 kS/s aggregate; burst mode (options 0x2, the
 //     device signals the end of a block with an input report holding 0xA5 [W][WP]) at most 8 kS/s
 //     but at most 4096 samples (its FIFO); software-paced (one AIn per sample) about 50 S/s.
-//  9. OUR DESIGN: continuous acquisition = back-to-back single-execution, non-burst AInScans of
-//     ~1 s (multiple of 64 samples and of the queue length), scan index carried over, as for the
-//     NI devices; aggregate rate limited to [8]'s 1.2 kS/s. Burst mode is not used (a 4096-sample
+//  9. OUR DESIGN: continuous acquisition = back-to-back single-execution, non-burst AInScans as
+//     long as the 16-bit count allows (65 s at 1 kS/s; whole reports and queue cycles,
+//     acquisition.segment_scans shortens them), aggregate rate limited to [8]'s 1.2 kS/s. The
+//     device is idle between the last sample of one execution and the start of the next (the
+//     seam: the read of the last report plus the AInScan command, 10-18 ms): every seam is
+//     published as lost scans (FLAG_GAP, dropped_scans = its length from the host clock), never
+//     hidden behind a continuous index. Continuous execution (options bit 0 clear, [WP] docstring
+//     "count is equal to packet size (64)") is not used: no public program runs it, so how its
+//     scan index wraps and what an overrun looks like is unknown.
+//     A device that refuses the feature report (hid_get_feature_report -1 under hidapi-libusb
+//     while AIn works: a public user report against [W], confirmed by its author) cannot scan;
+//     with acquisition.mcc_mode = "auto" the backend then reads single AIns, host-paced at
+//     kMaxSoftwarePacedHz / channels scans/s, and says so. Burst mode is not used (a 4096-sample
 //     block then a pause is not a stream). A channel list of 3, 5, 6 or 7 is padded to the next
 //     allowed queue length with unused inputs whose samples are dropped (queue_length).
 #include <array>
@@ -48,7 +69,9 @@ inline constexpr std::uint16_t kVendorId = 0x09DB;
 inline constexpr std::uint16_t kProductId = 0x007A;
 inline constexpr std::size_t kOutReportBytes = 9;       // [2] with report id 0
 inline constexpr std::size_t kInReportBytes = 8;        // [2]
-inline constexpr std::size_t kScanReportBytes = 105;    // [7]
+inline constexpr std::size_t kScanReportBytes = 105;    // [7] the longer reading
+inline constexpr std::size_t kScanReportBytesNoRecord = 104;  // [7] [WP]: no record number
+inline constexpr std::uint16_t kMaxScanCount = 65535;   // [3] 16-bit count (lo, hi bytes)
 inline constexpr std::size_t kSamplesPerScanReport = 64;
 inline constexpr double kClockHz = 6e6;                 // [6]
 inline constexpr double kMinTimerRateHz = 100.0;        // [6] aggregate
@@ -112,6 +135,26 @@ enum class ReportLayout : std::uint8_t {
   kDataFirst,    // [WP], [RD]: data 0-95, scan index 101-102
 };
 const char* layout_name(ReportLayout l);
+/// [7] the layout a report of `wire_bytes` can only have: 104 -> data-first; nullopt for 105
+/// (either: detect it from the scan index) and for any other length (not a scan report).
+std::optional<ReportLayout> layout_for_size(std::size_t wire_bytes);
+/// [7] whether `wire_bytes` is the length of a scan report (104 or 105).
+bool is_scan_report_size(std::size_t wire_bytes);
+
+/// [7] how single-ended scan samples are coded in their 12-bit field.
+enum class SeScanCoding : std::uint8_t {
+  kTwosComplement,  // as differential scan samples ([W] decode_scan_report)
+  kOffset,          // as the single-ended AIn reply: field - 0x400
+};
+/// The signed count of a 12-bit scan field under a coding.
+std::int16_t se_scan_counts(unsigned field12, SeScanCoding c);
+/// [7] the 12-bit field of a decoded (sign-extended) scan sample.
+unsigned scan_field12(std::int16_t decoded);
+/// [7] the coding under which scan sample field `field12` agrees with an AIn reading of the same
+/// input (`ain_counts`, decode_ain_single_ended) within `tolerance` counts while the other one
+/// does not; nullopt when neither or both agree (no evidence).
+std::optional<SeScanCoding> se_scan_coding_from(std::int16_t ain_counts, unsigned field12,
+                                                int tolerance = 0x100);
 
 using ScanReport = std::span<const std::uint8_t, kScanReportBytes>;
 /// [7] the scan index of a report read with layout `l`.
@@ -135,6 +178,8 @@ class LayoutDetector {
   bool is_next(ScanReport report, std::uint16_t expect) const;
   /// Records a report accepted by is_next().
   void accept(ScanReport report, std::uint16_t expect);
+  /// The layout is known from elsewhere (the report's length: layout_for_size).
+  void force(ReportLayout l);
   [[nodiscard]] bool decided() const;
   [[nodiscard]] ReportLayout layout() const;
 

@@ -50,6 +50,11 @@ enum Variant : std::uint32_t {
   kVariantLayoutRecordFirst = 1U << 5,  // MCC report index at 102 (wjasper C)
   kVariantLayoutDataFirst = 1U << 6,    // MCC report index at 101 (wjasper Python, ryan-duve)
   kVariantPaddingSet = 1U << 7,         // NI samples with padding bits set were seen
+  kVariantReport104 = 1U << 8,          // MCC scan reports of 104 bytes (no record number, wjasper Python)
+  kVariantSeScanOffset = 1U << 9,       // MCC single-ended scan samples offset-coded (AIn probe)
+  kVariantSeScanTwos = 1U << 10,        // MCC single-ended scan samples two's complement (AIn probe)
+  kVariantSeScanUndecided = 1U << 11,   // MCC single-ended scan coding not told (blocks doubtful)
+  kVariantSoftwarePaced = 1U << 12,     // MCC feature report refused: single AIn reads instead
 };
 /// Text for daq_status_t.protocol_variant, e.g. "reply header 00 01; samples big-endian".
 std::string describe_variant(std::uint32_t bits);

@@ -1,0 +1,62 @@
+# MCC USB-1208LS where the public sources leave the device's behaviour open (docs/daq.md,
+# "Protocol facts" 14-17), each against a virtual device answering the way one source reads it;
+# the checker compares every published volt with what the device digitised (1 LSB) unless the
+# block is flagged doubtful. 250 scans/s, 3 channels scanned as a queue of 4 (1000 S/s). The rate
+# bound is 5 %: the measured slope reads the emulator's pacing on a loaded host (242.6 of 250.7
+# scans/s at load 5.5 on 2 cores); a wrong prescale is a factor of 2.
+source "$(dirname "$0")/daq_lib.sh"
+
+# 1. Scan reports of 104 bytes on the wire (wjasper's Python port and the libusb-0.1 reading: the
+#    C struct without its record number). Was: "short scan report (105 bytes)", a re-open loop.
+vdaq --model 1208ls --duration 3 --rate 250 --decimate 1 --block-scans 10 --report-bytes 104 \
+     --expect-variant "scan report 104 bytes" --min-rate-ratio 0.95
+summary
+at_most "$(report max_value_error_lsb)" 1.0 || fail "104-byte reports: value error above 1 LSB"
+[ "$(report status.usb_errors)" = 0 ] || fail "104-byte reports: usb_errors $(report status.usb_errors)"
+#    ... and the 105-byte reading (record number first), the same data exactly.
+vdaq --model 1208ls --duration 3 --rate 250 --decimate 1 --block-scans 10 --report-bytes 105 \
+     --expect-variant "record-first" --min-rate-ratio 0.95
+summary
+at_most "$(report max_value_error_lsb)" 1.0 || fail "105-byte reports: value error above 1 LSB"
+
+# 2. Seams: executions of 768 samples (192 scans, 0.77 s), as the daemon used to run them. The
+#    device is idle between two; every seam must be published as a FLAG_GAP hole whose length is
+#    within 1 scan of the scans the device did not take (the checker knows them).
+vdaq --model 1208ls --duration 5 --rate 250 --decimate 1 --block-scans 10 --min-seams 4 \
+     --max-dropped 1000 --max-seam-error 1 --min-rate-ratio 0.95 -- -s acquisition.segment_scans=192
+summary
+echo "seams $(report seams): not taken $(report seam_scans_not_taken), flagged $(report seam_gaps), dropped $(report seam_dropped_scans), max error $(report max_seam_length_error_scans) scans"
+[ "$(report seam_gaps)" -ge 4 ] || fail "seams not flagged: $(report seam_gaps)"
+at_most "$(report max_value_error_lsb)" 1.0 || fail "seams: value error above 1 LSB"
+#    With decimation the partial window at each seam goes with the hole (published scans are
+#    then ~6 % fewer than the rate: 0.51-s executions, a window of 5 lost at each seam).
+vdaq --model 1208ls --duration 5 --rate 250 --decimate 5 --block-scans 2 --min-seams 4 \
+     --max-dropped 1000 --max-seam-error 5 --min-rate-ratio 0.9 -- -s acquisition.segment_scans=190
+summary
+at_most "$(report max_value_error_lsb)" 1.0 || fail "seams, decimated: value error above 1 LSB"
+
+# 3. Single-ended scan samples offset-coded like the AIn reply (no public source ran a
+#    single-ended scan): told from an AIn reading at open, every value exact, none over range.
+vdaq --model 1208ls --duration 3 --rate 250 --decimate 1 --block-scans 10 --se-scan-coding offset \
+     --expect-variant "single-ended scan samples offset-coded" --min-rate-ratio 0.95
+summary
+at_most "$(report max_value_error_lsb)" 1.0 || fail "offset-coded scans: value error above 1 LSB"
+[ "$(report doubtful_blocks)" = 0 ] || fail "offset-coded scans: $(report doubtful_blocks) doubtful blocks"
+vdaq --model 1208ls --duration 3 --rate 250 --decimate 1 --block-scans 10 --se-scan-coding twos \
+     --expect-variant "single-ended scan samples two's complement" --min-rate-ratio 0.95
+summary
+
+# 4. A device that refuses the feature report (hid_get_feature_report -1 while AIn answers):
+#    a fault that says so, not a reconnect loop ...
+vdaq --model 1208ls --duration 3 --rate 250 --decimate 1 --block-scans 10 --refuse-feature \
+     --expect-no-data --expect-state 3
+summary
+grep -q "refuses the scan feature report" <<<"$(report states_seen)" || fail "state text: $(report states_seen)"
+[ "$(report status.reconnects)" = 0 ] || fail "refused feature report: reconnects $(report status.reconnects)"
+#    ... and with mcc_mode = "auto", software-paced AIn reads at 50 reads/s / 3 channels.
+vdaq --model 1208ls --duration 4 --rate 250 --decimate 1 --block-scans 1 --refuse-feature \
+     --expect-rate 16.6667 --min-rate-ratio 0.95 --expect-variant "software-paced AIn reads, 50 reads/s" \
+     -- -s 'acquisition.mcc_mode="auto"'
+summary
+at_most "$(report max_value_error_lsb)" 1.0 || fail "software-paced fallback: value error above 1 LSB"
+echo ok

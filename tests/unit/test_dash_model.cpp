@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "lcm_test.hpp"
 #include "pof/dash/model.hpp"
 
 using pof::dash::Cursor;
@@ -13,12 +14,7 @@ using pof::dash::ModelSettings;
 
 namespace {
 
-template <class T>
-std::vector<unsigned char> enc(const T& m) {
-  std::vector<unsigned char> b(static_cast<std::size_t>(m.getEncodedSize()));
-  m.encode(b.data(), 0, static_cast<int>(b.size()));
-  return b;
-}
+using pof::test::encode;
 
 void feed(Model& m, const std::string& ch, const std::vector<unsigned char>& b, int64_t t) {
   m.on_message(ch, b.data(), b.size(), t);
@@ -38,7 +34,7 @@ int64_t feed_angles(Model& m, const std::string& ch, int n, double rate, int64_t
     a.angle_deg = static_cast<float>(seq0 + i);
     a.angle_ref_deg = 1.0f;
     a.quality = quality_every > 0 && i % quality_every == quality_every - 1 ? 8 : 0;
-    feed(m, ch, enc(a), t);
+    feed(m, ch, encode(a), t);
   }
   return t;
 }
@@ -112,11 +108,11 @@ TEST(DashModel, NanIsNullAndGapsAreCounted) {
   a.utime = kT0;
   a.seq = 0;
   a.angle_deg = std::nanf("");
-  feed(m, "POF_ANGLE", enc(a), kT0);
+  feed(m, "POF_ANGLE", encode(a), kT0);
   a.utime += 20'000;
   a.seq = 5;  // 4 missing
   a.angle_deg = 1.0f;
-  feed(m, "POF_ANGLE", enc(a), a.utime);
+  feed(m, "POF_ANGLE", encode(a), a.utime);
   m.tick(a.utime + 20'000);
   Cursor c;
   const auto f = m.frame(c, a.utime + 20'000);
@@ -133,12 +129,12 @@ TEST(DashModel, CyclesStatusAndDecodeErrors) {
     pof::cycle_stats_t s{};
     s.cycle = i;
     s.rmse_comp_deg = 0.01f * static_cast<float>(i);
-    feed(m, "POF_STATS_RIGHT_KNEE", enc(s), kT0 + i);
+    feed(m, "POF_STATS_RIGHT_KNEE", encode(s), kT0 + i);
   }
   pof::daq_status_t d{};
   d.state = pof::daq_status_t::STATE_STREAMING;
   d.dropped_scans = 3;
-  feed(m, "POF_DAQ_STATUS_RIGHT_KNEE", enc(d), kT0);
+  feed(m, "POF_DAQ_STATUS_RIGHT_KNEE", encode(d), kT0);
   const unsigned char junk[] = {1, 2, 3};
   m.on_message("POF_COMPENSATOR_STATUS_RIGHT_KNEE", junk, sizeof junk, kT0);
   const auto f = m.frame(c, kT0 + 1'500'000);
@@ -146,7 +142,7 @@ TEST(DashModel, CyclesStatusAndDecodeErrors) {
   EXPECT_EQ(sf["cycles_total"], 70);
   ASSERT_EQ(sf["cycles"].size(), ModelSettings{}.cycles_kept);  // the last ones kept
   EXPECT_EQ(sf["cycles"].back()["cycle"], 70);
-  EXPECT_EQ(sf["daq"]["state"], "STREAMING");
+  EXPECT_EQ(sf["daq"]["state_name"], "STREAMING");
   EXPECT_EQ(sf["daq"]["dropped_scans"], 3);
   EXPECT_NEAR(sf["daq_age_s"].get<double>(), 1.5, 1e-9);
   EXPECT_TRUE(sf["compensator"].is_null());
@@ -159,11 +155,11 @@ TEST(DashModel, StateIsBoundedWhateverTheChannelNames) {
   pof::angle_t a{};
   for (int i = 0; i < 5000; ++i) {
     a.utime = kT0 + i;
-    feed(m, "POF_ANGLE_S" + std::to_string(i), enc(a), kT0 + i);
+    feed(m, "POF_ANGLE_S" + std::to_string(i), encode(a), kT0 + i);
   }
-  feed(m, "POF_ANGLE_lower_case", enc(a), kT0);  // not a sensor id
-  feed(m, "POF_RAW_S1", enc(a), kT0);             // raw blocks are not the dashboard's
-  feed(m, "FOREIGN", enc(a), kT0);
+  feed(m, "POF_ANGLE_lower_case", encode(a), kT0);  // not a sensor id
+  feed(m, "POF_RAW_S1", encode(a), kT0);             // raw blocks are not the dashboard's
+  feed(m, "FOREIGN", encode(a), kT0);
   EXPECT_EQ(m.sensors(), Model::kMaxSensors);
   EXPECT_EQ(m.ignored_sensors(), 5000 - Model::kMaxSensors + 1);
 }

@@ -47,6 +47,7 @@
 #include "pof/cycle_stats_t.hpp"
 #include "pof/daq_status_t.hpp"
 #include "pof/lcm/decode.hpp"
+#include "pof/lcm/json.hpp"
 #include "pof/raw_block_t.hpp"
 #include "pof/service/cli_checks.hpp"
 #include "pof/service/signals.hpp"
@@ -66,66 +67,18 @@ struct BridgeArgs {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// A number for JSON: null for NaN and infinities (JSON has neither; PlotJuggler skips null).
-nlohmann::json number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+using lcmutil::json_number;
 
+// The messages' numeric fields (pof/lcm/json.hpp), and an angle's age when it was published.
+template <class Msg>
+nlohmann::json fields(const Msg& m) {
+  return lcmutil::json_fields(m);
+}
+template <>
 nlohmann::json fields(const pof::angle_t& m) {
-  return {{"seq", m.seq},
-          {"scan_index", m.scan_index},
-          {"angle_deg", number(double(m.angle_deg))},
-          {"angle_uncomp_deg", number(double(m.angle_uncomp_deg))},
-          {"angle_ref_deg", number(double(m.angle_ref_deg))},
-          {"velocity_rad_s", number(double(m.velocity_rad_s))},
-          {"phase", m.phase},
-          {"quality", m.quality},
-          {"angle_sigma_deg", number(double(m.angle_sigma_deg))},
-          {"latency_ms", number(double(m.publish_utime - m.utime) / 1000.0)}};
-}
-
-nlohmann::json fields(const pof::cycle_stats_t& m) {
-  return {{"seq", m.seq},
-          {"cycle", m.cycle},
-          {"velocity_rad_s", number(double(m.velocity_rad_s))},
-          {"rmse_comp_deg", number(double(m.rmse_comp_deg))},
-          {"rmse_uncomp_deg", number(double(m.rmse_uncomp_deg))},
-          {"hysteresis_comp_pct", number(double(m.hysteresis_comp_pct))},
-          {"hysteresis_uncomp_pct", number(double(m.hysteresis_uncomp_pct))},
-          {"max_error_deg", number(double(m.max_error_deg))},
-          {"n_samples", m.n_samples}};
-}
-
-nlohmann::json fields(const pof::daq_status_t& m) {
-  return {{"seq", m.seq},
-          {"state", m.state},
-          {"scan_rate_hz", number(m.scan_rate_hz)},
-          {"n_channels", m.n_channels},
-          {"scans", m.scans},
-          {"blocks", m.blocks},
-          {"dropped_scans", m.dropped_scans},
-          {"usb_errors", m.usb_errors},
-          {"overruns", m.overruns},
-          {"reconnects", m.reconnects},
-          {"publish_failures", m.publish_failures}};
-}
-
-nlohmann::json fields(const pof::compensator_status_t& m) {
-  return {{"seq", m.seq},
-          {"blocks", m.blocks},
-          {"scans", m.scans},
-          {"lost_blocks", m.lost_blocks},
-          {"lost_scans", m.lost_scans},
-          {"rejected_blocks", m.rejected_blocks},
-          {"fault_scans", m.fault_scans},
-          {"angles", m.angles},
-          {"cycles", m.cycles},
-          {"reloads", m.reloads},
-          {"reload_failures", m.reload_failures},
-          {"decode_errors", m.decode_errors},
-          {"malformed_datagrams", m.malformed_datagrams},
-          {"duplicate_blocks", m.duplicate_blocks},
-          {"publish_failures", m.publish_failures},
-          {"authenticated", m.authenticated ? 1 : 0},
-          {"estimator_divergences", m.estimator_divergences}};
+  nlohmann::json j = lcmutil::json_fields(m);
+  j["latency_ms"] = json_number(double(m.publish_utime - m.utime) / 1000.0);
+  return j;
 }
 
 // Each channel's mean volts over the block, by the block's channel names.
@@ -134,7 +87,7 @@ nlohmann::json fields(const pof::raw_block_t& m) {
   for (std::size_t c = 0; c < m.channel_names.size(); ++c) {
     double sum = 0;
     for (const auto& scan : m.volts) sum += c < scan.size() ? double(scan[c]) : kNaN;
-    j[m.channel_names[c] + "_v"] = number(m.volts.empty() ? kNaN : sum / double(m.volts.size()));
+    j[m.channel_names[c] + "_v"] = json_number(m.volts.empty() ? kNaN : sum / double(m.volts.size()));
   }
   return j;
 }

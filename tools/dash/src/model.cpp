@@ -5,6 +5,7 @@
 
 #include "pof/bus/channels.hpp"
 #include "pof/lcm/decode.hpp"
+#include "pof/lcm/json.hpp"
 #include "pof/spy/monitor.hpp"
 
 namespace pof::dash {
@@ -12,73 +13,35 @@ namespace {
 
 using nlohmann::json;
 
-// JSON has no NaN: nlohmann writes NaN and inf as null, which Chart.js draws as
-// a gap. Kept explicit so that the page's contract (docs/dashboard.md) does not
-// rest on a library default.
-json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+using lcmutil::json_fields;
+using lcmutil::json_number;
 
 double age_s(int64_t now, int64_t then) { return then == 0 ? -1.0 : static_cast<double>(now - then) * 1e-6; }
 
+// The messages' numbers (pof/lcm/json.hpp), with the names and texts the page shows.
 json angle_json(const pof::angle_t& a) {
-  return {{"utime", a.utime},
-          {"seq", a.seq},
-          {"angle_deg", num(a.angle_deg)},
-          {"angle_uncomp_deg", num(a.angle_uncomp_deg)},
-          {"angle_ref_deg", num(a.angle_ref_deg)},
-          {"angle_sigma_deg", num(a.angle_sigma_deg)},
-          {"velocity_rad_s", num(a.velocity_rad_s)},
-          {"phase", spy::phase_name(a.phase)},
-          {"quality", a.quality},
-          {"quality_names", spy::quality_names(a.quality)}};
-}
-
-json cycle_json(const pof::cycle_stats_t& c) {
-  return {{"cycle", c.cycle},
-          {"start_utime", c.start_utime},
-          {"end_utime", c.end_utime},
-          {"velocity_rad_s", num(c.velocity_rad_s)},
-          {"rmse_comp_deg", num(c.rmse_comp_deg)},
-          {"rmse_uncomp_deg", num(c.rmse_uncomp_deg)},
-          {"hysteresis_comp_pct", num(c.hysteresis_comp_pct)},
-          {"hysteresis_uncomp_pct", num(c.hysteresis_uncomp_pct)},
-          {"max_error_deg", num(c.max_error_deg)},
-          {"n_samples", c.n_samples}};
+  json j = json_fields(a);
+  j["phase_name"] = spy::phase_name(a.phase);
+  j["quality_names"] = spy::quality_names(a.quality);
+  return j;
 }
 
 json daq_json(const pof::daq_status_t& d) {
-  return {{"state", spy::daq_state_name(d.state)},
-          {"state_text", d.state_text},
-          {"device_kind", d.device_kind},
-          {"serial", d.serial},
-          {"scan_rate_hz", num(d.scan_rate_hz)},
-          {"scans", d.scans},
-          {"blocks", d.blocks},
-          {"dropped_scans", d.dropped_scans},
-          {"usb_errors", d.usb_errors},
-          {"overruns", d.overruns},
-          {"reconnects", d.reconnects},
-          {"publish_failures", d.publish_failures}};
+  json j = json_fields(d);
+  j["state_name"] = spy::daq_state_name(d.state);
+  j["state_text"] = d.state_text;
+  j["device_kind"] = d.device_kind;
+  j["serial"] = d.serial;
+  return j;
 }
 
 json compensator_json(const pof::compensator_status_t& c) {
-  return {{"calibration_path", c.calibration_path},
-          {"calibration_sensor_id", c.calibration_sensor_id},
-          {"calibration_date", c.calibration_date},
-          {"blocks", c.blocks},
-          {"scans", c.scans},
-          {"lost_scans", c.lost_scans},
-          {"rejected_blocks", c.rejected_blocks},
-          {"fault_scans", c.fault_scans},
-          {"angles", c.angles},
-          {"cycles", c.cycles},
-          {"reloads", c.reloads},
-          {"reload_failures", c.reload_failures},
-          {"last_error", c.last_error},
-          {"decode_errors", c.decode_errors},
-          {"malformed_datagrams", c.malformed_datagrams},
-          {"publish_failures", c.publish_failures},
-          {"authenticated", c.authenticated},
-          {"estimator_divergences", c.estimator_divergences}};
+  json j = json_fields(c);
+  j["calibration_path"] = c.calibration_path;
+  j["calibration_sensor_id"] = c.calibration_sensor_id;
+  j["calibration_date"] = c.calibration_date;
+  j["last_error"] = c.last_error;
+  return j;
 }
 
 }  // namespace
@@ -209,10 +172,10 @@ json Model::sensor_frame(const std::string& id, const Sensor& s, Cursor& c, int6
   for (uint64_t i = from; i < s.points; ++i) {
     const Point& p = s.ring[i % s.ring.size()];
     t.push_back(std::round(static_cast<double>(p.utime - epoch_utime_) * 1e-3) * 1e-3);  // ms resolution
-    a.push_back(num(p.angle_deg));
-    u.push_back(num(p.uncomp_deg));
-    r.push_back(num(p.ref_deg));
-    sg.push_back(num(p.sigma_deg));
+    a.push_back(json_number(p.angle_deg));
+    u.push_back(json_number(p.uncomp_deg));
+    r.push_back(json_number(p.ref_deg));
+    sg.push_back(json_number(p.sigma_deg));
     q.push_back(p.quality);
   }
   pit->second = s.points;
@@ -226,7 +189,7 @@ json Model::sensor_frame(const std::string& id, const Sensor& s, Cursor& c, int6
   const uint64_t cfirst = std::max(cit->second, s.cycles_total > ckept ? s.cycles_total - ckept : 0);
   json cycles = json::array();
   for (uint64_t i = cfirst; i < s.cycles_total; ++i)
-    cycles.push_back(cycle_json(s.cycles[i % ckept]));
+    cycles.push_back(json_fields(s.cycles[i % ckept]));
   cit->second = s.cycles_total;
   f["cycles"] = std::move(cycles);
   f["cycles_total"] = s.cycles_total;

@@ -153,9 +153,9 @@
     const rows = [];
     for (const f of frame.sensors) {
       const d = f.daq, c = f.compensator;
-      const daqState = d ? d.state + (d.state_text ? ': ' + d.state_text : '') : 'no status';
+      const daqState = d ? d.state_name + (d.state_text ? ': ' + d.state_text : '') : 'no status';
       rows.push('<tr>' + cell(esc(f.id === '' ? '(none)' : f.id)) +
-        cell(esc(daqState), !d || d.state !== 'STREAMING' || f.daq_age_s > 3) +
+        cell(esc(daqState), !d || d.state_name !== 'STREAMING' || f.daq_age_s > 3) +
         cell(d ? d.scans : '–') + cell(d ? d.dropped_scans : '–', d && d.dropped_scans > 0) +
         cell(d ? d.usb_errors : '–', d && d.usb_errors > 0) + cell(d ? d.reconnects : '–', d && d.reconnects > 0) +
         cell(fmt(f.angle_rate_hz, 0), f.angle_age_s < 0 || f.angle_age_s > ANGLE_STALE_S) +

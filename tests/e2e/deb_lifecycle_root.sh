@@ -7,7 +7,8 @@
 #    (pof keygen), the services' own copy (user pof), POF_LCM_AUTH_KEY_FILE in pof.env.
 # 4. pof.target with the shipped configuration, a calibration the lab wrote and pof-daqd on the
 #    simulator (the lab's edit of daqd.toml): with --systemd, `systemctl start pof.target` (the
-#    multicast route unit, both daemons, pof record); without, each unit's ExecStart as systemd
+#    multicast route unit, both daemons, pof record, pof dash serving verified angles, timed from
+#    the command to the first angle); without, each unit's ExecStart as systemd
 #    would run it (user pof, its EnvironmentFile=s). pof record (the shipped record.env) records
 #    signed, verified POF_RAW and POF_ANGLE; root's pof spy verifies with root's key.
 #    systemd-analyze verify accepts the installed units; units are enabled (the per-sensor ones
@@ -100,16 +101,29 @@ echo POF_LCM_AUTH_KEY_FILE=/etc/pof/lcm-pof.key | tee -a /etc/pof/pof.env >/dev/
 
 if [ "$systemd" = 1 ]; then
   step "systemctl start pof.target"
+  t_start=$(date +%s.%N)
   systemctl start pof.target
-  for u in pof-multicast-route.service pof-daqd.service pof-compensatord.service pof-record.service; do
+  for u in pof-multicast-route.service pof-daqd.service pof-compensatord.service pof-record.service pof-dash.service; do
     for _ in $(seq 100); do systemctl is-active -q "$u" && break; sleep 0.1; done
     systemctl is-active -q "$u" || fail "$u is $(systemctl is-active "$u"): $(journalctl -b -u "$u" --no-pager | tail -n 8)"
   done
   ip route get "$GROUP" | grep -q 'dev lo' || fail "pof-multicast-route.service added no route on lo: $(ip route get "$GROUP" 2>&1)"
+  # The live view: pof-dash.service serves the verified angles on localhost:8090 (docs/dashboard.md).
+  # The time from the one command to the first angle a browser would draw is the lab's first minute.
+  ip link set lo up
+  angles=0
+  for _ in $(seq 300); do
+    angles=$(curl -s --noproxy '*' --max-time 1 http://127.0.0.1:8090/api/state 2>/dev/null |
+      python3 -c 'import json, sys; s = json.load(sys.stdin); print(sum(x["angles"] for x in s["sensors"]) if s["bus"]["authenticated"] else -1)' 2>/dev/null || echo 0)
+    [ "${angles:-0}" -gt 0 ] && break
+    sleep 0.1
+  done
+  [ "${angles:-0}" -gt 0 ] || fail "pof dash (pof-dash.service) showed no verified angle: $(journalctl -b -u pof-dash.service --no-pager | tail -n 5)"
+  awk -v a="$t_start" -v b="$(date +%s.%N)" 'BEGIN { printf "first angle on the dashboard %.2f s after systemctl start pof.target\n", b - a }'
   sleep 3
   pof spy --auth-key-file /etc/pof/lcm.key --duration 2 >spy.out 2>spy.err || fail "root's pof spy with root's key: $(cat spy.err)"
   systemctl stop pof.target
-  for u in pof-daqd.service pof-compensatord.service pof-record.service pof-multicast-route.service; do
+  for u in pof-daqd.service pof-compensatord.service pof-record.service pof-dash.service pof-multicast-route.service; do
     r=$(systemctl show -p Result --value "$u")
     [ "$r" = success ] || fail "$u ended with $r: $(journalctl -b -u "$u" --no-pager | tail -n 8)"
   done

@@ -10,7 +10,8 @@
 %   pof_angle_client('POF_ANGLE_LEFT_KNEE', 500, 'udpm://239.255.76.67:7667?ttl=0')
 %
 % Octave needs its Java support (Debian's octave package has it) and LCM_DEFAULT_URL or the URL.
-function stats = pof_angle_client(channel, count, url, jardir)
+% The second output is the LCM instance, still subscribed: close it with lc.close() when done.
+function [stats, lc] = pof_angle_client(channel, count, url, jardir)
   if nargin < 1 || isempty(channel), channel = 'POF_ANGLE'; end
   if nargin < 2 || isempty(count), count = 200; end
   if nargin < 3, url = ''; end
@@ -33,7 +34,10 @@ function stats = pof_angle_client(channel, count, url, jardir)
   while stats.angles < count
     msg = agg.getNextMessage(5000);            % ms
     if isempty(msg), break; end
-    now_us = double(javaMethod('currentTimeMillis', 'java.lang.System')) * 1e3;  % Octave lacks java.* dot calls
+    % The receive time in us (java.time.Instant: microseconds on Linux; currentTimeMillis would round
+    % every age to a whole ms). javaMethod: Octave lacks java.* dot calls.
+    t = javaMethod('now', 'java.time.Instant');
+    now_us = double(t.getEpochSecond()) * 1e6 + double(t.getNano()) / 1e3;
     try
       a = javaObject('pof.angle_t', msg.data);  % throws on a malformed message: count, skip
     catch
@@ -51,7 +55,12 @@ function stats = pof_angle_client(channel, count, url, jardir)
     end
     stats.age_ms(end + 1) = (now_us - double(a.utime)) / 1e3;
   end
-  lc.close();
-  fprintf('summary: angles=%d lost=%d undecodable=%d unusable=%d flagged=%d age_p50_ms=%.3f\n', ...
-          stats.angles, stats.lost, stats.undecodable, stats.unusable, stats.flagged, median(stats.age_ms));
+  % Unsubscribed, not closed: LCM's Java close() makes its receive thread print a SocketException
+  % (it was blocked in the socket close() shuts). The caller closes lc when it is done with it.
+  lc.unsubscribe(channel, agg);
+  ages = sort(stats.age_ms);
+  p99 = NaN;
+  if ~isempty(ages), p99 = ages(max(1, ceil(0.99 * numel(ages)))); end
+  fprintf('summary: angles=%d lost=%d undecodable=%d unusable=%d flagged=%d age_p50_ms=%.3f age_p99_ms=%.3f age_max_ms=%.3f\n', ...
+          stats.angles, stats.lost, stats.undecodable, stats.unusable, stats.flagged, median(ages), p99, max([ages, NaN]));
 end

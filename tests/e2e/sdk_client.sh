@@ -117,6 +117,11 @@ outs=(client.out pyclient.out)
 if [ -n "$oct_pid" ]; then
   wait $oct_pid || fail "the Octave client did not get 400 angles: $(cat octave.out octave.err)"
   outs+=(octave.out)
+  # It ends without LCM's Java receive thread's SocketException (it unsubscribes, the caller
+  # closes), and measures ages in microseconds, not whole ms. (Octave 7's own "ignoring const
+  # execution_exception& while preparing to exit" follows any Java use at exit.)
+  ! grep -q SocketException octave.err || fail "the Octave client ended with a SocketException: $(cat octave.err)"
+  grep -q 'age_p99_ms=' octave.out || fail "the Octave client reports no p99 age: $(cat octave.out)"
 fi
 for out in "${outs[@]}"; do
   cat $out

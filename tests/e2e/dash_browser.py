@@ -57,8 +57,12 @@ def main():
             fail("cycles: %d counted, %d sent" % (s["cycles_total"], len(sent["cycles"])))
 
         # 3. The page: its data, its readout, its tables.
-        time.sleep(0.3)  # the next frame closes the last display bucket
         last = sent["last"]
+        # The last display bucket closes a bucket's time after the last angle; the next frame brings it.
+        def last_on_page():
+            v = b.js("const s = window.pofDash.sensors.get(arguments[0]); return s.angle[s.angle.length - 1];", SENSOR)
+            return v is not None and abs(v - last["angle_deg"]) <= 1e-6
+        wait_for("the last angle on the page", last_on_page, 5)
         got = b.js("const s = window.pofDash.sensors.get(arguments[0]);"
                    "return {angle: s.angle[s.angle.length - 1], ref: s.ref[s.ref.length - 1], uncomp: s.uncomp[s.uncomp.length - 1],"
                    " n: s.t.length, span: s.t[s.t.length - 1] - s.t[0], flagged: s.info.angles_flagged};", SENSOR)

@@ -47,8 +47,9 @@ aport=$(( 20000 + RANDOM % 30000 ))
 pids+=($!)
 wait_until --timeout 10 -- grep -q "http://127.0.0.1:$aport/" "$WORK_DIR/auth.out"
 "$PUB" --lcm-url "$URL" angles --rate 500 --duration 1 --suffix _LEFT_KNEE >/dev/null
-sleep 0.5
-curl -s --noproxy '*' "http://127.0.0.1:$aport/api/state" >"$WORK_DIR/auth.json"
+# Until the dashboard has judged all 500 (or 10 s): the check below says what it saw.
+wait_until --timeout 10 -- sh -c 'curl -s --noproxy "*" "$0" >"$1" && grep -q "\"auth_dropped\":500" "$1"' \
+  "http://127.0.0.1:$aport/api/state" "$WORK_DIR/auth.json" || true
 "$PY" - "$WORK_DIR/auth.json" <<'PYEOF' || fail "the authenticated dashboard showed unsigned messages"
 import json, sys
 s = json.load(open(sys.argv[1]))

@@ -137,10 +137,23 @@ TEST(BusAuth, AReceiverWithoutTheKeyCountsSignedMessagesAsDecodeErrors) {
   Receiver rx(lc, "memq://");
   int got = 0;
   rx.subscribe<pof::angle_t>("POF_ANGLE", [&](const pof::angle_t&, const Delivery&) { ++got; });
+  std::vector<std::string> errors;
+  rx.on_error([&](const ReceiveError& e) { errors.push_back(e.describe()); });
   Publisher signer(lc, key(0x11));
   ASSERT_EQ(signer.publish("POF_ANGLE", angle(1)), 0);
   handle_until(rx, [&] { return rx.channel_stats("POF_ANGLE").messages >= 1; });
   EXPECT_EQ(got, 0);
   EXPECT_EQ(rx.stats().decode_errors, 1u);
   EXPECT_FALSE(rx.stats().authenticated);
+  // ... and says why: the log line names the missing key, not only the bytes it could not read.
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_NE(errors[0].find("signed (authenticated mode) and this process has no bus key"), std::string::npos) << errors[0];
+  EXPECT_NE(errors[0].find("--auth-key-file"), std::string::npos) << errors[0];
+
+  // An unsigned message that does not decode is not blamed on a key.
+  const unsigned char junk[] = {1, 2, 3, 4, 5, 6, 7, 8, 9};
+  lc.publish("POF_ANGLE", junk, sizeof junk);
+  handle_until(rx, [&] { return rx.channel_stats("POF_ANGLE").messages >= 2; });
+  ASSERT_EQ(errors.size(), 2u);
+  EXPECT_EQ(errors[1].find("bus key"), std::string::npos) << errors[1];
 }

@@ -77,6 +77,11 @@ class LiveStream(unittest.TestCase):
         os.chmod(path, 0o640)
         with self.assertRaisesRegex(ValueError, "bus.key.*group or others"):
             pofkit.auth.read_key(path)
+        os.chmod(path, 0o600)
+        with open(path, "w") as f:
+            f.write("0" * 64 + "\n")
+        with self.assertRaisesRegex(ValueError, "bus.key.*all zeros"):
+            pofkit.auth.read_key(path)
         shutil.rmtree(d)
 
         url = private_url()

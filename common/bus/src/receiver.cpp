@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "pof/base/errors.hpp"
+#include "pof/bus/auth_key.hpp"
 
 namespace pof::bus {
 namespace {
@@ -31,6 +32,10 @@ constexpr int kMaxLcmMessagesPerHandle = 1024;
 
 std::string ReceiveError::describe() const {
   std::string s(channel);
+  if (kind == Kind::kDecode && signed_without_key)
+    return s + ": " + decode.describe() +
+           "; the message is signed (authenticated mode) and this process has no bus key: give it "
+           "--auth-key-file or $" + auth::kKeyFileEnv + " (docs/deployment.md, \"Authenticated mode\")";
   if (kind == Kind::kDecode) return s + ": " + decode.describe();
   if (kind == Kind::kAuth) return s + ": " + auth.describe();
   constexpr std::size_t kMaxWhat = 200;  // bounded: a handler's message may quote input
@@ -162,6 +167,7 @@ void Receiver::deliver_typed(Channel& c, const Delivery& d, const unsigned char*
       e.kind = ReceiveError::Kind::kDecode;
       e.channel = d.channel;
       e.decode = r;
+      e.signed_without_key = !verifier_ && auth::parse_trailer(data, size).has_value();
       report(e);
       continue;
     }

@@ -26,8 +26,8 @@ OK, UNSIGNED, BAD_MAC, STALE, REPLAYED = "ok", "unsigned", "bad_mac", "stale", "
 
 def read_key(path):
     """The bus key in ``path``: 64 hex digits and a line end (``pof keygen``) or 32 raw bytes.
-    Refused, as pofkit's daemons refuse it, when group or others may read it (ValueError naming
-    the file); OSError when it cannot be read."""
+    Refused, as pofkit's daemons refuse it, when group or others may read it or it is all zeros
+    (ValueError naming the file); OSError when it cannot be read."""
     st = os.stat(path)
     if st.st_mode & (stat.S_IRWXG | stat.S_IRWXO):
         raise ValueError("bus key file '%s': mode %o lets group or others read it (chmod 600)"
@@ -44,6 +44,9 @@ def read_key(path):
     if len(key) != KEY_BYTES or len(text) != 2 * KEY_BYTES:
         raise ValueError("bus key file '%s': expected 32 bytes, or 64 hex digits and a line end "
                          "(pof keygen writes one)" % path)
+    if key == bytes(KEY_BYTES):
+        raise ValueError("bus key file '%s': the key is all zeros, which anyone can guess; "
+                         "pof keygen -o FILE writes a random one" % path)
     return key
 
 

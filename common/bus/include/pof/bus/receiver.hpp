@@ -92,6 +92,8 @@ struct ReceiveError {
   Kind kind = Kind::kDecode;
   std::string_view channel;
   lcmutil::DecodeResult decode;  // kDecode
+  bool signed_without_key = false;  // kDecode: the message ends in an authenticated-mode trailer and
+                                    // this receiver has no bus key (the usual cause of the error)
   std::string_view what;         // kHandler: the exception's what()
   auth::Verification auth;       // kAuth: why the verifier dropped the message
   /// "POF_RAW: raw_block_t: array 'volts' at byte 90: ..." (bounded, no payload bytes).

@@ -99,6 +99,17 @@ int main(int argc, char** argv) {
     } else {
       table.insert("schema_version", daq::kSchemaVersion);
     }
+    // A key given both by its own option and by -s is a contradiction, whatever the two values:
+    // refused (exit 2) rather than one of them silently winning.
+    const std::pair<const char*, bool> given[] = {
+        {"device.kind", !device.empty()},          {"device.serial", !serial.empty()},
+        {"acquisition.scan_rate_hz", rate > 0},    {"acquisition.decimate", decimate > 0},
+        {"acquisition.block_scans", block_scans > 0}, {"lcm.url", !lcm_url.empty()},
+        {"lcm.sensor_id", !sensor_id.empty()},     {"lcm.auth_key_file", !auth_key_file.empty()}};
+    for (const auto& s : sets)
+      for (const auto& [path, set] : given)
+        if (set && s.substr(0, s.find('=')) == path)  // the key as apply_toml_override reads it
+          throw pof::UsageError("-s " + s + ": " + path + " is also given by its own option; give it once");
     // Options are typed values already: set as they are, never re-parsed as TOML text.
     if (!device.empty()) pof::set_toml_path(table, "device.kind", device);
     if (!serial.empty()) pof::set_toml_path(table, "device.serial", serial);

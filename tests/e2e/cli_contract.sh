@@ -44,6 +44,10 @@ for bad in "--rate -2000" "--rate 0" "--decimate 0" "--block-scans -5"; do
   expect_exit 2 "$BIN_DIR/pof-daqd" --config /dev/null -s schema_version=1 --device sim:synthetic $bad --duration 0.1
   grep -q -- "${bad%% *}" <<<"$err" || fail "pof-daqd $bad: $err"
 done
+# A key given by its own option and by -s is refused, never one of them silently taken.
+expect_exit 2 "$BIN_DIR/pof-daqd" --config /dev/null -s schema_version=1 --device sim:synthetic -s device.kind=usb6009 --print-config
+grep -q -- "device.kind is also given by its own option" <<<"$err" || fail "pof-daqd --device with -s device.kind: $err"
+expect_exit 0 "$BIN_DIR/pof-daqd" --config /dev/null -s schema_version=1 -s device.kind=sim:synthetic --rate 500 --print-config
 # A FIFO as a file to read is refused at once (opening it waited for a writer, forever).
 mkfifo fifo.toml
 expect_exit 66 timeout 10 "$BIN_DIR/pof-daqd" --config fifo.toml --device sim:synthetic --duration 0.1

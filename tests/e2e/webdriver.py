@@ -1,7 +1,8 @@
 """A headless Chromium for tests and benchmarks, driven over W3C WebDriver with the standard
 library (Debian's chromium and chromium-driver; no Selenium, no download of a browser).
-Chromium runs with the flags this sandbox needs: no sandbox as root, no GPU, and no background
-networking (its connections out are refused here, many at a time)."""
+Chromium runs with the flags this sandbox needs: no sandbox as root, no GPU, no background
+networking (its connections out are refused here, many at a time), and /tmp instead of a /dev/shm
+that a container may keep small."""
 import base64
 import json
 import os
@@ -53,7 +54,7 @@ class Browser:
         self.base = "http://127.0.0.1:%d" % port
         wait_for("chromedriver", lambda: self._up())
         args = ["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                "--disable-background-networking", "--disable-component-update", "--disable-sync", "--disable-dev-shm-usage",
                 "--user-data-dir=" + os.path.join(work_dir, "chromium-profile"), "--window-size=1280,1100"]
         caps = {"capabilities": {"alwaysMatch": {"browserName": "chrome",
                                                  "goog:chromeOptions": {"binary": CHROMIUM, "args": args}}}}

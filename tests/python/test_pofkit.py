@@ -112,7 +112,7 @@ class LiveStream(unittest.TestCase):
         ]
         s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         s.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, 0)
-        time.sleep(0.2)
+        # The Subscriber joined the group when the Collector was made: what is sent now is queued.
         for i, m in enumerate(sent):
             s.sendto(datagram(m, i), (group, port))
         c.join(timeout=20)

@@ -146,7 +146,7 @@ void run_record(const RecordArgs& a) {
   o.auth = auth.settings;
   o.manifest_extra["versions"] = {
       {"pofkit", POF_VERSION},
-      {"git", POF_GIT_DESCRIBE},
+      {"git", git_describe()},
       {"lcm", std::to_string(LCM_MAJOR_VERSION) + "." + std::to_string(LCM_MINOR_VERSION) + "." +
                   std::to_string(LCM_MICRO_VERSION)}};
 

@@ -8,10 +8,12 @@
 
 namespace pof::cli {
 
+const char* git_describe() { return POF_GIT_DESCRIBE; }
+
 void add_version(CLI::App& app) {
   auto* cmd = app.add_subcommand("version", "Print the pofkit version and the library versions it was built with");
   cmd->callback([] {
-    std::cout << "pofkit " << POF_VERSION << " (" << POF_GIT_DESCRIBE << ")\n"
+    std::cout << "pofkit " << POF_VERSION << " (" << git_describe() << ")\n"
               << "lcm " << LCM_MAJOR_VERSION << '.' << LCM_MINOR_VERSION << '.' << LCM_MICRO_VERSION << '\n'
               << "compiler " << __VERSION__ << '\n';
   });

@@ -93,10 +93,10 @@ long cpu_ticks(pid_t pid) {
 
 // Descriptors: device (18 bytes) + configuration, one interface, endpoints as listed.
 std::string descriptors(std::uint16_t vid, std::uint16_t pid, const std::string& iface_and_eps_hex,
-                        int iface_len, bool has_serial = false) {
+                        int iface_len, bool has_serial = false, std::uint16_t bcd_usb = 0x0210, int max_packet0 = 64) {
   char dev[64];
-  std::snprintf(dev, sizeof dev, "1201100200000040%02x%02x%02x%02x00010000%02x01", vid & 0xFF, vid >> 8,
-                pid & 0xFF, pid >> 8, has_serial ? 3 : 0);
+  std::snprintf(dev, sizeof dev, "1201%02x%02x000000%02x%02x%02x%02x%02x00010000%02x01", bcd_usb & 0xFF, bcd_usb >> 8,
+                max_packet0, vid & 0xFF, vid >> 8, pid & 0xFF, pid >> 8, has_serial ? 3 : 0);
   char cfg[32];
   const int total = 9 + iface_len;
   std::snprintf(cfg, sizeof cfg, "0902%02x%02x0101008032", total & 0xFF, total >> 8);
@@ -370,6 +370,7 @@ int main(int argc, char** argv) {
   double max_seam_error = 1;
   double expect_rate = 0;
   long min_seams = 0;
+  int ep0_per_frame = 1;
   std::string expect_variant;
   double clock_ppm = 0;
   int lcm_port = 0;
@@ -430,6 +431,10 @@ int main(int argc, char** argv) {
                  "USB-1208LS: bound on |published hole - scans the device did not take| per seam");
   app.add_option("--expect-rate", expect_rate,
                  "published scan_rate_hz expected (0 = --rate / --decimate; a USB-1208LS software-paced fallback runs slower)");
+  app.add_option("--ep0-per-frame", ep0_per_frame,
+                 "USB-1208LS (low speed): 8-byte control transactions the host moves per 1-ms frame "
+                 "(1: one per frame, the usual figure; 0: control transfers complete at once)")
+      ->check(CLI::Range(0, 3));
   app.add_option("--min-seams", min_seams, "USB-1208LS: seams (idle device between executions) that must be seen");
   app.add_option("--expect-variant", expect_variant,
                  "text the last status's protocol_variant must contain");
@@ -537,8 +542,13 @@ int main(int argc, char** argv) {
       mo.se_scan_offset = se_scan_coding == "offset";
       mo.refuse_feature = refuse_feature;
       mcc = std::make_unique<pof::vusb::Usb1208lsModel>(clock_ppm, *bench, mo);
+      using M = pof::vusb::Usb1208lsModel;
       dev = std::make_unique<pof::vusb::UsbdevfsDevice>(
-          testbed, pof::vusb::UsbIds{0x09db, 0x007a, descriptors(0x09db, 0x007a, pof::vusb::Usb1208lsModel::kInterfaceHex, pof::vusb::Usb1208lsModel::kInterfaceLen)},
+          testbed,
+          pof::vusb::UsbIds{0x09db, 0x007a,
+                            descriptors(0x09db, 0x007a, M::kInterfaceHex, M::kInterfaceLen, false, M::kBcdUsb,
+                                        M::kMaxPacket0),
+                            M::kSpeed, ep0_per_frame},
           *mcc);
     }
   }
@@ -771,6 +781,11 @@ int main(int argc, char** argv) {
       if (dev->claimed() != 0) failures.push_back("interface still claimed after pof-daqd exited");
       if (ni->protocol_errors != 0) failures.push_back("the daemon sent frames the device did not understand");
     }
+    // What the bus timing imposed (docs/virtual-usb.md, "Bus timing").
+    const auto& bus = dev->figures();
+    if (!bus.control_ms.empty()) r["usb_control_ms"] = stats(bus.control_ms);
+    if (!bus.out_ms.empty()) r["usb_interrupt_out_ms"] = stats(bus.out_ms);
+    if (!bus.round_trip_ms.empty()) r["usb_round_trip_ms"] = stats(bus.round_trip_ms);
     if (mcc) {
       std::vector<double> skipped;
       for (const auto& sm : mcc->seams) skipped.push_back(static_cast<double>(sm.skipped));

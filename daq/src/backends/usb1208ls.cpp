@@ -12,7 +12,8 @@
 // with its reason, or, with acquisition.mcc_mode = "auto", read by single AIns instead.
 // A channel list the device cannot queue (3, 5-7) is padded (protocol [9]); the padding inputs
 // are scanned and their samples dropped here.
-// hidapi is synchronous: the acquisition thread polls with a 1 ms pause between empty answers.
+// hidapi is synchronous: the acquisition thread asks for each report when the device's timer says
+// it is complete, then polls with a 1 ms pause between empty answers.
 #include <hidapi/hidapi.h>
 
 #include <algorithm>
@@ -34,6 +35,10 @@ namespace pof::daq {
 namespace {
 
 using pof::lcmutil::now_utime;
+
+// How much faster than nominal a device's scan timer may run when the backend times its requests
+// for a report (2000 ppm: twice the drift ScanClock follows).
+constexpr double kClockTolerance = 2000e-6;
 
 class Usb1208lsBackend final : public Backend {
  public:
@@ -168,12 +173,27 @@ class Usb1208lsBackend final : public Backend {
       // [9] never continuous: the device was idle since the last execution's last sample (the
       // seam), so the scans it did not take are published as lost (FLAG_GAP, dropped_scans).
       sink.on_segment_start(sent_us, now_utime(), false);
+      // Report k is complete 64 k samples after the start, not before (minus the crystal's
+      // tolerance): ask for it then. At low speed a GET_REPORT holds EP0 for ~16 frames (docs/daq.md,
+      // fact 18), so a poll sent just before a report completes delays it by a whole transfer, and
+      // the last one of an execution lengthens the seam by as much (the device is idle until the
+      // next AInScan). Past the due time the loop polls as before.
+      const auto started = std::chrono::steady_clock::now();
+      const double report_s =
+          static_cast<double>(mcc::kSamplesPerScanReport) / timer_->actual_rate_hz * (1.0 - kClockTolerance);
       carry_n_ = 0;  // an execution is whole queue cycles
       std::uint16_t expect = 1;
       std::size_t got = 0;
       auto last_progress = std::chrono::steady_clock::now();
       while (got < burst_samples_) {
         if (stop.load(std::memory_order_relaxed)) return StreamEnd::kStopped;
+        const auto due = started + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                       std::chrono::duration<double>(report_s * expect));
+        if (const auto now = std::chrono::steady_clock::now(); now < due) {
+          std::this_thread::sleep_for(
+              std::min<std::chrono::steady_clock::duration>(due - now, std::chrono::milliseconds(20)));
+          continue;  // in steps, so that a stop is seen within 20 ms
+        }
         Report& buf = held_[held_n_ < held_.size() ? held_n_ : 0];
         buf[0] = 0;  // report id
         const int n = hid_get_feature_report(dev_, buf.data(), buf.size());

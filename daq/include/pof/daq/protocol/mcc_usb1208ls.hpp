@@ -46,7 +46,8 @@
 //     long as the 16-bit count allows (65 s at 1 kS/s; whole reports and queue cycles,
 //     acquisition.segment_scans shortens them), aggregate rate limited to [8]'s 1.2 kS/s. The
 //     device is idle between the last sample of one execution and the start of the next (the
-//     seam: the read of the last report plus the AInScan command, 10-18 ms): every seam is
+//     seam: the read of the last report plus the AInScan command, 17-28 ms at low speed, the
+//     report asked for when the device's timer completes it, docs/daq.md fact 18): every seam is
 //     published as lost scans (FLAG_GAP, dropped_scans = its length from the host clock), never
 //     hidden behind a continuous index. Continuous execution (options bit 0 clear, [WP] docstring
 //     "count is equal to packet size (64)") is not used: no public program runs it, so how its

@@ -62,9 +62,12 @@ vdaq --model 1208ls --duration 3 --rate 250 --decimate 1 --block-scans 10 --refu
 summary
 grep -q "refuses the scan feature report" <<<"$(report states_seen)" || fail "state text: $(report states_seen)"
 [ "$(report status.reconnects)" = 0 ] || fail "refused feature report: reconnects $(report status.reconnects)"
-#    ... and with mcc_mode = "auto", software-paced AIn reads at 50 reads/s / 3 channels.
+#    ... and with mcc_mode = "auto", software-paced AIn reads at 45 reads/s / 3 channels (the
+#    bus allows 50 back to back: docs/daq.md, fact 18). A scan the host made two periods late is
+#    given up as a flagged hole (rare, on a saturated host), never published late under its index.
 vdaq --model 1208ls --duration 4 --rate 250 --decimate 1 --block-scans 1 --refuse-feature \
-     --expect-rate 16.6667 --min-rate-ratio 0.95 --expect-variant "software-paced AIn reads, 50 reads/s" \
+     --expect-rate 15 --min-rate-ratio 0.95 --expect-variant "software-paced AIn reads, 45 reads/s" \
+     --max-paced-gaps 10 --max-dropped 100 \
      -- -s 'acquisition.mcc_mode="auto"'
 summary
 at_most "$(report max_value_error_lsb)" 1.0 || fail "software-paced fallback: value error above 1 LSB"

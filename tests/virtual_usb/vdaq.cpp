@@ -128,6 +128,7 @@ struct Checker {
   // device, whatever index the daemon gives them), the seams matched, and their flagging.
   std::int64_t mcc_delivered = 0;
   std::size_t mcc_seams_seen = 0;  // of mcc->seams, those the published stream has passed
+  std::int64_t single_gap_scans = 0;  // USB-1208LS single reads: scans the daemon's pacing gave up
   long seam_gaps = 0;              // seams published as FLAG_GAP
   long unflagged_seams = 0;        // seams published without FLAG_GAP
   double max_seam_length_error = 0;  // |published index advance - scans the device skipped|
@@ -230,6 +231,13 @@ struct Checker {
         } else if (gap) {
           ++gaps;  // a gap the device did not cause
           gap_events.emplace_back(recv, static_cast<long>(advance));
+          // Single reads: the device reads on, one after the other; the daemon's index jumped over
+          // the scans its pacing gave up (docs/daq.md, "Continuous acquisition"). The k-th read
+          // stays the truth of the next published scan.
+          if (!mcc->scanned(session)) {
+            single_gap_scans += advance;
+            local -= advance;
+          }
         }
         if (!gap && advance != 0) {
           ++index_jumps;
@@ -378,6 +386,7 @@ int main(int argc, char** argv) {
   int transfers = 4;
   // checks
   long max_dropped = 0;
+  long max_paced_gaps = 0;
   bool expect_gap = false;
   bool expect_no_data = false;
   std::vector<int> expect_states;
@@ -444,6 +453,9 @@ int main(int argc, char** argv) {
   app.add_option("--short-every", short_every, "scenario short: every Nth data URB is 2 bytes short");
   app.add_option("--transfers", transfers, "acquisition.transfers_in_flight");
   app.add_option("--max-dropped", max_dropped);
+  app.add_option("--max-paced-gaps", max_paced_gaps,
+                 "USB-1208LS single reads: flagged holes the daemon's host pacing may publish (a scan two "
+                 "periods late on a loaded host); their scans count against --max-dropped");
   app.add_flag("--expect-gap", expect_gap);
   app.add_flag("--expect-no-data", expect_no_data);
   app.add_option("--expect-state", expect_states, "daq_status_t state that must be seen (repeatable)")
@@ -716,6 +728,7 @@ int main(int argc, char** argv) {
   r["index_jumps_without_gap_flag"] = checker.index_jumps;
   r["gap_blocks"] = checker.gaps;
   r["gap_scans"] = checker.gap_scans;
+  r["single_read_gap_scans"] = checker.single_gap_scans;
   r["seq_gaps"] = checker.seq_gaps;
   // Per event, seconds since the daemon started: what a soak matches up (tools/soak/).
   r["gap_events"] = nlohmann::json::array();
@@ -842,7 +855,9 @@ int main(int argc, char** argv) {
   if (s.dropped_scans > max_dropped) failures.push_back("dropped_scans " + std::to_string(s.dropped_scans) + " > " + std::to_string(max_dropped));
   if (s.overruns > 0 && max_dropped == 0) failures.push_back("publisher overruns " + std::to_string(s.overruns));
   if (expect_gap && checker.gaps == 0) failures.push_back("expected a FLAG_GAP block, saw none");
-  if (!expect_gap && checker.gaps > 0) failures.push_back("unexpected FLAG_GAP blocks: " + std::to_string(checker.gaps));
+  if (!expect_gap && checker.gaps > max_paced_gaps) {
+    failures.push_back("unexpected FLAG_GAP blocks: " + std::to_string(checker.gaps));
+  }
   if (expect_no_data && checker.blocks > 0) failures.push_back("expected no data, got blocks");
   if (!expect_no_data && checker.blocks == 0) failures.push_back("no POF_RAW blocks received");
   for (int st : expect_states) {

@@ -109,11 +109,11 @@ class Usb1208lsBackend final : public Backend {
                                            : "Set acquisition.mcc_mode = \"auto\" for software-paced AIn reads (at most 50/s)");
           return OpenStatus::kFault;
         }
-        // [8] software-paced: at most kMaxSoftwarePacedHz AIn reads per second over the channels,
-        // for the rest of the process (the published rate is set at the first open).
+        // [8] software-paced: kFallbackReadsHz AIn reads per second over the channels, for the
+        // rest of the process (the published rate is set at the first open).
         single_ = true;
         fallback_ = true;
-        rate_hz_ = mcc::kMaxSoftwarePacedHz / static_cast<double>(n_ch_);
+        rate_hz_ = mcc::kFallbackReadsHz / static_cast<double>(n_ch_);
       }
     }
     std::array<mcc::OutReport, 2> q{};
@@ -267,8 +267,22 @@ class Usb1208lsBackend final : public Backend {
     const std::int64_t start = now_utime();
     sink.on_segment_start(start, start, false);
     const bool differential = cfg_.terminal == ni::Terminal::kDifferential;
+    const double period = 1.0 / rate_hz_;
+    double origin = 0;  // seconds after t0 the current schedule counts from
     for (std::uint64_t k = 0; !stop.load(std::memory_order_relaxed); ++k) {
-      sleep_until(t0, static_cast<double>(k + 1) / rate_hz_);
+      sleep_until(t0, origin + static_cast<double>(k + 1) * period);
+      // Each read is a 10-20 ms round trip on the bus (docs/daq.md, fact 18): a late scan is taken
+      // back to back with the next ones until the schedule is caught up, but one two periods late
+      // (a host that stalled, or a rate the bus cannot carry) is not taken under an index that
+      // says otherwise: the scans of that time are published as lost (FLAG_GAP, dropped_scans)
+      // and the schedule starts again from now.
+      const double now_s = seconds_since(t0);
+      if (now_s - (origin + static_cast<double>(k + 1) * period) >= 2 * period) {
+        const std::int64_t now = now_utime();
+        sink.on_segment_start(now, now, false);
+        origin = now_s - period;
+        k = 0;
+      }
       std::int32_t flags = 0;
       for (std::size_t c = 0; c < n_ch_; ++c) {
         if (!write(mcc::ain_report(ai_[c], gain_), why)) {

@@ -194,6 +194,8 @@ if mount -t tmpfs -o size=2m tmpfs full 2>/dev/null; then
   n=$(awk '/complete events/ {print $2; exit}' <<<"$out")
   [ "$n" -gt 1000 ] || fail "disk full: only $n events kept"
   echo "disk full: exit 74, $n complete events kept, log clean"
+  "$PY" "$SOURCE_DIR/tests/e2e/record_manifest_check.py" full full/x.manifest.json ||
+    fail "disk full: a message the recorder received is neither written nor counted"
   umount full
   trap - EXIT
 else

@@ -15,6 +15,9 @@ tests/e2e/record_lossless.sh and record_crash.sh.
   record_manifest_check.py failed MANIFEST LOG   the first event could not be written: `failed`,
                                                  the reason naming LOG, no file listed, nothing
                                                  written
+  record_manifest_check.py full MANIFEST         writing stopped on a full disk: every message
+                                                 received is written or counted as not written,
+                                                 with the reason; the files hold what is counted
 """
 import json
 import sys
@@ -66,8 +69,20 @@ def failed(m, log):
     check(m["counters"]["written"] == 0, f"counters {m['counters']}")
 
 
+def full(m):
+    c = m["counters"]
+    silent = c["received"] - c["written"] - c["dropped_handoff"] - c.get("not_written", 0)
+    print(f"manifest counters: received {c['received']}, written {c['written']}, dropped {c['dropped_handoff']}, "
+          f"not written {c.get('not_written')} ({c.get('not_written_reason')}), in no counter {silent}")
+    check(m["status"] == "disk_full", f"status {m['status']}")
+    check(silent == 0, f"{silent} messages in no counter: {c}")
+    check(c.get("not_written", 0) > 0 and "No space left" in c.get("not_written_reason", ""), f"counters {c}")
+    events = sum(f["events"] for f in m["files"])
+    check(events == c["written"], f"{events} events listed in the files, {c['written']} written")
+
+
 def main():
-    if len(sys.argv) < 3 or sys.argv[1] not in ("lossless", "killed", "rotated", "hostile", "failed"):
+    if len(sys.argv) < 3 or sys.argv[1] not in ("lossless", "killed", "rotated", "hostile", "failed", "full"):
         sys.exit(__doc__)
     m = json.load(open(sys.argv[2]))
     if sys.argv[1] == "lossless":
@@ -78,6 +93,8 @@ def main():
         hostile(m, int(sys.argv[3]))
     elif sys.argv[1] == "failed":
         failed(m, sys.argv[3])
+    elif sys.argv[1] == "full":
+        full(m)
     else:
         rotated(m)
 

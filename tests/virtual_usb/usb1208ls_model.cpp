@@ -120,7 +120,7 @@ void Usb1208lsModel::command(std::span<const std::uint8_t> r, std::int64_t now_u
       std::vector<std::uint8_t> reply(8, 0);
       reply[0] = static_cast<std::uint8_t>(raw & 0x0F);
       reply[1] = static_cast<std::uint8_t>(raw >> 4);
-      replies_.push_back(reply);
+      replies_.push_back({now_us + kReplyLatencyUs, reply});
       break;
     }
     default:
@@ -132,7 +132,9 @@ int Usb1208lsModel::on_control(const std::uint8_t* setup, std::span<std::uint8_t
   const std::uint8_t type = setup[0];
   const std::uint8_t req = setup[1];
   const unsigned value = static_cast<unsigned>(setup[2] | (setup[3] << 8));
-  if (type == 0x21 && req == 0x09) {  // SET_REPORT: an output report (hidapi strips id 0)
+  // SET_REPORT: an output report on EP0 (HID class request; hidapi uses it only when the interface
+  // has no interrupt OUT endpoint, which the published descriptors have).
+  if (type == 0x21 && req == 0x09) {
     command(data, now_us);
     return static_cast<int>(data.size());
   }
@@ -176,9 +178,13 @@ int Usb1208lsModel::on_control(const std::uint8_t* setup, std::span<std::uint8_t
   return -32;  // EPIPE: a stalled control request, as a real device answers unknown requests
 }
 
-InResult Usb1208lsModel::on_in(std::uint8_t ep, std::span<std::uint8_t> buf, std::int64_t) {
-  if (ep != 0x81 || replies_.empty()) return {};
-  const auto r = replies_.front();
+void Usb1208lsModel::on_out(std::uint8_t ep, std::span<const std::uint8_t> data, std::int64_t now_us) {
+  if (ep == 0x01) command(data, now_us);  // an output report (hidapi strips report id 0)
+}
+
+InResult Usb1208lsModel::on_in(std::uint8_t ep, std::span<std::uint8_t> buf, std::int64_t now_us) {
+  if (ep != 0x81 || replies_.empty() || replies_.front().ready_us > now_us) return {};
+  const auto r = replies_.front().bytes;
   replies_.pop_front();
   const std::size_t n = std::min(r.size(), buf.size());
   std::copy_n(r.begin(), n, buf.begin());

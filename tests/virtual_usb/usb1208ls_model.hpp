@@ -1,10 +1,12 @@
 #pragma once
 // A virtual MCC USB-1208LS as hidapi's libusb flavour sees it (usbdevfs, through the same
-// UsbdevfsDevice): HID interface, interrupt-IN 0x81 for 8-byte replies, commands as control
-// SET_REPORT (no interrupt-OUT endpoint: hidapi then writes output reports by control transfer),
-// scan data as 105-byte feature reports (GET_REPORT) paced by the device's scan timer.
-// Protocol: daq/include/pof/daq/protocol/mcc_usb1208ls.hpp. Its analog inputs see the simulated knee
-// (analog_bench.hpp); a session starts at each channel-queue load.
+// UsbdevfsDevice), on the device's published descriptors (docs/virtual-usb.md, "The USB-1208LS on
+// the bus"): low speed, an 8-byte EP0, one HID interface with interrupt IN 0x81 and interrupt OUT
+// 0x01 of 8 bytes each, bInterval 10 ms. Commands arrive on 0x01 (hidapi writes output reports
+// there when the interface has an OUT endpoint), replies leave on 0x81 from the frame after the
+// command, scan data are 105-byte feature reports (GET_REPORT on EP0) paced by the device's scan
+// timer. Protocol: daq/include/pof/daq/protocol/mcc_usb1208ls.hpp. Its analog inputs see the
+// simulated knee (analog_bench.hpp); a session starts at each channel-queue load.
 #include <cstdint>
 #include <deque>
 #include <string>
@@ -26,16 +28,24 @@ struct MccOptions {
 
 class Usb1208lsModel final : public DeviceModel {
  public:
-  // Interface 0 (HID), HID class descriptor, interrupt-IN 0x81 of 8 bytes.
-  static constexpr const char* kInterfaceHex = "090400000103000000" "092110010001221c00" "07058103080001";
-  static constexpr int kInterfaceLen = 25;
+  // Interface 0 (HID, 2 endpoints), HID class descriptor, interrupt IN 0x81 and interrupt OUT 0x01,
+  // wMaxPacketSize 8, bInterval 10 (the published listing: docs/virtual-usb.md).
+  static constexpr const char* kInterfaceHex =
+      "090400000203000000" "092110010001221c00" "0705810308000a" "0705010308000a";
+  static constexpr int kInterfaceLen = 32;
+  static constexpr std::uint16_t kBcdUsb = 0x0110;
+  static constexpr int kMaxPacket0 = 8;
+  static constexpr const char* kSpeed = "1.5";
+  /// The device's firmware answers a command from the frame after it arrived (our assumption:
+  /// no public source times it; the bus polls dominate).
+  static constexpr std::int64_t kReplyLatencyUs = 1000;
 
   /// `layout`: where the device puts data and scan index in a feature report: the public sources
   /// disagree (daq/include/pof/daq/protocol/mcc_usb1208ls.hpp [7]).
   Usb1208lsModel(double clock_ppm, AnalogBench& bench, MccOptions o = {})
       : ppm_(clock_ppm), bench_(bench), layout_(o.layout), opt_(o) {}
 
-  void on_out(std::uint8_t, std::span<const std::uint8_t>, std::int64_t) override {}
+  void on_out(std::uint8_t ep, std::span<const std::uint8_t> data, std::int64_t now_us) override;
   InResult on_in(std::uint8_t ep, std::span<std::uint8_t> buf, std::int64_t now_us) override;
   int on_control(const std::uint8_t* setup, std::span<std::uint8_t> data, std::int64_t now_us) override;
 
@@ -86,7 +96,11 @@ class Usb1208lsModel final : public DeviceModel {
   std::uint16_t last_index_ = 0;   // scan index of the last report handed out
   std::int64_t session_sample_ = 0;  // first sample of the current burst within the session
   std::vector<std::uint8_t> last_report_ = std::vector<std::uint8_t>(pof::daq::mcc::kScanReportBytes, 0);
-  std::deque<std::vector<std::uint8_t>> replies_;
+  struct Reply {
+    std::int64_t ready_us;
+    std::vector<std::uint8_t> bytes;
+  };
+  std::deque<Reply> replies_;
   std::vector<std::int64_t> reads_ = std::vector<std::int64_t>(8, 0);  // AIn reads per channel
   [[nodiscard]] std::int16_t se_counts(int session, std::int64_t idx, std::size_t ch);
 };

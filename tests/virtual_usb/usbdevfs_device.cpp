@@ -5,6 +5,7 @@
 #include <sys/ioctl.h>
 #include <linux/usbdevice_fs.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstddef>
 #include <cstdio>
@@ -27,6 +28,7 @@ usbdevfs_urb read_urb(UMockdevIoctlData* d) {
 
 UsbdevfsDevice::UsbdevfsDevice(UMockdevTestbed* testbed, const UsbIds& ids, DeviceModel& model)
     : testbed_(testbed), ids_(ids), model_(model) {
+  parse_descriptors();
   add_record();
   handler_ = umockdev_ioctl_base_new();
   g_signal_connect_data(handler_, "handle-ioctl", reinterpret_cast<GCallback>(&on_ioctl_cb), this,
@@ -139,14 +141,48 @@ UsbdevfsDevice::~UsbdevfsDevice() {
   }
 }
 
+// The timing the descriptors imply (docs/virtual-usb.md, "Bus timing"): bMaxPacketSize0 from the
+// device descriptor, and each endpoint's type, wMaxPacketSize and bInterval.
+void UsbdevfsDevice::parse_descriptors() {
+  std::vector<std::uint8_t> d;
+  for (std::size_t i = 0; i + 1 < ids_.descriptors_hex.size(); i += 2) {
+    d.push_back(static_cast<std::uint8_t>(std::stoul(ids_.descriptors_hex.substr(i, 2), nullptr, 16)));
+  }
+  if (d.size() >= 8 && d[1] == 1) ep0_max_packet_ = d[7];
+  for (std::size_t i = 0; i + 1 < d.size() && d[i] >= 2; i += d[i]) {
+    if (d[i + 1] == 5 && d[i] >= 7 && i + 6 < d.size()) {
+      Endpoint e;
+      e.attributes = d[i + 3];
+      e.max_packet = d[i + 4] | (d[i + 5] << 8);
+      e.interval_frames = (e.attributes & 3U) == 3U ? std::max<int>(1, d[i + 6]) : 0;
+      eps_[d[i + 2]] = e;
+    }
+  }
+  low_speed_ = ids_.speed == "1.5";
+  epoch_us_ = g_get_real_time() / 1000 * 1000;
+}
+
+bool UsbdevfsDevice::paced_interrupt(std::uint8_t ep) const {
+  const auto it = eps_.find(ep);
+  return it != eps_.end() && it->second.interval_frames > 0;
+}
+
+// The first poll of interrupt endpoint `ep` at or after `t`: polls are bInterval frames apart,
+// counted from the plug-in (a host keeps an endpoint's slot in its periodic schedule).
+std::int64_t UsbdevfsDevice::next_poll(std::uint8_t ep, std::int64_t t) const {
+  const std::int64_t period = std::int64_t{eps_.at(ep).interval_frames} * 1000;
+  const std::int64_t k = (std::max(t, epoch_us_) - epoch_us_ + period - 1) / period;
+  return epoch_us_ + k * period;
+}
+
 void UsbdevfsDevice::add_record() {
   char rec[4096];
   std::snprintf(rec, sizeof rec,
                 "P: %s\nN: bus/usb/001/002\nE: DEVNAME=%s\nE: DEVTYPE=usb_device\nE: SUBSYSTEM=usb\n"
                 "E: BUSNUM=001\nE: DEVNUM=002\nA: busnum=1\\n\nA: devnum=2\\n\n"
-                "A: idVendor=%04x\\n\nA: idProduct=%04x\\n\nA: speed=12\\n\n"
+                "A: idVendor=%04x\\n\nA: idProduct=%04x\\n\nA: speed=%s\\n\n"
                 "A: bConfigurationValue=1\\n\nH: descriptors=%s\n",
-                kSysfs, kDevNode, ids_.vendor, ids_.product, ids_.descriptors_hex.c_str());
+                kSysfs, kDevNode, ids_.vendor, ids_.product, ids_.speed.c_str(), ids_.descriptors_hex.c_str());
   GError* err = nullptr;
   if (!umockdev_testbed_add_from_string(testbed_, rec, &err)) {
     std::string msg = std::string("umockdev_testbed_add_from_string: ") + (err ? err->message : "?");
@@ -163,6 +199,10 @@ void UsbdevfsDevice::unplug() {
     finish(pending_.front(), -ENODEV, 0);
     pending_.pop_front();
   }
+  while (!timed_.empty()) {
+    finish(timed_.front(), -ENODEV, 0);
+    timed_.pop_front();
+  }
   umockdev_testbed_remove_device(testbed_, sysfs_path_.c_str());
 }
 
@@ -174,6 +214,10 @@ void UsbdevfsDevice::replug() {
   }
   ready_.clear();
   add_record();
+  epoch_us_ = g_get_real_time() / 1000 * 1000;  // a fresh device: a new periodic schedule
+  for (auto& [ep, e] : eps_) e.next_poll_us = 0;
+  ep0_free_us_ = 0;
+  last_out_us_ = -1;
   unplugged_ = false;
   claimed_ = 0;  // a fresh device
 }
@@ -217,19 +261,56 @@ void UsbdevfsDevice::submit(UMockdevIoctlClient* client) {
   Urb q{g_object_ref(urb), g_object_ref(buf), u.endpoint, u.type, u.buffer_length};
   pcap_event(q, 'S', -EINPROGRESS, u.buffer_length, (u.endpoint & 0x80) == 0 && u.type != USBDEVFS_URB_TYPE_CONTROL);
   const std::int64_t now = g_get_real_time();
+  q.submit_us = now;
   if (u.type == USBDEVFS_URB_TYPE_CONTROL) {
     std::span<std::uint8_t> data(buf->data + 8, static_cast<std::size_t>(std::max(0, u.buffer_length - 8)));
     const std::uint8_t* setup = buf->data;
+    // The device answers the setup packet when it arrives; the data reach the host later.
     const int r = model_.on_control(setup, data, now);
-    if (r >= 0) {
-      if ((setup[0] & 0x80) != 0) umockdev_ioctl_data_update(buf, 8, data.data(), r);
-      finish(q, 0, r);
+    if (r >= 0 && (setup[0] & 0x80) != 0) umockdev_ioctl_data_update(buf, 8, data.data(), r);
+    q.status = r >= 0 ? 0 : r;
+    q.actual = r >= 0 ? r : 0;
+    if (!low_speed_ || ids_.ep0_per_frame <= 0) {
+      finish(q, q.status, q.actual);
     } else {
-      finish(q, r, 0);
+      // Setup, data and status transactions of at most bMaxPacketSize0 bytes each, from the next
+      // frame on, `ep0_per_frame` a frame; a short or zero-length packet ends an IN data stage.
+      const int w_length = setup[6] | (setup[7] << 8);
+      const bool in = (setup[0] & 0x80) != 0;
+      const int moved = r < 0 ? 0 : in ? r : w_length;
+      int data_tx = (moved + ep0_max_packet_ - 1) / ep0_max_packet_;
+      if (in && r >= 0 && moved < w_length && moved % ep0_max_packet_ == 0) ++data_tx;  // zero-length packet
+      const int tx = r < 0 ? 2 : 2 + data_tx;  // a stall ends the transfer at its first data or status stage
+      const std::int64_t start = std::max(now, ep0_free_us_);
+      const std::int64_t frame = epoch_us_ + (start - epoch_us_ + 999) / 1000 * 1000;
+      q.due_us = frame + std::int64_t{(tx + ids_.ep0_per_frame - 1) / ids_.ep0_per_frame} * 1000;
+      ep0_free_us_ = q.due_us;
+      figures_.control_ms.push_back(static_cast<double>(q.due_us - now) / 1000.0);
+      timed_.insert(std::upper_bound(timed_.begin(), timed_.end(), q,
+                                     [](const Urb& a, const Urb& b) { return a.due_us < b.due_us; }),
+                    q);
     }
   } else if ((u.endpoint & 0x80) == 0) {
-    model_.on_out(u.endpoint, std::span<const std::uint8_t>(buf->data, static_cast<std::size_t>(u.buffer_length)), now);
-    finish(q, 0, u.buffer_length);
+    if (paced_interrupt(u.endpoint)) {
+      // One packet per poll, the polls of this endpoint in order: the device takes the command at
+      // the poll that carries its last packet (on_out in pump()).
+      Endpoint& e = eps_[u.endpoint];
+      const int packets = std::max(1, (u.buffer_length + e.max_packet - 1) / std::max(1, e.max_packet));
+      std::int64_t slot = next_poll(u.endpoint, std::max(now, e.next_poll_us));
+      for (int i = 1; i < packets; ++i) slot = next_poll(u.endpoint, slot + 1);
+      e.next_poll_us = slot + 1;
+      q.due_us = slot;
+      q.actual = u.buffer_length;
+      last_out_us_ = now;
+      figures_.out_ms.push_back(static_cast<double>(slot - now) / 1000.0);
+      timed_.insert(std::upper_bound(timed_.begin(), timed_.end(), q,
+                                     [](const Urb& a, const Urb& b) { return a.due_us < b.due_us; }),
+                    q);
+    } else {
+      model_.on_out(u.endpoint,
+                    std::span<const std::uint8_t>(buf->data, static_cast<std::size_t>(u.buffer_length)), now);
+      finish(q, 0, u.buffer_length);
+    }
   } else {
     pending_.push_back(q);
   }
@@ -238,7 +319,23 @@ void UsbdevfsDevice::submit(UMockdevIoctlClient* client) {
 
 // Completes the pending IN URBs whose data the model has now, in submission order per endpoint.
 void UsbdevfsDevice::pump(std::int64_t now_us) {
+  // Control and interrupt OUT transfers the bus has moved by now.
+  while (!timed_.empty() && timed_.front().due_us <= now_us) {
+    Urb u = timed_.front();
+    timed_.pop_front();
+    if (u.type == USBDEVFS_URB_TYPE_CONTROL) {
+      finish(u, u.status, u.actual);
+    } else {
+      model_.on_out(u.ep, std::span<const std::uint8_t>(u.buf->data, static_cast<std::size_t>(u.length)), u.due_us);
+      finish(u, 0, u.actual);
+    }
+  }
+  pump_interrupt_in(now_us);
   for (auto it = pending_.begin(); it != pending_.end();) {
+    if (paced_interrupt(it->ep)) {  // pump_interrupt_in()
+      ++it;
+      continue;
+    }
     if (inject_ep_ == it->ep) {
       inject_ep_ = -1;
       finish(*it, inject_status_, 0);
@@ -261,6 +358,42 @@ void UsbdevfsDevice::pump(std::int64_t now_us) {
       finish(*it, r.status, 0);
     }
     it = pending_.erase(it);
+  }
+}
+
+// Interrupt IN: the host polls each endpoint every bInterval frames; a poll moves at most one
+// packet, and only if the device has it ready then. The first pending URB of an endpoint gets the
+// polls from its submission on (hidapi keeps one submitted all the time).
+void UsbdevfsDevice::pump_interrupt_in(std::int64_t now_us) {
+  for (auto& [ep, e] : eps_) {
+    if ((ep & 0x80) == 0 || e.interval_frames == 0) continue;
+    for (int guard = 0; guard < 10000; ++guard) {
+      const auto it = std::find_if(pending_.begin(), pending_.end(), [ep = ep](const Urb& u) { return u.ep == ep; });
+      if (it == pending_.end()) break;
+      if (inject_ep_ == ep) {
+        inject_ep_ = -1;
+        finish(*it, inject_status_, 0);
+        pending_.erase(it);
+        continue;
+      }
+      const std::int64_t slot = next_poll(ep, std::max(it->submit_us, e.next_poll_us));
+      if (slot > now_us) break;
+      e.next_poll_us = slot + 1;
+      std::vector<std::uint8_t> tmp(static_cast<std::size_t>(std::min(it->length, std::max(1, e.max_packet))));
+      const InResult r = model_.on_in(ep, tmp, slot);
+      if (r.kind == InResult::kWait) continue;  // NAK: the next poll
+      if (r.kind == InResult::kData) {
+        umockdev_ioctl_data_update(it->buf, 0, tmp.data(), r.length);
+        finish(*it, 0, r.length);
+        if (last_out_us_ >= 0) {
+          figures_.round_trip_ms.push_back(static_cast<double>(now_us - last_out_us_) / 1000.0);
+          last_out_us_ = -1;
+        }
+      } else {
+        finish(*it, r.status, 0);
+      }
+      pending_.erase(it);
+    }
   }
 }
 
@@ -341,12 +474,14 @@ gboolean UsbdevfsDevice::on_ioctl(UMockdevIoctlClient* client) {
       UMockdevIoctlData* arg = umockdev_ioctl_client_get_arg(client);
       guint64 addr = 0;
       if (arg->data_len >= static_cast<gint>(sizeof addr)) std::memcpy(&addr, arg->data, sizeof addr);
-      for (auto it = pending_.begin(); it != pending_.end(); ++it) {
-        if (it->urb->client_addr == addr || it->urb->client_addr == arg->client_addr) {
-          finish(*it, -ENOENT, 0);
-          pending_.erase(it);
-          umockdev_ioctl_client_complete(client, 0, 0);
-          return TRUE;
+      for (auto* q : {&pending_, &timed_}) {
+        for (auto it = q->begin(); it != q->end(); ++it) {
+          if (it->urb->client_addr == addr || it->urb->client_addr == arg->client_addr) {
+            finish(*it, -ENOENT, 0);
+            q->erase(it);
+            umockdev_ioctl_client_complete(client, 0, 0);
+            return TRUE;
+          }
         }
       }
       umockdev_ioctl_client_complete(client, -1, EINVAL);

@@ -7,12 +7,18 @@
 // Reaps that find nothing ready are answered EAGAIN only after 1 ms (note, item 6): umockdev does
 // not emulate poll(), so an immediate EAGAIN would make libusb spin, and the deferral is also what
 // paces the data in real time.
+//
+// Bus timing follows the descriptors (docs/virtual-usb.md, "Bus timing"): an interrupt endpoint
+// moves one packet per poll, its polls bInterval frames apart; at low speed a control transfer
+// moves `ep0_per_frame` 8-byte transactions per 1-ms frame (setup, data, status), one transfer at
+// a time on EP0. Bulk endpoints (full speed) are not paced beyond the reap deferral.
 #include <glib.h>
 #include <umockdev.h>
 
 #include <cstdint>
 #include <cstdio>
 #include <deque>
+#include <map>
 #include <mutex>
 #include <span>
 #include <string>
@@ -49,6 +55,16 @@ struct UsbIds {
   std::uint16_t vendor;
   std::uint16_t product;
   std::string descriptors_hex;  // device + configuration descriptors
+  std::string speed = "12";     // sysfs `speed`: "12" full speed, "1.5" low speed
+  // Low speed: 8-byte control transactions per frame (0 = control transfers complete at once).
+  int ep0_per_frame = 1;
+};
+
+/// Transfer durations the virtual bus imposed (submit to completion), for the report.
+struct BusFigures {
+  std::vector<double> control_ms;       // control transfers
+  std::vector<double> out_ms;           // interrupt OUT transfers
+  std::vector<double> round_trip_ms;    // interrupt OUT submitted -> the next interrupt IN completed with data
 };
 
 class UsbdevfsDevice {
@@ -75,6 +91,7 @@ class UsbdevfsDevice {
 
   std::mutex& mutex() { return mu_; }  // held while the model is called
   long reaps() const { return reaps_; }
+  const BusFigures& figures() const { return figures_; }  // under mutex()
   int claimed() const { return claimed_; }  // interfaces claimed and not released
 
  private:
@@ -84,6 +101,16 @@ class UsbdevfsDevice {
     std::uint8_t ep = 0;
     std::uint8_t type = 0;
     int length = 0;
+    std::int64_t submit_us = 0;
+    std::int64_t due_us = 0;     // timed_: when the bus has moved it
+    int status = 0;              // timed_ control: its result
+    int actual = 0;
+  };
+  struct Endpoint {  // from the endpoint descriptor
+    std::uint8_t attributes = 0;
+    int max_packet = 0;
+    int interval_frames = 0;     // interrupt: bInterval (frames of 1 ms at low and full speed)
+    std::int64_t next_poll_us = 0;  // IN: first poll not yet used
   };
 
   UsbdevfsDevice(UMockdevTestbed* testbed, const UsbIds& ids, DeviceModel& model, bool no_handler);
@@ -95,6 +122,10 @@ class UsbdevfsDevice {
   bool deliver_ready(UMockdevIoctlClient* client);
   void finish(Urb& u, int status, int actual);
   void add_record();
+  void parse_descriptors();
+  [[nodiscard]] bool paced_interrupt(std::uint8_t ep) const;
+  [[nodiscard]] std::int64_t next_poll(std::uint8_t ep, std::int64_t t) const;
+  void pump_interrupt_in(std::int64_t now_us);
   void pcap_event(const Urb& u, char type, int status, int length, bool with_data);
 
   UMockdevTestbed* testbed_;
@@ -106,6 +137,14 @@ class UsbdevfsDevice {
   std::mutex mu_;
   std::deque<Urb> pending_;  // submitted IN URBs, in order
   std::deque<Urb> ready_;    // completed, waiting to be reaped
+  std::deque<Urb> timed_;    // control and interrupt OUT URBs the bus has not moved yet, by due_us
+  std::map<std::uint8_t, Endpoint> eps_;
+  int ep0_max_packet_ = 64;
+  bool low_speed_ = false;
+  std::int64_t epoch_us_ = 0;      // frame 0 (the plug-in): interrupt polls are bInterval frames apart from it
+  std::int64_t ep0_free_us_ = 0;   // EP0 is busy with a control transfer until then
+  std::int64_t last_out_us_ = -1;  // submit time of the last interrupt OUT not yet answered on IN
+  BusFigures figures_;
   bool unplugged_ = false;
   int inject_ep_ = -1;
   int inject_status_ = 0;

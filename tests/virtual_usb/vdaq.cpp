@@ -93,10 +93,10 @@ long cpu_ticks(pid_t pid) {
 
 // Descriptors: device (18 bytes) + configuration, one interface, endpoints as listed.
 std::string descriptors(std::uint16_t vid, std::uint16_t pid, const std::string& iface_and_eps_hex,
-                        int iface_len, bool has_serial = false) {
+                        int iface_len, bool has_serial = false, std::uint16_t bcd_usb = 0x0210, int max_packet0 = 64) {
   char dev[64];
-  std::snprintf(dev, sizeof dev, "1201100200000040%02x%02x%02x%02x00010000%02x01", vid & 0xFF, vid >> 8,
-                pid & 0xFF, pid >> 8, has_serial ? 3 : 0);
+  std::snprintf(dev, sizeof dev, "1201%02x%02x000000%02x%02x%02x%02x%02x00010000%02x01", bcd_usb & 0xFF, bcd_usb >> 8,
+                max_packet0, vid & 0xFF, vid >> 8, pid & 0xFF, pid >> 8, has_serial ? 3 : 0);
   char cfg[32];
   const int total = 9 + iface_len;
   std::snprintf(cfg, sizeof cfg, "0902%02x%02x0101008032", total & 0xFF, total >> 8);
@@ -128,6 +128,7 @@ struct Checker {
   // device, whatever index the daemon gives them), the seams matched, and their flagging.
   std::int64_t mcc_delivered = 0;
   std::size_t mcc_seams_seen = 0;  // of mcc->seams, those the published stream has passed
+  std::int64_t single_gap_scans = 0;  // USB-1208LS single reads: scans the daemon's pacing gave up
   long seam_gaps = 0;              // seams published as FLAG_GAP
   long unflagged_seams = 0;        // seams published without FLAG_GAP
   double max_seam_length_error = 0;  // |published index advance - scans the device skipped|
@@ -230,6 +231,13 @@ struct Checker {
         } else if (gap) {
           ++gaps;  // a gap the device did not cause
           gap_events.emplace_back(recv, static_cast<long>(advance));
+          // Single reads: the device reads on, one after the other; the daemon's index jumped over
+          // the scans its pacing gave up (docs/daq.md, "Continuous acquisition"). The k-th read
+          // stays the truth of the next published scan.
+          if (!mcc->scanned(session)) {
+            single_gap_scans += advance;
+            local -= advance;
+          }
         }
         if (!gap && advance != 0) {
           ++index_jumps;
@@ -370,6 +378,7 @@ int main(int argc, char** argv) {
   double max_seam_error = 1;
   double expect_rate = 0;
   long min_seams = 0;
+  int ep0_per_frame = 1;
   std::string expect_variant;
   double clock_ppm = 0;
   int lcm_port = 0;
@@ -377,6 +386,7 @@ int main(int argc, char** argv) {
   int transfers = 4;
   // checks
   long max_dropped = 0;
+  long max_paced_gaps = 0;
   bool expect_gap = false;
   bool expect_no_data = false;
   std::vector<int> expect_states;
@@ -430,6 +440,10 @@ int main(int argc, char** argv) {
                  "USB-1208LS: bound on |published hole - scans the device did not take| per seam");
   app.add_option("--expect-rate", expect_rate,
                  "published scan_rate_hz expected (0 = --rate / --decimate; a USB-1208LS software-paced fallback runs slower)");
+  app.add_option("--ep0-per-frame", ep0_per_frame,
+                 "USB-1208LS (low speed): 8-byte control transactions the host moves per 1-ms frame "
+                 "(1: one per frame, the usual figure; 0: control transfers complete at once)")
+      ->check(CLI::Range(0, 3));
   app.add_option("--min-seams", min_seams, "USB-1208LS: seams (idle device between executions) that must be seen");
   app.add_option("--expect-variant", expect_variant,
                  "text the last status's protocol_variant must contain");
@@ -439,6 +453,9 @@ int main(int argc, char** argv) {
   app.add_option("--short-every", short_every, "scenario short: every Nth data URB is 2 bytes short");
   app.add_option("--transfers", transfers, "acquisition.transfers_in_flight");
   app.add_option("--max-dropped", max_dropped);
+  app.add_option("--max-paced-gaps", max_paced_gaps,
+                 "USB-1208LS single reads: flagged holes the daemon's host pacing may publish (a scan two "
+                 "periods late on a loaded host); their scans count against --max-dropped");
   app.add_flag("--expect-gap", expect_gap);
   app.add_flag("--expect-no-data", expect_no_data);
   app.add_option("--expect-state", expect_states, "daq_status_t state that must be seen (repeatable)")
@@ -537,8 +554,13 @@ int main(int argc, char** argv) {
       mo.se_scan_offset = se_scan_coding == "offset";
       mo.refuse_feature = refuse_feature;
       mcc = std::make_unique<pof::vusb::Usb1208lsModel>(clock_ppm, *bench, mo);
+      using M = pof::vusb::Usb1208lsModel;
       dev = std::make_unique<pof::vusb::UsbdevfsDevice>(
-          testbed, pof::vusb::UsbIds{0x09db, 0x007a, descriptors(0x09db, 0x007a, pof::vusb::Usb1208lsModel::kInterfaceHex, pof::vusb::Usb1208lsModel::kInterfaceLen)},
+          testbed,
+          pof::vusb::UsbIds{0x09db, 0x007a,
+                            descriptors(0x09db, 0x007a, M::kInterfaceHex, M::kInterfaceLen, false, M::kBcdUsb,
+                                        M::kMaxPacket0),
+                            M::kSpeed, ep0_per_frame},
           *mcc);
     }
   }
@@ -706,6 +728,7 @@ int main(int argc, char** argv) {
   r["index_jumps_without_gap_flag"] = checker.index_jumps;
   r["gap_blocks"] = checker.gaps;
   r["gap_scans"] = checker.gap_scans;
+  r["single_read_gap_scans"] = checker.single_gap_scans;
   r["seq_gaps"] = checker.seq_gaps;
   // Per event, seconds since the daemon started: what a soak matches up (tools/soak/).
   r["gap_events"] = nlohmann::json::array();
@@ -771,6 +794,11 @@ int main(int argc, char** argv) {
       if (dev->claimed() != 0) failures.push_back("interface still claimed after pof-daqd exited");
       if (ni->protocol_errors != 0) failures.push_back("the daemon sent frames the device did not understand");
     }
+    // What the bus timing imposed (docs/virtual-usb.md, "Bus timing").
+    const auto& bus = dev->figures();
+    if (!bus.control_ms.empty()) r["usb_control_ms"] = stats(bus.control_ms);
+    if (!bus.out_ms.empty()) r["usb_interrupt_out_ms"] = stats(bus.out_ms);
+    if (!bus.round_trip_ms.empty()) r["usb_round_trip_ms"] = stats(bus.round_trip_ms);
     if (mcc) {
       std::vector<double> skipped;
       for (const auto& sm : mcc->seams) skipped.push_back(static_cast<double>(sm.skipped));
@@ -827,7 +855,9 @@ int main(int argc, char** argv) {
   if (s.dropped_scans > max_dropped) failures.push_back("dropped_scans " + std::to_string(s.dropped_scans) + " > " + std::to_string(max_dropped));
   if (s.overruns > 0 && max_dropped == 0) failures.push_back("publisher overruns " + std::to_string(s.overruns));
   if (expect_gap && checker.gaps == 0) failures.push_back("expected a FLAG_GAP block, saw none");
-  if (!expect_gap && checker.gaps > 0) failures.push_back("unexpected FLAG_GAP blocks: " + std::to_string(checker.gaps));
+  if (!expect_gap && checker.gaps > max_paced_gaps) {
+    failures.push_back("unexpected FLAG_GAP blocks: " + std::to_string(checker.gaps));
+  }
   if (expect_no_data && checker.blocks > 0) failures.push_back("expected no data, got blocks");
   if (!expect_no_data && checker.blocks == 0) failures.push_back("no POF_RAW blocks received");
   for (int st : expect_states) {

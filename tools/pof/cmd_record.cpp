@@ -194,7 +194,9 @@ void run_record(const RecordArgs& a) {
     if (now - last_status >= std::chrono::seconds(1)) {
       last_status = now;
       notifier.status("recording: " + std::to_string(s.written) + " events written, " +
-                      std::to_string(s.dropped_handoff) + " dropped, " + std::to_string(s.udp_drops) +
+                      std::to_string(s.dropped_handoff) + " dropped, " +
+                      (s.not_written > 0 ? std::to_string(s.not_written) + " not written (" + s.error + "), " : std::string()) +
+                      std::to_string(s.udp_drops) +
                       " kernel UDP drops" +
                       (s.authenticated ? ", " + std::to_string(s.auth_unsigned + s.auth_bad_mac + s.auth_stale +
                                                                s.auth_replayed) +
@@ -205,10 +207,10 @@ void run_record(const RecordArgs& a) {
   notifier.stopping("draining the hand-off queue");
   const rec::SessionStats s = session.stop();
   if (!a.quiet || s.outcome != rec::Outcome::kStopped) {
-    spdlog::info("{}: {} messages received, {} events written in {} file(s), {} dropped at the hand-off, {} kernel UDP drops "
-                 "(receive buffer {} bytes); manifest {}",
-                 rec::outcome_name(s.outcome), s.received, s.written, s.files.size(), s.dropped_handoff, s.udp_drops,
-                 s.udp_rcvbuf_bytes, s.manifest.string());
+    spdlog::info("{}: {} messages received, {} events written in {} file(s), {} dropped at the hand-off, {} not written "
+                 "(writing stopped), {} kernel UDP drops (receive buffer {} bytes); manifest {}",
+                 rec::outcome_name(s.outcome), s.received, s.written, s.files.size(), s.dropped_handoff, s.not_written,
+                 s.udp_drops, s.udp_rcvbuf_bytes, s.manifest.string());
   }
   const uint64_t refused = s.auth_unsigned + s.auth_bad_mac + s.auth_stale + s.auth_replayed;
   if (s.authenticated && (!a.quiet || refused > 0))

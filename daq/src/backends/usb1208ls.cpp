@@ -12,7 +12,8 @@
 // with its reason, or, with acquisition.mcc_mode = "auto", read by single AIns instead.
 // A channel list the device cannot queue (3, 5-7) is padded (protocol [9]); the padding inputs
 // are scanned and their samples dropped here.
-// hidapi is synchronous: the acquisition thread polls with a 1 ms pause between empty answers.
+// hidapi is synchronous: the acquisition thread asks for each report when the device's timer says
+// it is complete, then polls with a 1 ms pause between empty answers.
 #include <hidapi/hidapi.h>
 
 #include <algorithm>
@@ -34,6 +35,10 @@ namespace pof::daq {
 namespace {
 
 using pof::lcmutil::now_utime;
+
+// How much faster than nominal a device's scan timer may run when the backend times its requests
+// for a report (2000 ppm: twice the drift ScanClock follows).
+constexpr double kClockTolerance = 2000e-6;
 
 class Usb1208lsBackend final : public Backend {
  public:
@@ -104,11 +109,11 @@ class Usb1208lsBackend final : public Backend {
                                            : "Set acquisition.mcc_mode = \"auto\" for software-paced AIn reads (at most 50/s)");
           return OpenStatus::kFault;
         }
-        // [8] software-paced: at most kMaxSoftwarePacedHz AIn reads per second over the channels,
-        // for the rest of the process (the published rate is set at the first open).
+        // [8] software-paced: kFallbackReadsHz AIn reads per second over the channels, for the
+        // rest of the process (the published rate is set at the first open).
         single_ = true;
         fallback_ = true;
-        rate_hz_ = mcc::kMaxSoftwarePacedHz / static_cast<double>(n_ch_);
+        rate_hz_ = mcc::kFallbackReadsHz / static_cast<double>(n_ch_);
       }
     }
     std::array<mcc::OutReport, 2> q{};
@@ -168,12 +173,27 @@ class Usb1208lsBackend final : public Backend {
       // [9] never continuous: the device was idle since the last execution's last sample (the
       // seam), so the scans it did not take are published as lost (FLAG_GAP, dropped_scans).
       sink.on_segment_start(sent_us, now_utime(), false);
+      // Report k is complete 64 k samples after the start, not before (minus the crystal's
+      // tolerance): ask for it then. At low speed a GET_REPORT holds EP0 for ~16 frames (docs/daq.md,
+      // fact 18), so a poll sent just before a report completes delays it by a whole transfer, and
+      // the last one of an execution lengthens the seam by as much (the device is idle until the
+      // next AInScan). Past the due time the loop polls as before.
+      const auto started = std::chrono::steady_clock::now();
+      const double report_s =
+          static_cast<double>(mcc::kSamplesPerScanReport) / timer_->actual_rate_hz * (1.0 - kClockTolerance);
       carry_n_ = 0;  // an execution is whole queue cycles
       std::uint16_t expect = 1;
       std::size_t got = 0;
       auto last_progress = std::chrono::steady_clock::now();
       while (got < burst_samples_) {
         if (stop.load(std::memory_order_relaxed)) return StreamEnd::kStopped;
+        const auto due = started + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                       std::chrono::duration<double>(report_s * expect));
+        if (const auto now = std::chrono::steady_clock::now(); now < due) {
+          std::this_thread::sleep_for(
+              std::min<std::chrono::steady_clock::duration>(due - now, std::chrono::milliseconds(20)));
+          continue;  // in steps, so that a stop is seen within 20 ms
+        }
         Report& buf = held_[held_n_ < held_.size() ? held_n_ : 0];
         buf[0] = 0;  // report id
         const int n = hid_get_feature_report(dev_, buf.data(), buf.size());
@@ -247,8 +267,22 @@ class Usb1208lsBackend final : public Backend {
     const std::int64_t start = now_utime();
     sink.on_segment_start(start, start, false);
     const bool differential = cfg_.terminal == ni::Terminal::kDifferential;
+    const double period = 1.0 / rate_hz_;
+    double origin = 0;  // seconds after t0 the current schedule counts from
     for (std::uint64_t k = 0; !stop.load(std::memory_order_relaxed); ++k) {
-      sleep_until(t0, static_cast<double>(k + 1) / rate_hz_);
+      sleep_until(t0, origin + static_cast<double>(k + 1) * period);
+      // Each read is a 10-20 ms round trip on the bus (docs/daq.md, fact 18): a late scan is taken
+      // back to back with the next ones until the schedule is caught up, but one two periods late
+      // (a host that stalled, or a rate the bus cannot carry) is not taken under an index that
+      // says otherwise: the scans of that time are published as lost (FLAG_GAP, dropped_scans)
+      // and the schedule starts again from now.
+      const double now_s = seconds_since(t0);
+      if (now_s - (origin + static_cast<double>(k + 1) * period) >= 2 * period) {
+        const std::int64_t now = now_utime();
+        sink.on_segment_start(now, now, false);
+        origin = now_s - period;
+        k = 0;
+      }
       std::int32_t flags = 0;
       for (std::size_t c = 0; c < n_ch_; ++c) {
         if (!write(mcc::ain_report(ai_[c], gain_), why)) {

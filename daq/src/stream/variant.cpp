@@ -27,7 +27,7 @@ std::string describe_variant(std::uint32_t bits) {
   add(kVariantSeScanUndecided,
       "single-ended scan coding undecided: no AIn reading agreed (blocks flagged doubtful)");
   add(kVariantSoftwarePaced,
-      "scan feature report refused (GET_REPORT fails): software-paced AIn reads, 50 reads/s over "
+      "scan feature report refused (GET_REPORT fails): software-paced AIn reads, 45 reads/s over "
       "the channels (scan_rate_hz is the real rate)");
   return s;
 }

@@ -206,7 +206,11 @@ void Session::enqueue(int64_t utime, std::string_view channel, const void* data,
   const std::size_t size = kRecordHeader + channel.size() + data_size;
   std::lock_guard lk(mu_);
   ++received_;
-  if (!accepting_ || pending_bytes_ + size > opt_.handoff_bytes) {
+  if (!accepting_) {  // writing stopped (disk full, I/O error): counted as not written
+    ++refused_;
+    return;
+  }
+  if (pending_bytes_ + size > opt_.handoff_bytes) {
     ++dropped_;
     return;
   }
@@ -311,19 +315,57 @@ void Session::write_manifest_noexcept(const char* status) noexcept {
   }
 }
 
+// Writer thread, under stats_mu_: one event the current file holds.
+void Session::note_event(int64_t utime, std::string_view channel, const unsigned char* data, uint32_t size) {
+  FileInfo& fi = files_.back();
+  if (fi.first_utime == 0) fi.first_utime = utime;
+  fi.last_utime = utime;
+  auto it = channels_.find(channel);
+  if (it == channels_.end()) {
+    // The event is in the log already; only its per-channel bookkeeping is bounded.
+    if (!admit_channel(channel, channels_.size())) {
+      other_.note(channel, size);
+      return;
+    }
+    it = channels_.emplace(std::string(channel), ChannelStats{}).first;
+    it->second.fingerprint = bus::fingerprint_of(data, size);
+    it->second.type = bus::message_type_of(data, size);
+  }
+  ChannelStats& cs = it->second;
+  ++cs.events;
+  cs.bytes += size;
+  if (cs.type != bus::MessageType::kUnknown) {
+    if (auto sq = pof_seq(data, size)) cs.seq.update(*sq);
+  }
+}
+
 void Session::writer_loop() {
   std::vector<unsigned char> batch;
   batch.reserve(opt_.handoff_bytes);  // swapped with pending_: both stay at full capacity
   auto last_sync = std::chrono::steady_clock::now();
   bool failed = false;
+  // Events of the batch appended to the writer and not yet known to be in the file.
+  struct Event {
+    int64_t utime;
+    std::string_view channel;
+    const unsigned char* data;
+    uint32_t size;
+  };
+  std::vector<Event> unbooked;
   for (;;) {
+    uint64_t taken = 0;  // events in this batch
     {
       std::unique_lock lk(mu_);
       cv_.wait_for(lk, std::chrono::milliseconds(50), [this] { return !pending_.empty() || stop_writer_.load(); });
       batch.clear();
       batch.swap(pending_);
+      taken = pending_events_;
       pending_bytes_ = 0;
       pending_events_ = 0;
+    }
+    {
+      std::lock_guard lk(stats_mu_);
+      taken_ += taken;
     }
     writer_beats_.fetch_add(1);
     const bool stopping = stop_writer_.load();
@@ -333,13 +375,19 @@ void Session::writer_loop() {
           std::chrono::duration<double>(now - file_opened_).count() >= opt_.rotate_seconds) {
         rotate();
       }
+      // Per-file and per-channel bookkeeping only for events the file holds: a failed write(2) cuts
+      // the writer's batch back (lcmlog_durable.hpp), and those events are counted as not written.
+      unbooked.clear();
+      auto book = [&](uint64_t keep) {  // all but the last `keep` events are in the file
+        const std::size_t n = unbooked.size() - std::min<std::size_t>(keep, unbooked.size());
+        if (n == 0) return;
+        std::lock_guard lk(stats_mu_);
+        for (std::size_t i = 0; i < n; ++i) note_event(unbooked[i].utime, unbooked[i].channel, unbooked[i].data,
+                                                       unbooked[i].size);
+        unbooked.erase(unbooked.begin(), unbooked.begin() + static_cast<std::ptrdiff_t>(n));
+      };
       for (std::size_t off = 0; off + kRecordHeader <= batch.size();) {
-        struct {
-          int64_t utime;
-          std::string_view channel;
-          const unsigned char* data;
-          uint32_t size;
-        } e{};
+        Event e{};
         uint32_t cl = 0;
         std::memcpy(&e.utime, batch.data() + off, 8);
         std::memcpy(&cl, batch.data() + off + 8, 4);
@@ -349,33 +397,18 @@ void Session::writer_loop() {
         off += kRecordHeader + cl + e.size;
         const uint64_t n = kLogHeaderBytes + cl + e.size;
         if (opt_.rotate_bytes > 0 && writer_->events_appended() > 0 && file_bytes_ + n > opt_.rotate_bytes) {
+          if (writer_->flush() != WriteStatus::kOk) break;
+          book(0);
           if (!rotate()) break;
         }
         if (writer_->append(e.utime, e.channel, e.data, e.size) != WriteStatus::kOk) break;
         file_bytes_ += n;
-        std::lock_guard lk(stats_mu_);
-        FileInfo& fi = files_.back();
-        if (fi.first_utime == 0) fi.first_utime = e.utime;
-        fi.last_utime = e.utime;
-        auto it = channels_.find(e.channel);
-        if (it == channels_.end()) {
-          // The event is in the log already; only its per-channel bookkeeping is bounded.
-          if (!admit_channel(e.channel, channels_.size())) {
-            other_.note(e.channel, e.size);
-            continue;
-          }
-          it = channels_.emplace(std::string(e.channel), ChannelStats{}).first;
-          it->second.fingerprint = bus::fingerprint_of(e.data, e.size);
-          it->second.type = bus::message_type_of(e.data, e.size);
-        }
-        ChannelStats& cs = it->second;
-        ++cs.events;
-        cs.bytes += e.size;
-        if (cs.type != bus::MessageType::kUnknown) {
-          if (auto sq = pof_seq(e.data, e.size)) cs.seq.update(*sq);
-        }
+        unbooked.push_back(e);
+        book(writer_->events_appended() - writer_->events_written());
       }
       if (writer_->status() == WriteStatus::kOk) writer_->flush();
+      if (writer_->status() == WriteStatus::kOk) book(0);
+      unbooked.clear();  // cut back by a failed write: not in the file
       if (writer_->status() == WriteStatus::kOk &&
           (stopping || std::chrono::steady_clock::now() - last_sync >= std::chrono::duration<double>(opt_.sync_interval_s))) {
         writer_->sync();
@@ -391,6 +424,7 @@ void Session::writer_loop() {
         for (const auto& f : files_) written_ += f.events;
         if (writer_ && writer_->status() != WriteStatus::kOk && outcome_ == Outcome::kRunning) note_write_failure();
         failed = outcome_ != Outcome::kRunning;
+        writer_failed_ = failed;
       }
       if (failed) {
         std::lock_guard lk(mu_);
@@ -412,6 +446,7 @@ SessionStats Session::poll() {
     std::lock_guard lk(mu_);
     s.received = received_;
     s.dropped_handoff = dropped_;
+    s.not_written = refused_;
     s.handoff_peak_bytes = peak_bytes_;
   }
   {
@@ -419,6 +454,7 @@ SessionStats Session::poll() {
     s.outcome = outcome_;
     s.error = error_;
     s.written = written_;
+    s.not_written += not_written_locked();
     for (const auto& f : files_) s.files.push_back(f.path);
   }
   if (port_ != 0) {
@@ -487,6 +523,15 @@ void Session::write_final_manifest(const char* status) noexcept {
   }
 }
 
+// Under stats_mu_: events the writer took from the hand-off and that will never reach the log
+// (writing stopped). While writing goes on, what is taken and not yet written is in flight.
+uint64_t Session::not_written_locked() const { return writer_failed_ && taken_ > written_ ? taken_ - written_ : 0; }
+
+std::string Session::error_reason() {
+  std::lock_guard lk(stats_mu_);
+  return std::string(outcome_name(outcome_)) + ": " + error_;
+}
+
 std::string Session::manifest_text(const char* status) {
   nlohmann::json m;
   m["schema_version"] = 1;
@@ -520,6 +565,7 @@ std::string Session::manifest_text(const char* status) {
     std::lock_guard lk(mu_);
     s.received = received_;
     s.dropped_handoff = dropped_;
+    s.not_written = refused_;
     peak = peak_bytes_;
   }
   nlohmann::json files = nlohmann::json::array();
@@ -543,6 +589,7 @@ std::string Session::manifest_text(const char* status) {
       chans[name] = j;
     }
     s.written = written_;
+    s.not_written += not_written_locked();
     if (!error_.empty()) m["error"] = error_;
     // Events on names beyond the bound (pof/recorder/channel_cap.hpp): in the log, counted here.
     m["other_channels"] = {{"events", other_.events},
@@ -556,6 +603,8 @@ std::string Session::manifest_text(const char* status) {
   m["counters"] = {{"received", s.received},
                    {"written", s.written},
                    {"dropped_handoff", s.dropped_handoff},
+                   {"not_written", s.not_written},
+                   {"not_written_reason", s.not_written > 0 ? error_reason() : std::string()},
                    {"udp_kernel_drops", final_udp_drops_},
                    {"malformed_datagrams", malformed_.load(std::memory_order_relaxed)},
                    {"incomplete_messages", incomplete_.load(std::memory_order_relaxed)},

@@ -27,4 +27,10 @@ inline void sleep_until(const timespec& start, double seconds) {
   clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &due, nullptr);
 }
 
+/// Seconds from `start` to now on the monotonic clock.
+inline double seconds_since(const timespec& start) {
+  const timespec now = monotonic_now();
+  return static_cast<double>(now.tv_sec - start.tv_sec) + static_cast<double>(now.tv_nsec - start.tv_nsec) * 1e-9;
+}
+
 }  // namespace pof::daq

@@ -46,7 +46,8 @@
 //     long as the 16-bit count allows (65 s at 1 kS/s; whole reports and queue cycles,
 //     acquisition.segment_scans shortens them), aggregate rate limited to [8]'s 1.2 kS/s. The
 //     device is idle between the last sample of one execution and the start of the next (the
-//     seam: the read of the last report plus the AInScan command, 10-18 ms): every seam is
+//     seam: the read of the last report plus the AInScan command, 17-28 ms at low speed, the
+//     report asked for when the device's timer completes it, docs/daq.md fact 18): every seam is
 //     published as lost scans (FLAG_GAP, dropped_scans = its length from the host clock), never
 //     hidden behind a continuous index. Continuous execution (options bit 0 clear, [WP] docstring
 //     "count is equal to packet size (64)") is not used: no public program runs it, so how its
@@ -54,7 +55,7 @@
 //     A device that refuses the feature report (hid_get_feature_report -1 under hidapi-libusb
 //     while AIn works: a public user report against [W], confirmed by its author) cannot scan;
 //     with acquisition.mcc_mode = "auto" the backend then reads single AIns, host-paced at
-//     kMaxSoftwarePacedHz / channels scans/s, and says so. Burst mode is not used (a 4096-sample
+//     kFallbackReadsHz / channels scans/s, and says so. Burst mode is not used (a 4096-sample
 //     block then a pause is not a stream). A channel list of 3, 5, 6 or 7 is padded to the next
 //     allowed queue length with unused inputs whose samples are dropped (queue_length).
 #include <array>
@@ -77,6 +78,10 @@ inline constexpr double kClockHz = 6e6;                 // [6]
 inline constexpr double kMinTimerRateHz = 100.0;        // [6] aggregate
 inline constexpr double kMaxContinuousRateHz = 1200.0;  // [8] aggregate, continuous scan
 inline constexpr double kMaxSoftwarePacedHz = 50.0;     // [8] AIn reads per second
+// The software-paced fallback's rate [9]: an AIn is an interrupt OUT then an interrupt IN, each
+// moved at most once per 10 ms (docs/daq.md fact 18), 20 ms back to back: 50 reads/s is the bus's
+// own limit and leaves the host no slack. 90 % of it.
+inline constexpr double kFallbackReadsHz = 45.0;
 inline constexpr std::uint8_t kEndOfBlockFlag = 0xA5;   // [8] burst mode (not used, see [9])
 
 /// [3][9] the queue length the device accepts for `n` channels: 1, 2, 4 or 8 (0 above 8).

@@ -38,8 +38,8 @@ struct DaqConfig {
   ni::ByteOrder sample_byte_order = ni::ByteOrder::kBig;  // USB-6008 only (see protocol [9])
   bool sample_byte_order_auto = true;   // USB-6008: tell the byte order from the data ("auto")
   bool mcc_single_reads = false;        // USB-1208LS: one AIn per channel per scan (else AInScan)
-  bool mcc_fallback_single = false;     // USB-1208LS "auto": AInScan, or single AIn reads (at most
-                                        // 50 reads/s) when the device refuses the scan's feature report
+  bool mcc_fallback_single = false;     // USB-1208LS "auto": AInScan, or single AIn reads (45
+                                        // reads/s) when the device refuses the scan's feature report
   int command_timeout_ms = 1000;        // per command round trip
   int data_timeout_ms = 2000;           // a data transfer with nothing for this long is an error
   // [channels] analog input per role; -1 = not wired

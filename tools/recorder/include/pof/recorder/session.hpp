@@ -94,6 +94,10 @@ struct SessionStats {
   uint64_t received = 0;            // messages the LCM thread saw (authenticated mode: that passed verification)
   uint64_t written = 0;             // events in the log files (written through write(2))
   uint64_t dropped_handoff = 0;     // hand-off queue full (writer too slow)
+  // Received but never written because writing stopped (disk full, I/O error; `error` says why):
+  // the events a failed write cut back, the rest of the writer's batch, everything received after.
+  // Once stopped: received == written + dropped_handoff + not_written.
+  uint64_t not_written = 0;
   uint64_t udp_drops = 0;           // kernel drops on our LCM socket since start
   uint64_t malformed_datagrams = 0; // datagrams that are not LCM packets or carry impossible fragment headers
   uint64_t incomplete_messages = 0; // fragmented messages abandoned before their last fragment
@@ -145,6 +149,9 @@ class Session {
   /// A writer failure, under stats_mu_: sets outcome_ and error_; a file with no complete event is
   /// closed and removed.
   void note_write_failure();
+  void note_event(int64_t utime, std::string_view channel, const unsigned char* data, uint32_t size);
+  [[nodiscard]] uint64_t not_written_locked() const;
+  std::string error_reason();
   bool rotate();
   std::filesystem::path file_path(unsigned index) const;
 
@@ -171,6 +178,7 @@ class Session {
   std::size_t peak_bytes_ = 0;
   uint64_t received_ = 0;
   uint64_t dropped_ = 0;
+  uint64_t refused_ = 0;  // received after writing stopped
   bool accepting_ = true;
 
   std::atomic<bool> stop_lcm_{false};
@@ -204,6 +212,8 @@ class Session {
   std::map<std::string, ChannelStats, std::less<>> channels_;
   OtherChannels other_;
   uint64_t written_ = 0;
+  uint64_t taken_ = 0;           // events the writer took from the hand-off
+  bool writer_failed_ = false;   // the writer stopped writing (outcome_ says why)
   Outcome outcome_ = Outcome::kRunning;
   std::string error_;
   uint64_t final_udp_drops_ = 0;

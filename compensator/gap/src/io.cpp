@@ -95,7 +95,12 @@ std::string report_md(const Result& r, const std::string& source) {
   std::ostringstream o;
   o.setf(std::ios::fixed);
   o.precision(3);
-  o << "# Model gap report: " << source << "\n\n"
+  o << "# Model gap report: " << source << "\n\n";
+  if (!r.complete())
+    o << "**Written while the analysis ran, at: " << r.stage << ".** If this line is still here, the run stopped "
+      << "before its next stage; the analysis is whole up to here. model.toml and the compensated angle come "
+      << "last (docs/gap.md, section 5, \"Written as it goes\").\n\n";
+  o
     << "Held-out RMS residual (time-blocked " << r.recording["folds"].get<std::size_t>() << "-fold CV) in degrees.\n\n"
     << "| step | effect | held-out gap [deg] | parameters |\n|---|---|---|---|\n"
     << "| 0 | baseline (" << (r.dynamic_model ? "dynamic model" : "paper structure")
@@ -196,7 +201,8 @@ void write_outputs(const Result& r, const std::string& source, const fs::path& d
   json j = r.to_json();
   j["source"] = source;
   io::write_file_atomic(dir / "gap.json", j.dump(2) + "\n");
-  io::write_file_atomic(dir / "model.toml", model_toml(r, source));
+  // The model is written once the compensator has checked it (the last stage).
+  if (r.complete()) io::write_file_atomic(dir / "model.toml", model_toml(r, source));
   std::string csv =
       "t_s,angle_deg,w_rad_s,v,model_baseline_v,model_final_v,resid_baseline_deg,resid_final_deg,angle_comp_before_deg,"
       "angle_comp_after_deg\n";

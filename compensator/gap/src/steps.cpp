@@ -380,6 +380,8 @@ void grow(Grown& g, const Steps& ctx) {
     name_spectrum_once(stp, g.steps, g.st, chosen->candidate->effect);
     g.steps.push_back(std::move(stp));
     adopt(g, *chosen, ctx);
+    g.final_gap = g.steps.back().gap_deg;
+    if (ctx.accepted) ctx.accepted(g);
   }
   g.final_gap = g.steps.empty() ? g.baseline_gap : g.steps.back().gap_deg;
 }

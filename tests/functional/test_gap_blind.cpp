@@ -8,10 +8,13 @@
 // core::fit_dynamic (the dynamic baseline's fit) alone on the short session.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
+#include <random>
 #include <string>
+#include <vector>
 
 #include "pof/core/dynamic_fit.hpp"
 #include "pof/testing/gap_blind.hpp"
@@ -215,4 +218,32 @@ TEST(DynamicFitOnTheSession, ALargeBendLagIsFoundBeforeTheCountsAreSettled) {
   EXPECT_LT(c.cv_rmse_deg, 0.12);
   EXPECT_GT(c.n_operators, 0);
   EXPECT_GT(c.n_prony, 0);
+}
+
+// Slow effects on their time scales (docs/gap.md, section 4): on a fibre of the dynamic model's kind
+// whose physics the baseline must take first, a drift that is no straight trend (a slow wave beside
+// it, as a room's regulation makes) is named a drift, and none of the fibre's own slow or memory
+// physics (relaxation, memory hysteresis, a curved line) is named for it. The fibre, the drift's
+// rate, the wave's amplitude (2-6 mV) and period (10-20 min) are drawn from the seed; the full
+// session (~17 min, so the drift has degree 3).
+TEST(GapBlind, ADriftThatIsNoTrendIsNamedADriftNotRelaxation) {
+  const std::uint64_t seed = 2718;
+  std::mt19937_64 rng(seed);
+  pof::sim::Scenario s = pof::gap::blind::base_scenario(false);
+  std::vector<std::string> covered;
+  const auto fibre = pof::gap::blind::draw_dynamic_sensor(s, rng, covered);
+  const auto drift = pof::gap::blind::hide(s, "drift", rng);
+  s.sensor.drift.wave_v = std::uniform_real_distribution<double>(0.002, 0.006)(rng);
+  s.sensor.drift.wave_period_s = std::uniform_real_distribution<double>(600.0, 1200.0)(rng);
+  const pof::gap::Result r = pof::gap::analyse(pof::gap::blind::simulate(s, seed));
+  std::vector<std::string> found;
+  for (const auto& st : r.steps) found.push_back(st.effect);
+  const std::string said = "fibre " + fibre.dump() + ", drift " + drift.truth.dump() + " wave " +
+                           std::to_string(s.sensor.drift.wave_v) + " V / " +
+                           std::to_string(s.sensor.drift.wave_period_s) + " s; found " +
+                           r.to_json().at("steps").dump().substr(0, 1500);
+  EXPECT_NE(std::find(found.begin(), found.end(), "drift"), found.end()) << said;
+  for (const char* own : {"creep", "viscoelastic_relaxation", "memory_hysteresis", "static_nonlinearity"})
+    EXPECT_EQ(std::find(found.begin(), found.end(), own), found.end()) << own << " named for a drift: " << said;
+  EXPECT_LT(r.final_gap_deg, 0.7 * r.baseline_gap_deg) << said;
 }

@@ -367,7 +367,7 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
   CandidateResult cr;
   cr.effect = e;
   const bool has_theta = !def.theta_key.empty();
-  cr.n_params = def.linear + (has_theta ? 1 : 0);
+  cr.n_params = linear_columns(def, sx.cx) + (has_theta ? 1 : 0);
   // Interference may be found again at another frequency; every other effect enters once.
   if (st.has(e) && e != core::Effect::kPeriodicInterference) {
     cr.eligible = false;

@@ -16,6 +16,7 @@
 #include "pof/base/errors.hpp"
 #include "pof/base/format.hpp"
 #include "pof/core/compensator.hpp"
+#include "pof/core/units.hpp"
 #include "pof/gap/angle_gap.hpp"
 #include "pof/gap/gap.hpp"
 #include "pof/gap/localise.hpp"
@@ -87,6 +88,30 @@ std::optional<Step> named_bend_lag(const json& dyn, double baseline_gap_deg, con
   return s;
 }
 
+// A first-order bend lag tau of the fibre and a delay d of the angle differ at second order in the
+// motion: -tau w + tau^2 a against -d w + d^2 a / 2, so with d = tau by tau^2 a / 2 (docs/gap.md,
+// section 1, "What the baseline names"). When that difference over this recording's accelerations
+// stays within twice the scan-to-scan noise floor of the baseline's residual, the recording cannot
+// say which it is (section 4, "Said, not hidden"); the compensator applies the structure's lag.
+json lag_or_delay(double tau_s, const VectorXd& baseline_resid, const Steps& ctx) {
+  const double floor = noise_floor(ctx.to_deg(baseline_resid));
+  const auto n = static_cast<double>(ctx.k0->acc.size());
+  const double second_order_rms = 0.5 * tau_s * tau_s * ctx.k0->acc.norm() / std::sqrt(n) * core::kDegPerRad;
+  if (!(second_order_rms < 2 * floor)) return nullptr;
+  return {{"effects", {"time_delay", "bend lag"}},
+          {"what", "a delay of the angle (a DAQ's or a pipeline's latency) and the fibre's bend lag of " +
+                       format_fixed(1e3 * tau_s, 0) + " ms: at this recording's accelerations they differ by " +
+                       format_fixed(second_order_rms, 3) + " deg RMS, within twice the noise floor (" +
+                       format_fixed(floor, 3) + " deg)"},
+          {"second_order_rms_deg", second_order_rms},
+          {"noise_floor_deg", floor},
+          {"tells_apart",
+           "fast moves with sharp starts and stops (a gait, steps at the drive's largest acceleration): a lag's "
+           "error grows with the acceleration (tau^2 a against d^2 a / 2) and relaxes with tau after each stop, "
+           "a delay's ends with the movement"},
+          {"taken", "the dynamic model's bend lag (the compensator inverts it); reported as time_delay"}};
+}
+
 }  // namespace
 
 json Result::to_json() const {
@@ -105,6 +130,7 @@ json Result::to_json() const {
   j["steps"] = steps_json(steps);
   j["final_gap_deg"] = final_gap_deg;
   j["unexplained"] = unexplained;
+  j["indistinguishable"] = indistinguishable;
   j["baseline"] = baseline;
   j["whiteness"] = whiteness;
   j["model"] = model;
@@ -244,9 +270,13 @@ void report_baseline(Result& res, const Baseline& base, const Grown& chosen, con
   res.baseline_gap_deg = chosen.baseline_gap;
   res.steps = chosen.steps;
   if (chosen.sx.cx.dyn) {
-    if (std::optional<Step> lag = named_bend_lag(base.detail["dynamic"], chosen.baseline_gap, *ctx.opt, res.steps))
+    if (std::optional<Step> lag = named_bend_lag(base.detail["dynamic"], chosen.baseline_gap, *ctx.opt, res.steps)) {
+      if (json d = lag_or_delay(lag->parameters["bend_lag_s"].get<double>(), chosen.baseline_resid, ctx); !d.is_null())
+        res.indistinguishable.push_back(std::move(d));
       res.in_baseline.push_back(std::move(*lag));
+    }
   }
+  for (const json& d : chosen.indistinguishable) res.indistinguishable.push_back(d);
   if (!chosen.last_rejected.is_null()) res.whiteness["last_rejected"] = chosen.last_rejected;
   const Localisation loc = localise(ctx.to_deg(chosen.baseline_resid), *ctx.s, *ctx.k0, *ctx.phases);
   res.baseline = base.detail;

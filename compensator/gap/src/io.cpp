@@ -183,6 +183,18 @@ std::string report_md(const Result& r, const std::string& source) {
       o << "\n**model.toml holds the " << held << "**.\n";
     o << "\n![compensated angle](compensated.png)\n\n";
   }
+  if (!r.indistinguishable.empty()) {
+    o << "## Indistinguishable on this recording\n\n";
+    for (const json& d : r.indistinguishable) {
+      std::string names;
+      for (const json& e : d["effects"]) names += (names.empty() ? "" : " or ") + e.get<std::string>();
+      o << "- **" << names << "**: " << d["what"].get<std::string>() << ".";
+      if (const std::string t = d.value("tells_apart", ""); !t.empty())
+        o << " What would tell them apart: " << t << ".";
+      o << " model.toml: " << d["taken"].get<std::string>() << ".\n";
+    }
+    o << "\n";
+  }
   o << "## What is left\n\n" << (r.unexplained ? "Structure remains that no candidate explains" : "No significant structure left")
     << ": residual RMS / scan-to-scan noise floor = " << r.whiteness["rms_over_noise_floor"].get<double>()
     << ", Ljung-Box Q(20) = " << r.whiteness["ljung_box_q20"].get<double>() << " (5 % critical 31.41).\n"

@@ -411,6 +411,10 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
   }
   cr.fit = cv::cross_validate(per, base_cols(sx.cx));
   cr.base = {sx.cx.m, sx.cx.dyn};
+  if (def.acts != Acts::kSensor) {
+    cr.profile_grid = cr.grid;
+    cr.profile = cv::heldout_profile(per, base_cols(sx.cx));
+  }
   // Gauss-Newton on the structure: with the effect in the model the baseline's coefficients move
   // (a delay had been partly absorbed by the hysteresis coefficients), further than the
   // first-order columns reach. Rebuilt at the moved coefficients, the candidate is scored again,

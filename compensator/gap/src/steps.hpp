@@ -46,6 +46,8 @@ struct Grown {
   std::vector<Step> steps;
   Eigen::VectorXd strict_resid;  // the held-out residual of the last accepted step [V]
   nlohmann::json last_rejected;  // the best candidate that was not accepted, and why
+  /// Explanations this recording cannot tell apart (docs/gap.md, section 4, "Said, not hidden").
+  nlohmann::json indistinguishable = nlohmann::json::array();
 };
 
 /// The baseline alone, relinearised (so what the refit left is not credited to a first candidate).

@@ -61,6 +61,10 @@ struct Result {
   std::vector<Step> steps;
   double final_gap_deg = 0;
   bool unexplained = false;
+  /// Explanations this recording cannot tell apart, each with what would (docs/gap.md, section 4,
+  /// "Said, not hidden"): candidates that explain the same residual alike, the share of a loop
+  /// between a dead band in the reference and a play in the fibre, a delay and a bend lag.
+  nlohmann::json indistinguishable = nlohmann::json::array();
   nlohmann::json baseline;       // fitted baseline (c9, c10), localisation of the baseline residual
   nlohmann::json whiteness;      // final residual: ACF, Ljung-Box, noise floor
   nlohmann::json model;          // improved model: coefficients + accepted terms (for model.toml)

@@ -20,6 +20,7 @@ for f in gap.json model.toml report.md series.csv residual_time.png residual_ang
   [ -s "report/$f" ] || fail "report/$f missing"
 done
 "$PY" "$SOURCE_DIR/tests/e2e/gap_cli_check.py" report/gap.json || fail "gap.json content"
+[ ! -e report/.pof-gap-stage ] || fail "the staging folder of the report was left behind"
 grep -q '^schema_version = ' report/model.toml || fail "model.toml has no schema_version"
 grep -Eq "effect = ['\"]creep['\"]" report/model.toml || fail "model.toml lacks the creep term"
 # The loop closed: pof compensate applies the [gap] terms, and its angle is closer to the
@@ -28,6 +29,30 @@ expect_exit 0 "$BIN_DIR/pof" compensate creep.csv --cal report/model.toml --csv 
 sed '/^\[gap\]/,$d' report/model.toml >nogap.toml
 expect_exit 0 "$BIN_DIR/pof" compensate creep.csv --cal nogap.toml --csv compensated_nogap.csv
 "$PY" "$SOURCE_DIR/tests/e2e/gap_cli_check.py" --applied compensated.csv compensated_nogap.csv || fail "the [gap] terms did not help"
+
+# Written as it goes (docs/gap.md, section 5): a run stopped as a time limit stops it (its whole
+# process group, the plotting included) once its first stage is in leaves a report whole up to
+# the last stage it reached: the numbers, that stage's plots, and no model.toml yet.
+setsid "$BIN_DIR/pof" gap creep.csv --out stopped >stopped.log 2>&1 &
+pid=$!
+pids+=("$pid")
+wait_until --timeout 120 -- test -s stopped/gap.json || fail "no stage of the report within 120 s: $(cat stopped.log)"
+kill -TERM -- "-$(ps -o pgid= -p "$pid" | tr -d ' ')"
+wait "$pid" || true
+"$PY" - stopped <<'PY' || fail "the stopped run's report is not whole up to its stage"
+import json, sys
+from pathlib import Path
+d = Path(sys.argv[1])
+g = json.loads((d / "gap.json").read_text())
+assert "stage" in g, "the run ended before it was stopped: gap.json has no stage"
+assert g["stage"] in (d / "report.md").read_text(), "report.md does not say the stage gap.json is at"
+for f in ("residual_time.png", "residual_angle.png", "residual_velocity.png", "loops.png", "gap_steps.png"):
+    assert (d / f).read_bytes()[:4] == b"\x89PNG", f + " missing or not a PNG"
+rows = (d / "series.csv").read_text().count("\n")
+assert rows > 1000, f"series.csv has {rows} lines"
+assert not (d / "model.toml").exists(), "model.toml written before the compensator checked the model"
+assert len(g["steps"]) == 0 or g["steps"][-1]["gap_deg"] <= g["baseline_gap_deg"]
+PY
 
 # A fibre of the dynamic model's kind (no branch steps: a memory loop and a Prony relaxation;
 # docs/gap.md, section 1): pof gap takes the dynamic baseline, model.toml makes it the active

@@ -8,10 +8,13 @@
 // core::fit_dynamic (the dynamic baseline's fit) alone on the short session.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
+#include <random>
 #include <string>
+#include <vector>
 
 #include "pof/core/dynamic_fit.hpp"
 #include "pof/testing/gap_blind.hpp"
@@ -22,6 +25,16 @@ std::filesystem::path workdir() {
   auto d = std::filesystem::path(POF_BINARY_DIR) / "tests/work/gap_blind";
   std::filesystem::create_directories(d);
   return d;
+}
+
+// Whether gap.json says that effects a and b are indistinguishable on its recording, with what
+// would tell them apart (docs/gap.md, section 4, "Said, not hidden").
+bool said(const nlohmann::json& gap, const std::string& a, const std::string& b) {
+  for (const auto& d : gap.at("indistinguishable")) {
+    const auto& e = d.at("effects");
+    if (e.size() == 2 && e[0] == a && e[1] == b && !d.at("tells_apart").get<std::string>().empty()) return true;
+  }
+  return false;
 }
 
 std::string names(const std::vector<pof::gap::blind::Hidden>& h) {
@@ -86,6 +99,9 @@ TEST(GapBlind, DynamicBaselineNamesTheLateAngle) {
   EXPECT_EQ(t.false_finds(), 0);
   // The lag is the structure's: model.toml must not apply a delay on top of it.
   EXPECT_EQ(t.gap.at("model").at("delay_s").get<double>(), 0.0);
+  // And the report says that this recording does not tell the delay from the fibre's bend lag,
+  // and what would (docs/gap.md, section 4, "Said, not hidden").
+  EXPECT_TRUE(said(t.gap, "time_delay", "bend lag")) << t.gap.at("indistinguishable").dump();
   std::filesystem::remove(t.csv);
 }
 
@@ -97,6 +113,7 @@ TEST(GapBlind, DynamicBaselineNamesNoLateAngleWhereThereIsNone) {
   EXPECT_EQ(t.gap.at("baseline").at("choice").at("chosen").get<std::string>(), "dynamic");
   EXPECT_TRUE(t.gap.at("in_baseline").empty());
   EXPECT_EQ(t.false_finds(), 0);
+  EXPECT_FALSE(said(t.gap, "time_delay", "bend lag")) << "no lag named, none to confuse with a delay";
   std::filesystem::remove(t.csv);
 }
 
@@ -215,4 +232,69 @@ TEST(DynamicFitOnTheSession, ALargeBendLagIsFoundBeforeTheCountsAreSettled) {
   EXPECT_LT(c.cv_rmse_deg, 0.12);
   EXPECT_GT(c.n_operators, 0);
   EXPECT_GT(c.n_prony, 0);
+}
+
+// Slow effects on their time scales (docs/gap.md, section 4): on a fibre of the dynamic model's kind
+// whose physics the baseline must take first, a drift that is no straight trend (a slow wave beside
+// it, as a room's regulation makes) is named a drift, and none of the fibre's own slow or memory
+// physics (relaxation, memory hysteresis, a curved line) is named for it. The fibre, the drift's
+// rate, the wave's amplitude (2-6 mV) and period (10-20 min) are drawn from the seed; the full
+// session (~17 min, so the drift has degree 3).
+TEST(GapBlind, ADriftThatIsNoTrendIsNamedADriftNotRelaxation) {
+  const std::uint64_t seed = 2718;
+  std::mt19937_64 rng(seed);
+  pof::sim::Scenario s = pof::gap::blind::base_scenario(false);
+  std::vector<std::string> covered;
+  const auto fibre = pof::gap::blind::draw_dynamic_sensor(s, rng, covered);
+  const auto drift = pof::gap::blind::hide(s, "drift", rng);
+  s.sensor.drift.wave_v = std::uniform_real_distribution<double>(0.002, 0.006)(rng);
+  s.sensor.drift.wave_period_s = std::uniform_real_distribution<double>(600.0, 1200.0)(rng);
+  const pof::gap::Result r = pof::gap::analyse(pof::gap::blind::simulate(s, seed));
+  std::vector<std::string> found;
+  for (const auto& st : r.steps) found.push_back(st.effect);
+  const std::string said = "fibre " + fibre.dump() + ", drift " + drift.truth.dump() + " wave " +
+                           std::to_string(s.sensor.drift.wave_v) + " V / " +
+                           std::to_string(s.sensor.drift.wave_period_s) + " s; found " +
+                           r.to_json().at("steps").dump().substr(0, 1500);
+  EXPECT_NE(std::find(found.begin(), found.end(), "drift"), found.end()) << said;
+  for (const char* own : {"creep", "viscoelastic_relaxation", "memory_hysteresis", "static_nonlinearity"})
+    EXPECT_EQ(std::find(found.begin(), found.end(), own), found.end()) << own << " named for a drift: " << said;
+  EXPECT_LT(r.final_gap_deg, 0.7 * r.baseline_gap_deg) << said;
+}
+
+// Said, not hidden (docs/gap.md, section 4): a belt's play of about 2 deg (drawn 1.5-2.5 deg)
+// between the joint and the potentiometer on a Bouc-Wen fibre with a bend lag, whose loop stop
+// operators take in part (the dynamic baseline's, or a memory_hysteresis term's on the paper
+// structure: on this draw the latter): how the loop splits between a dead band in the
+// reference and a play in the fibre is said to be undetermined here, with the recording that would
+// tell, and the widths said hold the one named (none: 0). (A play of 0.73 deg, seed 3141 with the
+// harness's 0.5-2 deg, was named and its width determined: nothing to say.) The short session.
+TEST(GapBlind, ADeadBandBesideAFibresPlayIsSaidToBeUndetermined) {
+  const std::uint64_t seed = 3141;
+  std::mt19937_64 rng(seed);
+  pof::sim::Scenario s = pof::gap::blind::base_scenario(true);
+  s.sensor.hysteresis.enabled = false;
+  auto& mh = s.sensor.memory_hysteresis;
+  mh.enabled = true;
+  mh.family = pof::sim::MemoryHysteresisFamily::kBoucWen;
+  mh.amplitude_v = 0.027;
+  mh.width_deg = 12.0;
+  s.sensor.viscoelastic_lag.enabled = true;
+  s.sensor.viscoelastic_lag.tau_s = 0.08;
+  s.knee.backlash.enabled = true;
+  s.knee.backlash.width_deg = std::uniform_real_distribution<double>(1.5, 2.5)(rng);
+  const std::string play = std::to_string(s.knee.backlash.width_deg) + " deg";
+  const pof::gap::Result r = pof::gap::analyse(pof::gap::blind::simulate(s, seed));
+  const nlohmann::json g = r.to_json();
+  SCOPED_TRACE("play " + play + "; steps " + g.at("steps").dump().substr(0, 600) + "; said " +
+               g.at("indistinguishable").dump());
+  ASSERT_TRUE(said(g, "backlash", "memory_hysteresis"));
+  double named = 0;
+  for (const auto& st : r.steps)
+    if (st.effect == "backlash") named = st.parameters.at("width_deg").get<double>();
+  for (const auto& d : g.at("indistinguishable"))
+    if (d.at("effects")[0] == "backlash") {
+      EXPECT_LE(d.at("backlash_width_range_deg")[0].get<double>(), named + 1e-9);
+      EXPECT_GE(d.at("backlash_width_range_deg")[1].get<double>(), named - 1e-9);
+    }
 }

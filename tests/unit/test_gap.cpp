@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <numbers>
 #include <random>
 #include <vector>
@@ -123,6 +124,47 @@ TEST(GapCandidates, Creep) {
   const auto r = run("creep", 0.08);
   expect_named(r, "creep");
   EXPECT_NEAR(param(r, "tau_s"), 4.0, 1.5);
+}
+// Written as it goes (docs/gap.md, section 5): the checkpoints are the report so far, each whole
+// (baseline, residual, where it lies, the plotted series) and said to be a stage, never a model;
+// the paper structure's search passes through every prefix of its steps.
+TEST(GapReport, CheckpointsAreTheReportSoFar) {
+  pof::gap::SynthConfig cfg;
+  cfg.short_protocol = true;
+  cfg.extra_seconds = 60;
+  cfg.reference_wander = 0.02;
+  cfg.effects = {{"creep", 0.08}, {"periodic_interference", 0.008}};
+  std::vector<pof::gap::Result> stages;
+  pof::gap::Options opt;
+  opt.checkpoint = [&stages](const pof::gap::Result& r) { stages.push_back(r); };
+  const auto r = pof::gap::analyse(pof::gap::synthesise(cfg, 23), opt);
+  ASSERT_TRUE(r.complete());
+  EXPECT_FALSE(r.to_json().contains("stage"));
+  ASSERT_GE(stages.size(), 3U) << "the baseline, at least one step, the searches' end";
+  const auto& choice = r.baseline.at("choice");
+  EXPECT_TRUE(stages.front().steps.empty());
+  EXPECT_DOUBLE_EQ(stages.front().baseline_gap_deg, choice.at("paper").at("heldout_gap_deg").get<double>());
+  std::size_t paper_steps = 0;
+  for (const auto& st : stages) {
+    EXPECT_FALSE(st.complete());
+    EXPECT_EQ(st.to_json().at("stage").get<std::string>(), st.stage);
+    EXPECT_TRUE(st.whiteness.contains("final_where")) << st.stage;
+    ASSERT_FALSE(st.series.t.empty()) << st.stage;
+    EXPECT_TRUE(std::isnan(st.series.angle_comp_after.front())) << "no compensated angle before the compensator ran";
+    EXPECT_TRUE(st.model.is_null()) << st.stage;
+    if (st.stage.rfind("searching from the paper structure", 0) == 0) {
+      EXPECT_EQ(st.steps.size(), ++paper_steps) << st.stage;
+    }
+  }
+  EXPECT_EQ(paper_steps, choice.at("paper").at("steps").get<std::size_t>());
+  const auto& last = stages.back();  // the searches done: the kept search's steps, as the result has them
+  ASSERT_EQ(last.steps.size(), r.steps.size());
+  for (std::size_t i = 0; i < r.steps.size(); ++i) EXPECT_EQ(last.steps[i].effect, r.steps[i].effect);
+  EXPECT_DOUBLE_EQ(last.final_gap_deg, r.final_gap_deg);
+  const pof::test::TempDir dir("pof-gap-stage");
+  pof::gap::write_outputs(stages.front(), "synthetic", dir.path());
+  EXPECT_FALSE(std::filesystem::exists(dir.path("model.toml")));
+  EXPECT_TRUE(std::filesystem::exists(dir.path("gap.json")));
 }
 TEST(GapCandidates, RateDependentHysteresis) {
   const auto r = run("rate_dependent_hysteresis", 0.02);

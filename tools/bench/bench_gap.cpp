@@ -1,6 +1,7 @@
 // bench_gap: the blind benchmark of `pof gap` (docs/gap.md) and the speed of `pof gap`.
 //
-//   bench_gap [--blind N] [--seed S] [--out DIR] [--keep] [--dynamic-share P] [--benchmark_* flags]
+//   bench_gap [--blind N] [--seed S] [--out DIR] [--keep] [--no-ceiling] [--dynamic-share P] [--other-family-share Q]
+//             [--benchmark_* flags]
 //   bench_gap --summarise DIR [DIR ...]
 //
 // 1. Blind: N recordings from the physics simulator (pof_sim), every 5th with no hidden effect,
@@ -45,6 +46,7 @@ namespace {
 fs::path g_dir = fs::temp_directory_path() / "pof_bench_gap";
 std::string g_long_csv;
 bool g_keep = false;  // --keep: leave the blind CSV files and the 40-min recording in DIR
+bool g_ceiling = true;  // --no-ceiling: skip the effect-free draw of each recording (a third of the time)
 
 double median_of(std::vector<double> x) {
   std::sort(x.begin(), x.end());
@@ -146,6 +148,8 @@ void summarise(const nlohmann::json& records) {
   std::map<std::string, std::map<std::string, int>> confusion;  // hidden -> named -> count
   Tally all_trials;
   std::map<std::string, Tally> by_sensor;       // "paper" / "dynamic" sensor
+  std::map<std::string, Tally> by_family;       // the sensor's hysteresis family: paper steps, bouc_wen, maxwell_slip
+  std::map<std::string, std::pair<int, int>> by_effect;  // hidden effect -> (times hidden, times named)
   std::map<std::string, int> baseline_choice;   // "<sensor> sensor -> <baseline> baseline"
   double worst_time = 0;
   for (const auto& j : records) {
@@ -157,6 +161,12 @@ void summarise(const nlohmann::json& records) {
     worst_time = std::max(worst_time, t.analysis_s);
     all_trials.add(t, t.hidden.empty() ? std::nan("") : effect_free_deg);
     by_sensor[sensor].add(t, t.hidden.empty() ? std::nan("") : effect_free_deg);
+    const std::string family = j.contains("dynamic_sensor") ? j["dynamic_sensor"]["memory"].value("family", "?") : "paper steps";
+    by_family[family].add(t, t.hidden.empty() ? std::nan("") : effect_free_deg);
+    for (const auto& h : t.hidden) {
+      by_effect[h.effect].first++;
+      by_effect[h.effect].second += std::count(t.found.begin(), t.found.end(), h.effect) > 0 ? 1 : 0;
+    }
     baseline_choice[sensor + " sensor -> " + chosen + " baseline"]++;
     // A dynamic-kind sensor's own physics named (Trial::covered) is neither a hit nor a wrong name.
     auto own = [&](const std::string& f) { return std::find(t.covered.begin(), t.covered.end(), f) != t.covered.end(); };
@@ -208,13 +218,20 @@ void summarise(const nlohmann::json& records) {
     std::printf("\nSensors of the %s kind\n", sensor.c_str());
     tally.print();
   }
+  for (const auto& [family, tally] : by_family) {
+    std::printf("\nSensors whose hysteresis is %s\n", family.c_str());
+    tally.print();
+  }
+  std::printf("\nBy hidden effect (named / hidden)\n\n| effect | hidden | named | %% |\n|---|---|---|---|\n");
+  for (const auto& [effect, c] : by_effect)
+    std::printf("| %s | %d | %d | %.0f |\n", effect.c_str(), c.first, c.second, c.first ? 100.0 * c.second / c.first : 0.0);
   std::printf("\nbaseline taken:");
   for (const auto& [k, v] : baseline_choice) std::printf(" %s %d;", k.c_str(), v);
   std::printf("\nslowest analysis: %.2f s\n\n", worst_time);
   std::fflush(stdout);
 }
 
-void run_blind(int n, std::uint64_t seed0, double dynamic_share) {
+void run_blind(int n, std::uint64_t seed0, double dynamic_share, double other_family_share) {
   using pof::gap::blind::Trial;
   nlohmann::json all = nlohmann::json::array();
   std::cerr << "blind benchmark: " << n << " recordings\n";
@@ -222,7 +239,7 @@ void run_blind(int n, std::uint64_t seed0, double dynamic_share) {
     // The number of hidden effects follows the seed: seed % 5 == 1 none, == 0 two, else one.
     const std::uint64_t seed = seed0 + static_cast<std::uint64_t>(i);
     const int count = seed % 5 == 1 ? 0 : (seed % 5 == 0 ? 2 : 1);
-    const Trial t = pof::gap::blind::run_trial(seed, count, false, g_dir, {}, 0.3, dynamic_share);
+    const Trial t = pof::gap::blind::run_trial(seed, count, false, g_dir, {}, 0.3, dynamic_share, other_family_share);
     if (!g_keep) fs::remove(t.csv);
     const std::string sensor = t.dynamic.is_null() ? "paper" : "dynamic";
     const std::string chosen = t.gap["baseline"].contains("choice") ? t.gap["baseline"]["choice"].value("chosen", "?") : "?";
@@ -233,8 +250,9 @@ void run_blind(int n, std::uint64_t seed0, double dynamic_share) {
                  static_cast<unsigned long long>(seed), sensor.c_str(), chosen.c_str(), hid.empty() ? "none" : hid.c_str(),
                  fnd.empty() ? "none" : fnd.c_str(), t.baseline_gap_deg, t.final_gap_deg, t.analysis_s);
     // The ceiling of its compensated reduction: the same sensor drawn without the hidden effects.
-    const double effect_free_deg = t.hidden.empty() ? std::nan("")
-                                                    : pof::gap::blind::effect_free_rmse(seed, false, g_dir, 0.3, dynamic_share);
+    const double effect_free_deg = t.hidden.empty() || !g_ceiling ? std::nan("")
+                                                    : pof::gap::blind::effect_free_rmse(seed, false, g_dir, 0.3, dynamic_share,
+                                                                                        other_family_share);
     nlohmann::json j{{"seed", seed}, {"sensor", sensor}, {"found", t.found}, {"baseline_gap_deg", t.baseline_gap_deg},
                      {"final_gap_deg", t.final_gap_deg}, {"analysis_s", t.analysis_s},
                      {"compensated", t.gap["compensated"]}, {"baseline", t.gap["baseline"]["refit_rms_mv"]},
@@ -253,8 +271,9 @@ void run_blind(int n, std::uint64_t seed0, double dynamic_share) {
     j["in_baseline"] = t.gap["in_baseline"];
     j["steps"] = t.gap["steps"];
     all.push_back(j);
+    // After every recording, so a run stopped by a time limit leaves the records it has.
+    pof::io::write_file_atomic(g_dir / "blind.json", all.dump(1) + "\n");
   }
-  pof::io::write_file_atomic(g_dir / "blind.json", all.dump(1) + "\n");
   summarise(all);
 }
 
@@ -293,7 +312,7 @@ BENCHMARK(BM_Gap40minFull)->Unit(benchmark::kSecond)->Iterations(2)->UseRealTime
 int main(int argc, char** argv) {
   int n = 50;
   std::uint64_t seed = 1;
-  double dynamic_share = 0.5;
+  double dynamic_share = 0.5, other_family_share = 0.0;
   std::vector<char*> rest{argv[0]};
   std::vector<fs::path> summarise_dirs;
   bool summarise_only = false;
@@ -306,15 +325,21 @@ int main(int argc, char** argv) {
     else if (a == "--seed" && i + 1 < argc) seed = std::strtoull(argv[++i], nullptr, 10);
     else if (a == "--out" && i + 1 < argc) g_dir = argv[++i];
     else if (a == "--keep") g_keep = true;
+    else if (a == "--no-ceiling") g_ceiling = false;
     else if (a == "--dynamic-share" && i + 1 < argc) dynamic_share = std::atof(argv[++i]);
+    else if (a == "--other-family-share" && i + 1 < argc) other_family_share = std::atof(argv[++i]);
     else if (a == "--help" || a == "-h") {
-      std::cout << "usage: bench_gap [--blind N] [--seed S] [--out DIR] [--keep] [--dynamic-share P] [benchmark flags]\n"
+      std::cout << "usage: bench_gap [--blind N] [--seed S] [--out DIR] [--keep] [--dynamic-share P] [--other-family-share Q]"
+                   " [benchmark flags]\n"
                    "       bench_gap --summarise DIR [DIR ...]\n"
                    "  --blind N          blind recordings to draw and analyse (default 50; 0: the timing benchmarks only)\n"
                    "  --seed S           the first recording's seed (default 1; recording i has seed S + i)\n"
                    "  --out DIR          where blind.json, the CSVs and the 40-min recording go\n"
                    "  --keep             keep each blind recording's CSV and the 40-min recording\n"
+                   "  --no-ceiling       skip each recording's effect-free draw (the compensated reduction's ceiling)\n"
                    "  --dynamic-share P  share of sensors of the dynamic model's kind (default 0.5)\n"
+                   "  --other-family-share Q  share of those whose memory is a Preisach density and relaxation a power\n"
+                   "                     law, families the dynamic model does not contain (default 0)\n"
                    "  --summarise DIR... the summary of earlier runs' DIR/blind.json together (halves run in parallel)\n"
                    "  --benchmark_filter=NONE skips the timing benchmarks; the benchmark library's flags follow:\n\n";
       rest.push_back(argv[i]);
@@ -353,7 +378,7 @@ int main(int argc, char** argv) {
   }
   pof::gap::keep_freed_memory_for_reuse();  // as `pof gap` does
   fs::create_directories(g_dir);
-  if (n > 0) run_blind(n, seed, dynamic_share);
+  if (n > 0) run_blind(n, seed, dynamic_share, other_family_share);
   int rc = static_cast<int>(rest.size());
   benchmark::Initialize(&rc, rest.data());
   make_long_recording();

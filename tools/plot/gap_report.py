@@ -13,7 +13,8 @@ fitted on the other blocks) and DIR/gap.json, writes:
   loops.png              measured voltage against angle with the baseline and the improved model
   gap_steps.png          held-out gap after each step
   compensated.png        the compensator's angle error against the reference, before and after the
-                         found model is applied (held-out blocks), with the RMSE of each
+                         found model is applied (held-out blocks), with the RMSE of each; not drawn
+                         for a report written while the analysis ran (no compensated angle yet)
 """
 import json
 import sys
@@ -128,15 +129,21 @@ def main() -> int:
         ax.text(i, v, f"{v:.3f}", ha="center", va="bottom", fontsize=9)
     ax.set_xticks(range(len(gaps)), labels, rotation=15, fontsize=8)
     ax.set_ylabel("held-out RMS gap [deg]")
-    ax.set_title(f"pof gap {src}: the gap after each step" + (" (structure remains)" if g["unexplained"] else ""), fontsize=10)
+    title = f"pof gap {src}: the gap after each step" + (" (structure remains)" if g["unexplained"] else "")
+    if "stage" in g:  # written while the analysis ran (docs/gap.md, section 5, "Written as it goes")
+        title += f"\nso far: {g['stage']}"
+    ax.set_title(title, fontsize=10)
     fig.tight_layout()
     fig.savefig(d / "gap_steps.png", dpi=90)
     plt.close(fig)
 
-    # The loop closed: what the found model does to the angle the controller gets.
+    # The loop closed: what the found model does to the angle the controller gets. A report
+    # written while the analysis ran (gap.json's "stage") has no compensated angle yet: NaN.
     c = g.get("compensated", {})
     ref = s["angle_deg"]
     eb, ea = s["angle_comp_before_deg"] - ref, s["angle_comp_after_deg"] - ref
+    if np.all(np.isnan(eb)):
+        return 0
     fig, ax = plt.subplots(figsize=(10, 4))
     ax.plot(t, eb, lw=0.5, color="tab:gray", label=f"baseline: RMSE {c.get('rmse_before_deg', float('nan')):.3f} deg")
     ax.plot(t, ea, lw=0.5, color="tab:green", alpha=0.8,

@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <iostream>
 #include <string>
+#include <thread>
+#include <utility>
 #include <vector>
 
 #include <spdlog/spdlog.h>
@@ -26,16 +28,85 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// Plots come after the numbers are written: a plotting failure is reported, not fatal.
-bool make_plots(const fs::path& dir, std::string& why) {
-  try {
-    run_plot_script("gap_report.py", {dir.string()});
-    return true;
-  } catch (const pof::IoError& e) {
-    why = e.what();
-    return false;
+// The report written as the analysis goes (docs/gap.md, section 5, "Written as it goes"). Each
+// stage is written into a staging folder inside DIR and plotted there while the analysis goes on,
+// then moved into DIR, plots first and gap.json last, so that DIR holds a report whole up to the
+// last stage moved: a run stopped by a time limit leaves that one, plots included. Plotting
+// failures are reported, not fatal; the numbers are moved all the same.
+class StagedReport {
+ public:
+  StagedReport(fs::path dir, std::string source, bool plots, bool tty)
+      : dir_(std::move(dir)), staging_(dir_ / ".pof-gap-stage"), source_(std::move(source)), plots_(plots), tty_(tty) {}
+  StagedReport(const StagedReport&) = delete;
+  StagedReport& operator=(const StagedReport&) = delete;
+  ~StagedReport() {
+    if (job_.joinable()) job_.join();
   }
-}
+
+  // A checkpoint: written now, plotted and moved into DIR in the background.
+  void stage(const gap::Result& r) {
+    write(r);
+    job_ = std::thread([this] { plot_and_publish(); });
+  }
+
+  // The finished analysis: written, plotted and moved before returning.
+  void finish(const gap::Result& r) {
+    write(r);
+    if (plots_ && tty_) std::cerr << "pof gap: plotting" << std::endl;
+    plot_and_publish();
+    std::error_code ec;
+    fs::remove_all(staging_, ec);
+  }
+
+ private:
+  // The files of a report in the order they are moved: plots, then the numbers, gap.json last.
+  static constexpr const char* kPlots[] = {"residual_time.png", "residual_angle.png", "residual_velocity.png",
+                                           "loops.png",         "gap_steps.png",      "compensated.png"};
+  static constexpr const char* kNumbers[] = {"series.csv", "report.md", "model.toml", "gap.json"};
+
+  void write(const gap::Result& r) {
+    if (job_.joinable()) job_.join();  // the previous stage is in DIR before this one is staged
+    std::error_code ec;
+    fs::remove_all(staging_, ec);
+    gap::write_outputs(r, source_, staging_);
+  }
+
+  void plot_and_publish() {
+    if (plots_) {
+      try {
+        run_plot_script("gap_report.py", {staging_.string()});
+      } catch (const pof::IoError& e) {
+        spdlog::warn("plots not written: {}", e.what());
+      }
+    }
+    // A file this stage has replaces DIR's; one it lacks (model.toml before the last stage, the
+    // plots of a failed plotting, compensated.png before the compensator ran) is removed after
+    // gap.json is in, so no earlier stage's or run's file stands beside it. Without plots
+    // (--no-plots) the PNGs in DIR are left as they are.
+    std::vector<fs::path> absent;
+    auto move = [&](const char* f) {
+      std::error_code ec;
+      if (fs::exists(staging_ / f, ec)) {
+        fs::rename(staging_ / f, dir_ / f, ec);
+        if (ec) spdlog::warn("{}: not written: {}", (dir_ / f).string(), ec.message());
+      } else {
+        absent.push_back(dir_ / f);
+      }
+    };
+    if (plots_)
+      for (const char* f : kPlots) move(f);
+    for (const char* f : kNumbers) move(f);
+    for (const fs::path& p : absent) {
+      std::error_code ec;
+      fs::remove(p, ec);
+    }
+  }
+
+  fs::path dir_, staging_;
+  std::string source_;
+  bool plots_, tty_;
+  std::thread job_;
+};
 
 }  // namespace
 
@@ -74,13 +145,10 @@ void add_gap(CLI::App& app) {
     if (tty) opt.progress = [](const std::string& m) { std::cerr << "pof gap: " << m << std::endl; };
     io::Recording rec = io::read_recording(a->input);  // CSV or LCM log
     rec.angle_ref_deg = io::reference_angle(rec, nullptr);
+    StagedReport report(a->out, a->input, !a->no_plots, tty);
+    opt.checkpoint = [&report](const gap::Result& partial) { report.stage(partial); };
     const gap::Result r = gap::analyse(rec, opt);
-    gap::write_outputs(r, a->input, a->out);
-    if (!a->no_plots) {
-      std::string why;
-      if (tty) std::cerr << "pof gap: plotting" << std::endl;
-      if (!make_plots(a->out, why)) spdlog::warn("plots not written: {}", why);
-    }
+    report.finish(r);
     std::cout << "baseline gap " << r.baseline_gap_deg << " deg";
     for (const auto& s : r.in_baseline) std::cout << " (in the baseline: " << s.effect << ")";
     for (const auto& s : r.steps) std::cout << " -> " << s.effect << " " << s.gap_deg << " deg";

@@ -93,7 +93,15 @@ struct EffectDef {
   /// (memory_hysteresis: thresholds_deg; viscoelastic_relaxation: time_constants_s), or none.
   std::string_view basis_key{};
   std::vector<double> (*basis_values)(double theta) = nullptr;
+  /// For an effect whose number of columns depends on the recording (drift: its degree follows the
+  /// recording's length), that number; null: `linear`. Read through linear_columns().
+  int (*linear_of)(const Context&) = nullptr;
 };
+
+/// The number of columns (linear coefficients) of an effect on this recording.
+inline int linear_columns(const EffectDef& def, const Context& cx) {
+  return def.linear_of != nullptr ? def.linear_of(cx) : def.linear;
+}
 
 /// The definition of an effect (every core::Effect has one).
 const EffectDef& effect_def(core::Effect e);

@@ -5,6 +5,7 @@
 // compensation.cpp, whiteness.cpp, localise.cpp, ../effects/ (one file per effect).
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <sstream>
@@ -15,6 +16,7 @@
 #include "pof/base/errors.hpp"
 #include "pof/base/format.hpp"
 #include "pof/core/compensator.hpp"
+#include "pof/core/units.hpp"
 #include "pof/gap/angle_gap.hpp"
 #include "pof/gap/gap.hpp"
 #include "pof/gap/localise.hpp"
@@ -86,10 +88,36 @@ std::optional<Step> named_bend_lag(const json& dyn, double baseline_gap_deg, con
   return s;
 }
 
+// A first-order bend lag tau of the fibre and a delay d of the angle differ at second order in the
+// motion: -tau w + tau^2 a against -d w + d^2 a / 2, so with d = tau by tau^2 a / 2 (docs/gap.md,
+// section 1, "What the baseline names"). When that difference over this recording's accelerations
+// stays within twice the scan-to-scan noise floor of the baseline's residual, the recording cannot
+// say which it is (section 4, "Said, not hidden"); the compensator applies the structure's lag.
+json lag_or_delay(double tau_s, const VectorXd& baseline_resid, const Steps& ctx) {
+  const double floor = noise_floor(ctx.to_deg(baseline_resid));
+  const auto n = static_cast<double>(ctx.k0->acc.size());
+  const double second_order_rms = 0.5 * tau_s * tau_s * ctx.k0->acc.norm() / std::sqrt(n) * core::kDegPerRad;
+  if (!(second_order_rms < 2 * floor)) return nullptr;
+  return {{"effects", {"time_delay", "bend lag"}},
+          {"what", "a delay of the angle (a DAQ's or a pipeline's latency) and the fibre's bend lag of " +
+                       format_fixed(1e3 * tau_s, 0) + " ms: at this recording's accelerations they differ by " +
+                       format_fixed(second_order_rms, 3) + " deg RMS, within twice the noise floor (" +
+                       format_fixed(floor, 3) + " deg)"},
+          {"second_order_rms_deg", second_order_rms},
+          {"noise_floor_deg", floor},
+          {"tells_apart",
+           "fast moves with sharp starts and stops (a gait, steps at the drive's largest acceleration): a lag's "
+           "error grows with the acceleration (tau^2 a against d^2 a / 2) and relaxes with tau after each stop, "
+           "a delay's ends with the movement"},
+          {"taken", "the dynamic model's bend lag (the compensator inverts it); reported as time_delay"}};
+}
+
 }  // namespace
 
 json Result::to_json() const {
   json j;
+  // A checkpoint's report says what it is whole up to (docs/gap.md, section 5, "Written as it goes").
+  if (!complete()) j["stage"] = stage;
   j["baseline_gap_deg"] = baseline_gap_deg;
   auto steps_json = [](const std::vector<Step>& v) {
     json a = json::array();
@@ -102,6 +130,7 @@ json Result::to_json() const {
   j["steps"] = steps_json(steps);
   j["final_gap_deg"] = final_gap_deg;
   j["unexplained"] = unexplained;
+  j["indistinguishable"] = indistinguishable;
   j["baseline"] = baseline;
   j["whiteness"] = whiteness;
   j["model"] = model;
@@ -159,6 +188,9 @@ struct Chosen {
   json choice;
 };
 
+// Called with a search as it stands and what the analysis has reached (a checkpoint, below).
+using Stage = std::function<void(const Grown&, const std::string&)>;
+
 // A search's final held-out gap with every accepted effect charged the acceptance rule's margin:
 // gap / (1 - min_reduction)^steps, the reduction an effect had to buy to be accepted.
 double charged(const Grown& g, double margin) { return g.final_gap / std::pow(margin, static_cast<double>(g.steps.size())); }
@@ -167,7 +199,8 @@ double charged(const Grown& g, double margin) { return g.final_gap / std::pow(ma
 // structure alone, or is not worse than the paper structure's charged final gap, by the margin
 // either way (a dynamic structure missing one effect can lose to the paper structure with three,
 // and win once it has that one); kept when charged less.
-void consider_dynamic(Chosen& c, const Search& sx0, const Baseline& base, const Steps& ctx, double margin) {
+void consider_dynamic(Chosen& c, const Search& sx0, const Baseline& base, const Steps& ctx, double margin,
+                      const Stage& stage) {
   const Options& opt = *ctx.opt;
   Grown& chosen = c.grown;
   json& choice = c.choice;
@@ -183,7 +216,16 @@ void consider_dynamic(Chosen& c, const Search& sx0, const Baseline& base, const 
   }
   ctx.say("baseline: the dynamic model (held-out gap " + format_fixed(dyn.baseline_gap, 3) + " deg; the paper structure with its " +
           "effects " + format_fixed(chosen.final_gap, 3) + " deg): searching from it too");
-  grow(dyn, ctx);
+  const std::string paper_said = "the paper structure's search done (" + format_fixed(chosen.final_gap, 3) +
+                                 " deg in " + std::to_string(chosen.steps.size()) +
+                                 " step(s)), the kept one not yet chosen";
+  stage(chosen, "searching from the dynamic model (held-out gap " + format_fixed(dyn.baseline_gap, 3) +
+                    " deg alone); " + paper_said);
+  Steps dctx = ctx;
+  dctx.accepted = [&](const Grown& g) {
+    stage(g, "searching from the dynamic model, step " + std::to_string(g.steps.size()) + " accepted; " + paper_said);
+  };
+  grow(dyn, dctx);
   choice["dynamic"]["final_gap_deg"] = dyn.final_gap;
   choice["dynamic"]["steps"] = dyn.steps.size();
   choice["dynamic"]["charged_gap_deg"] = charged(dyn, margin);
@@ -202,36 +244,44 @@ void consider_dynamic(Chosen& c, const Search& sx0, const Baseline& base, const 
 // compared by their charged final gap: the same loop told by stop operators and Prony terms in the
 // structure, or by memory and creep terms on the paper's steps, is one explanation, and the
 // shorter one is preferred unless the longer is better by what its extra effects cost.
-Chosen choose_search(const Search& sx0, const Baseline& base, const Steps& ctx) {
+Chosen choose_search(const Search& sx0, const Baseline& base, const Steps& ctx, const Stage& stage) {
   const double margin = 1.0 - ctx.opt->min_reduction;
   ctx.say("baseline: the paper's structure");
   Chosen c{.grown = baseline_alone(sx0, ctx), .choice = json()};
   Grown& chosen = c.grown;
   ctx.say("baseline: held-out gap " + format_fixed(chosen.baseline_gap, 3) + " deg");
-  grow(chosen, ctx);
+  stage(chosen, "the paper structure fitted, no effect searched yet");
+  Steps pctx = ctx;
+  pctx.accepted = [&](const Grown& g) {
+    stage(g, "searching from the paper structure, step " + std::to_string(g.steps.size()) + " accepted");
+  };
+  grow(chosen, pctx);
   c.choice = {{"paper", {{"heldout_gap_deg", chosen.baseline_gap}, {"final_gap_deg", chosen.final_gap},
                          {"steps", chosen.steps.size()}, {"charged_gap_deg", charged(chosen, margin)}}}};
-  if (base.dynamic) consider_dynamic(c, sx0, base, ctx, margin);
+  if (base.dynamic) consider_dynamic(c, sx0, base, ctx, margin, stage);
   c.choice["chosen"] = chosen.sx.cx.dyn ? "dynamic" : "paper";
   return c;
 }
 
 // The chosen baseline in the report: its structure and held-out gap, the lag it names itself,
 // and where its residual lies; the steps of its search.
-void report_baseline(Result& res, const Baseline& base, const Chosen& c, const Steps& ctx) {
-  const Grown& chosen = c.grown;
+void report_baseline(Result& res, const Baseline& base, const Grown& chosen, const json& choice, const Steps& ctx) {
   const Structure& baseline_model = chosen.baseline;
   res.baseline_gap_deg = chosen.baseline_gap;
   res.steps = chosen.steps;
   if (chosen.sx.cx.dyn) {
-    if (std::optional<Step> lag = named_bend_lag(base.detail["dynamic"], chosen.baseline_gap, *ctx.opt, res.steps))
+    if (std::optional<Step> lag = named_bend_lag(base.detail["dynamic"], chosen.baseline_gap, *ctx.opt, res.steps)) {
+      if (json d = lag_or_delay(lag->parameters["bend_lag_s"].get<double>(), chosen.baseline_resid, ctx); !d.is_null())
+        res.indistinguishable.push_back(std::move(d));
       res.in_baseline.push_back(std::move(*lag));
+    }
   }
+  for (const json& d : chosen.indistinguishable) res.indistinguishable.push_back(d);
   if (!chosen.last_rejected.is_null()) res.whiteness["last_rejected"] = chosen.last_rejected;
   const Localisation loc = localise(ctx.to_deg(chosen.baseline_resid), *ctx.s, *ctx.k0, *ctx.phases);
   res.baseline = base.detail;
-  res.baseline["choice"] = c.choice;
-  res.baseline["structure"] = c.choice["chosen"];
+  if (!choice.is_null()) res.baseline["choice"] = choice;
+  res.baseline["structure"] = chosen.sx.cx.dyn ? "dynamic" : "paper";
   if (baseline_model.dynamic) res.baseline["dynamic"]["model"] = io::dynamic_model_json(*baseline_model.dynamic);
   res.baseline["c9_deg_per_v"] = base.model.c9;
   res.baseline["c10_deg"] = base.model.c10;
@@ -385,7 +435,7 @@ json angle_vs_forward(const Result& res, const io::Recording& rec, const Grown& 
 }
 
 // The plotted series, every stride-th scan (at most ~40k rows); rf: the final residual [deg].
-Series plot_series(const Grown& chosen, const VectorXd& rf, const LoopClosed& lc, const Steps& ctx) {
+Series plot_series(const Grown& chosen, const VectorXd& rf, const LoopClosed* lc, const Steps& ctx) {
   const Signals& s = *ctx.s;
   const Kinematics& k0 = *ctx.k0;
   const VectorXd resid_baseline = ctx.to_deg(chosen.baseline_resid);
@@ -402,10 +452,26 @@ Series plot_series(const Grown& chosen, const VectorXd& rf, const LoopClosed& lc
     series.model_final.push_back(model_final(i));
     series.resid_baseline_deg.push_back(resid_baseline(i));
     series.resid_final_deg.push_back(rf(i));
-    series.angle_comp_before.push_back(lc.comp_before(i));
-    series.angle_comp_after.push_back(lc.comp_after(i));
+    // Not yet compensated (a checkpoint): NaN, which the plots skip.
+    series.angle_comp_before.push_back(lc ? lc->comp_before(i) : std::numeric_limits<double>::quiet_NaN());
+    series.angle_comp_after.push_back(lc ? lc->comp_after(i) : std::numeric_limits<double>::quiet_NaN());
   }
   return series;
+}
+
+// The report as it stands while the analysis runs (docs/gap.md, section 5, "Written as it goes"):
+// search g with its steps so far, its residual and where it lies. No compensated angle and no
+// model: the compensator checks the found model only once the searches are done.
+void checkpoint(const Result& head, const Baseline& base, const Grown& g, const std::string& stage, const Steps& ctx) {
+  Result r;
+  r.stage = stage;
+  r.recording = head.recording;
+  report_baseline(r, base, g, json(), ctx);
+  const VectorXd rf = ctx.to_deg(g.strict_resid);
+  report_residual(r, g, rf, ctx);
+  r.series = plot_series(g, rf, nullptr, ctx);
+  r.dynamic_model = g.baseline.dynamic;
+  ctx.opt->checkpoint(r);
 }
 
 }  // namespace
@@ -427,20 +493,31 @@ Result analyse(const io::Recording& rec, const Options& opt) {
                   .phases = &phases,
                   .opt = &opt,
                   .c9 = std::abs(base.model.c9),  // gaps in degrees at the paper fit's sensitivity, for every step
-                  .say = say};
+                  .say = say,
+                  .accepted = nullptr};
 
   Result res;
   res.recording = recording_json(s, sx0);
-  const Chosen chosen = choose_search(sx0, base, ctx);
-  report_baseline(res, base, chosen, ctx);
+  const Stage stage = [&](const Grown& g, const std::string& what) {
+    if (opt.checkpoint) checkpoint(res, base, g, what, ctx);
+  };
+  const Chosen chosen = choose_search(sx0, base, ctx, stage);
+  report_baseline(res, base, chosen.grown, chosen.choice, ctx);
   const VectorXd rf = ctx.to_deg(chosen.grown.strict_resid);
   report_residual(res, chosen.grown, rf, ctx);
+  if (opt.checkpoint) {
+    Result searched = res;
+    searched.stage = "the searches done and the baseline chosen, the compensated angle not yet checked";
+    searched.series = plot_series(chosen.grown, rf, nullptr, ctx);
+    searched.dynamic_model = chosen.grown.baseline.dynamic;
+    opt.checkpoint(searched);
+  }
 
   LoopClosed lc = close_the_loop(res, rec, chosen.grown, ctx);
   const bool write_baseline = choose_baseline_file(res, lc);
   describe_model(res, lc, chosen.grown, write_baseline, ctx);
   res.angle_vs_forward = angle_vs_forward(res, rec, chosen.grown, rf, lc, ctx);
-  res.series = plot_series(chosen.grown, rf, lc, ctx);
+  res.series = plot_series(chosen.grown, rf, &lc, ctx);
   say("done: held-out gap " + format_fixed(res.baseline_gap_deg, 3) + " -> " + format_fixed(res.final_gap_deg, 3) + " deg in " +
       std::to_string(res.steps.size()) + " step(s)");
   return res;

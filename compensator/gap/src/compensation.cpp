@@ -36,17 +36,18 @@ core::GapModel gap_model_of(const State& st, const VectorXd& beta, const Context
     core::GapTerm term;
     term.effect = std::string(core::to_string(t.effect));
     term.theta = def.theta_in_file ? t.theta : 0.0;
-    for (Index i = 0; i < def.linear; ++i) term.coefficients_v.push_back(beta(c + i));
-    term.coefficients_v.resize(static_cast<std::size_t>(std::max(def.linear, def.file_coefficients)), 0.0);
+    const int linear = linear_columns(def, cx);
+    for (Index i = 0; i < linear; ++i) term.coefficients_v.push_back(beta(c + i));
+    term.coefficients_v.resize(static_cast<std::size_t>(std::max(linear, def.file_coefficients)), 0.0);
     if (def.basis_values != nullptr) {
       const std::vector<double> b = def.basis_values(t.theta);
       if (def.basis_key == "thresholds_deg") term.thresholds_deg = b;
       else term.time_constants_s = b;
     }
-    const nlohmann::json p = def.physical(t.theta, beta.segment(c, def.linear), cx);
+    const nlohmann::json p = def.physical(t.theta, beta.segment(c, linear), cx);
     for (auto it = p.begin(); it != p.end(); ++it) term.parameters.emplace_back(it.key(), it.value().get<double>());
     g.terms.push_back(std::move(term));
-    c += def.linear;
+    c += linear;
   }
   return g;
 }
@@ -135,7 +136,7 @@ AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& afte
   for (Index c = 0; const Term& t : st.terms) {
     const EffectDef& def = effect_def(t.effect);
     if (t.effect == core::Effect::kMemoryHysteresis) { memory_first = c; memory_size = def.linear; }
-    c += def.linear;
+    c += linear_columns(def, at.cx);
   }
   auto fit_without = [&](const cv::Grams& gr, std::size_t skip) {
     Eigen::MatrixXd G = Eigen::MatrixXd::Zero(nt, nt);
@@ -164,7 +165,7 @@ AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& afte
   Index col = nb;
   for (const Term& t : st.terms) {
     if (t.effect == core::Effect::kAccelerationDependence) causal.push_back({col, t.theta});
-    col += effect_def(t.effect).linear;
+    col += linear_columns(effect_def(t.effect), at.cx);
   }
   const double rate = 1.0 / at.cx.s->dt;
   // The angle the compensator estimates it on, on either baseline: the quiet angle, f5 of the

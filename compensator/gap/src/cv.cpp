@@ -186,6 +186,25 @@ FoldFit cross_validate(const std::vector<Grams>& per_theta, Index shared) {
   return ff;
 }
 
+std::vector<std::vector<double>> heldout_profile(const std::vector<Grams>& per_theta, Index shared) {
+  std::vector<std::vector<double>> out;
+  for (const Grams& gr : per_theta) {
+    const std::size_t nb = gr.G.size();
+    MatrixXd G = gr.G[0];
+    VectorXd g = gr.g[0];
+    double yy = gr.yy[0];
+    for (std::size_t b = 1; b < nb; ++b) { G += gr.G[b]; g += gr.g[b]; yy += gr.yy[b]; }
+    const VectorXd full = solve(G, g);
+    std::vector<double> folds;
+    for (std::size_t f = 0; f < nb; ++f) {
+      const VectorXd beta = solve_with_shared(G - gr.G[f], g - gr.g[f], full, shared);
+      folds.push_back(rss_of(gr.yy[f], gr.g[f], gr.G[f], beta));
+    }
+    out.push_back(std::move(folds));
+  }
+  return out;
+}
+
 double effective_n(const VectorXd& r) {
   const double rho = std::clamp(lag1(r), 0.0, 0.999);
   return std::max(50.0, static_cast<double>(r.size()) * (1 - rho) / (1 + rho));

@@ -66,6 +66,11 @@ struct FoldFit {
 /// gait) and report that as a gap.
 FoldFit cross_validate(const std::vector<Grams>& per_theta, Eigen::Index shared = 0);
 
+/// The held-out RSS of each fold at each grid value held fixed (not chosen per fold), the shared
+/// coefficients fitted on all data as in cross_validate: the profile of the held-out error over
+/// theta, [grid value][fold].
+std::vector<std::vector<double>> heldout_profile(const std::vector<Grams>& per_theta, Eigen::Index shared = 0);
+
 /// Effective number of independent residuals (AR(1) approximation) for the BIC.
 double effective_n(const Eigen::VectorXd& r);
 

@@ -95,7 +95,12 @@ std::string report_md(const Result& r, const std::string& source) {
   std::ostringstream o;
   o.setf(std::ios::fixed);
   o.precision(3);
-  o << "# Model gap report: " << source << "\n\n"
+  o << "# Model gap report: " << source << "\n\n";
+  if (!r.complete())
+    o << "**Written while the analysis ran, at: " << r.stage << ".** If this line is still here, the run stopped "
+      << "before its next stage; the analysis is whole up to here. model.toml and the compensated angle come "
+      << "last (docs/gap.md, section 5, \"Written as it goes\").\n\n";
+  o
     << "Held-out RMS residual (time-blocked " << r.recording["folds"].get<std::size_t>() << "-fold CV) in degrees.\n\n"
     << "| step | effect | held-out gap [deg] | parameters |\n|---|---|---|---|\n"
     << "| 0 | baseline (" << (r.dynamic_model ? "dynamic model" : "paper structure")
@@ -178,6 +183,18 @@ std::string report_md(const Result& r, const std::string& source) {
       o << "\n**model.toml holds the " << held << "**.\n";
     o << "\n![compensated angle](compensated.png)\n\n";
   }
+  if (!r.indistinguishable.empty()) {
+    o << "## Indistinguishable on this recording\n\n";
+    for (const json& d : r.indistinguishable) {
+      std::string names;
+      for (const json& e : d["effects"]) names += (names.empty() ? "" : " or ") + e.get<std::string>();
+      o << "- **" << names << "**: " << d["what"].get<std::string>() << ".";
+      if (const std::string t = d.value("tells_apart", ""); !t.empty())
+        o << " What would tell them apart: " << t << ".";
+      o << " model.toml: " << d["taken"].get<std::string>() << ".\n";
+    }
+    o << "\n";
+  }
   o << "## What is left\n\n" << (r.unexplained ? "Structure remains that no candidate explains" : "No significant structure left")
     << ": residual RMS / scan-to-scan noise floor = " << r.whiteness["rms_over_noise_floor"].get<double>()
     << ", Ljung-Box Q(20) = " << r.whiteness["ljung_box_q20"].get<double>() << " (5 % critical 31.41).\n"
@@ -196,7 +213,8 @@ void write_outputs(const Result& r, const std::string& source, const fs::path& d
   json j = r.to_json();
   j["source"] = source;
   io::write_file_atomic(dir / "gap.json", j.dump(2) + "\n");
-  io::write_file_atomic(dir / "model.toml", model_toml(r, source));
+  // The model is written once the compensator has checked it (the last stage).
+  if (r.complete()) io::write_file_atomic(dir / "model.toml", model_toml(r, source));
   std::string csv =
       "t_s,angle_deg,w_rad_s,v,model_baseline_v,model_final_v,resid_baseline_deg,resid_final_deg,angle_comp_before_deg,"
       "angle_comp_after_deg\n";

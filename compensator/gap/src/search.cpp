@@ -367,7 +367,7 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
   CandidateResult cr;
   cr.effect = e;
   const bool has_theta = !def.theta_key.empty();
-  cr.n_params = def.linear + (has_theta ? 1 : 0);
+  cr.n_params = linear_columns(def, sx.cx) + (has_theta ? 1 : 0);
   // Interference may be found again at another frequency; every other effect enters once.
   if (st.has(e) && e != core::Effect::kPeriodicInterference) {
     cr.eligible = false;
@@ -411,6 +411,10 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
   }
   cr.fit = cv::cross_validate(per, base_cols(sx.cx));
   cr.base = {sx.cx.m, sx.cx.dyn};
+  if (def.acts != Acts::kSensor) {
+    cr.profile_grid = cr.grid;
+    cr.profile = cv::heldout_profile(per, base_cols(sx.cx));
+  }
   // Gauss-Newton on the structure: with the effect in the model the baseline's coefficients move
   // (a delay had been partly absorbed by the hysteresis coefficients), further than the
   // first-order columns reach. Rebuilt at the moved coefficients, the candidate is scored again,

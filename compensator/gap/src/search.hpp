@@ -120,6 +120,10 @@ struct CandidateResult {
   cv::FoldFit fit;
   int n_params = 0;
   Structure base;  // the baseline the fit's columns were built at (see evaluate)
+  /// Kinematic candidates: the held-out RSS per fold at each value of `profile_grid` held fixed
+  /// (cv::heldout_profile), to say which values the recording cannot tell apart.
+  std::vector<double> profile_grid;
+  std::vector<std::vector<double>> profile;
 };
 
 /// Every candidate of the catalogue against the current fit, on `threads` workers.

@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "pof/base/format.hpp"
+#include "whiteness.hpp"
 
 namespace pof::gap {
 
@@ -219,11 +220,162 @@ std::size_t parsimonious(Ranking& r, const std::vector<CandidateResult>& cands, 
   return si;
 }
 
+// Two candidates explain the same residual on this recording (docs/gap.md, section 4, "Said, not
+// hidden") when both pass the rule and are significant, what each explains is mostly the same part
+// of the residual (their explained parts correlate by more than kSameResidual), and their held-out
+// squared errors differ by less than 2 standard errors of that difference over the time blocks
+// (blocks are the units the folds hold out; a difference smaller than its spread over them is one
+// this recording does not resolve). The data then do not say which mechanism it is.
+constexpr double kSameResidual = 0.8;
+
+// What tells such a pair apart, where the catalogue knows it (docs/gap.md, section 4, "Confusable
+// pairs"); "" for a pair it does not know.
+std::string tells_apart(core::Effect a, core::Effect b) {
+  auto is = [&](core::Effect x, core::Effect y) { return (a == x && b == y) || (a == y && b == x); };
+  using core::Effect;
+  if (is(Effect::kBacklash, Effect::kMemoryHysteresis))
+    return "holds approached from both sides at several speeds and over several excursions: a dead band in the "
+           "reference stands still for its width at every reversal while the sensor moves, the same at every speed "
+           "and excursion; a play-type hysteresis in the fibre moves with the reference, and its loop changes with "
+           "the excursion (minor loops) and, in a polymer, with the speed";
+  if (is(Effect::kTimeDelay, Effect::kAccelerationDependence) ||
+      is(Effect::kTimeDelay, Effect::kRateDependentHysteresis))
+    return "moves at several speeds with stops of several decelerations: a delay shifts every movement by the same "
+           "time and follows every change of the velocity; the other term has a shape of its own in the speed or "
+           "the acceleration";
+  if (is(Effect::kDrift, Effect::kCreep) || is(Effect::kDrift, Effect::kViscoelasticRelaxation))
+    return "long holds after movements both ways and a long hold with no movement at all: a relaxation returns "
+           "after each movement towards a level set by the angle's history, a drift goes on through the holds "
+           "regardless";
+  return "";
+}
+
+// Whether the compensator can apply an effect online (docs/calibration.md, "[gap]"): a drift is a
+// trend over the calibration recording and has no online form (core::gap_problems refuses it).
+bool applies_online(core::Effect e) { return e != core::Effect::kDrift; }
+
+// The candidates ranked after `a` that tie with it (see kSameResidual), each described.
+json ties_with(const Assessment& a, Ranking& r, const std::vector<CandidateResult>& cands, const Grown& g,
+               const std::vector<std::size_t>& tried, const Steps& ctx, std::vector<Assessment>& tied) {
+  const Options& opt = *ctx.opt;
+  const VectorXd& before = g.cur.cv_resid;
+  const VectorXd ea = before - a.after;
+  json out = json::array();
+  for (const auto& [dbic, j] : r.order) {
+    if (!passes(r, cands, j, opt)) break;
+    if (cands[j].effect == a.candidate->effect || std::find(tried.begin(), tried.end(), j) != tried.end()) continue;
+    if (effect_def(cands[j].effect).generalises == a.candidate->effect ||
+        effect_def(a.candidate->effect).generalises == cands[j].effect)
+      continue;  // nested pairs are decided by the parsimony rule (section 4, "Nested effects")
+    // Explaining the same residual, b explains about as much of it: less than half of what a
+    // explains is no tie whatever its spread (and is not assessed, which costs a design per fold).
+    if (r.rss0 - cands[j].fit.cv_rss < 0.5 * (r.rss0 - a.candidate->fit.cv_rss)) continue;
+    Assessment b = assess(g.sx, g.st, cands[j], g.cur.d.X.cols(), before);
+    if (!b.significant) continue;
+    const VectorXd eb = before - b.after;
+    const double overlap = ea.dot(eb) / std::sqrt(ea.squaredNorm() * eb.squaredNorm());
+    // Held-out squared error of b minus a, block by block, and the standard error of their sum.
+    std::vector<double> d;
+    for (const auto& fold : g.sx.blocks.folds)
+      for (const cv::Span& sp : fold)
+        d.push_back(b.after.segment(sp.start, sp.len).squaredNorm() - a.after.segment(sp.start, sp.len).squaredNorm());
+    const auto nb = static_cast<double>(d.size());
+    double mean = 0, ss = 0;
+    for (double x : d) mean += x / nb;
+    for (double x : d) ss += (x - mean) * (x - mean);
+    const double diff = mean * nb, se = nb > 1 ? std::sqrt(nb / (nb - 1) * ss) : 0.0;
+    if (!(overlap > kSameResidual) || !(std::abs(diff) < 2 * se)) continue;
+    const std::string id(core::to_string(cands[j].effect));
+    out.push_back({{"effect", id},
+                   {"heldout_gap_deg", ctx.gap_deg(b.after.squaredNorm())},
+                   {"explained_overlap", overlap},
+                   {"heldout_sse_difference_v2", diff},
+                   {"heldout_sse_difference_se_v2", se},
+                   {"parameters", b.parameters},
+                   {"tells_apart", tells_apart(a.candidate->effect, cands[j].effect)}});
+    r.scores[id]["indistinguishable_from"] = std::string(core::to_string(a.candidate->effect));
+    tied.push_back(std::move(b));
+  }
+  return out;
+}
+
+// The held-out squared error per fold of a residual [V].
+std::vector<double> fold_sse(const VectorXd& r, const cv::Blocks& blocks) {
+  std::vector<double> out;
+  for (const auto& fold : blocks.folds) {
+    double s = 0;
+    for (const cv::Span& sp : fold) s += r.segment(sp.start, sp.len).squaredNorm();
+    out.push_back(s);
+  }
+  return out;
+}
+
+// Whether the sum of b - a over folds is within 2 of its standard errors (the folds' spread).
+bool within_2se(const std::vector<double>& a, const std::vector<double>& b) {
+  const auto nf = static_cast<double>(a.size());
+  double mean = 0, ss = 0;
+  for (std::size_t f = 0; f < a.size(); ++f) mean += (b[f] - a[f]) / nf;
+  for (std::size_t f = 0; f < a.size(); ++f) ss += std::pow(b[f] - a[f] - mean, 2);
+  const double se = nf > 1 ? std::sqrt(nf / (nf - 1) * ss) : 0.0;
+  return std::abs(mean * nf) <= 2 * se;
+}
+
+// A dead band in the reference against a play in the fibre (docs/gap.md, section 4, "Said, not
+// hidden"). Both keep an offset of the sign of the last movement through the holds; they differ
+// only in how it switches at a reversal (the reference standing while the sensor moves, or the
+// sensor while the reference moves), which a reversal from a hold at the protocol's speeds resolves
+// little. Stop operators are a play in the fibre, the dynamic baseline's or an accepted
+// memory_hysteresis term's, and are refitted beside every backlash width, so the widths whose held-out error is within 2 SE of the best's (and
+// "none" when the structure alone is too) are explanations the recording does not tell apart: how
+// much of the loop is the belt's and how much the fibre's. Said when that range moves the hold offset
+// (half the width) by more than twice the scan-to-scan noise floor: less is within the noise.
+json dead_band_or_play(const std::vector<CandidateResult>& cands, const Grown& g, const Steps& ctx) {
+  const auto& dyn = g.sx.cx.dyn;
+  const bool structure_play = dyn && dyn->n_operators > 0;
+  if (!structure_play && !g.st.has(core::Effect::kMemoryHysteresis)) return nullptr;
+  const auto it = std::find_if(cands.begin(), cands.end(),
+                               [](const CandidateResult& x) { return x.effect == core::Effect::kBacklash; });
+  if (it == cands.end() || !it->eligible || it->profile.empty()) return nullptr;
+  const CandidateResult& c = *it;
+  std::size_t best = 0;
+  auto total = [](const std::vector<double>& v) { double s = 0; for (double x : v) s += x; return s; };
+  for (std::size_t t = 1; t < c.profile.size(); ++t)
+    if (total(c.profile[t]) < total(c.profile[best])) best = t;
+  const std::vector<double> none = fold_sse(g.cur.cv_resid, g.sx.blocks);
+  const bool none_alike = total(none) <= total(c.profile[best]) || within_2se(c.profile[best], none);
+  double lo = none_alike ? 0.0 : c.profile_grid[best], hi = c.profile_grid[best];
+  for (std::size_t t = 0; t < c.profile.size(); ++t)
+    if (within_2se(c.profile[best], c.profile[t])) {
+      lo = std::min(lo, c.profile_grid[t]);
+      hi = std::max(hi, c.profile_grid[t]);
+    }
+  const double floor = noise_floor(ctx.to_deg(g.cur.cv_resid));
+  if (!((hi - lo) / 2 > 2 * floor)) return nullptr;
+  const bool at_edge = hi >= *std::max_element(c.profile_grid.begin(), c.profile_grid.end());
+  return {{"effects", {"backlash", "memory_hysteresis"}},
+          {"what", "a dead band of " + format_fixed(lo, 2) + " to " + (at_edge ? "at least " : "") +
+                       format_fixed(hi, 2) + " deg" + (at_edge ? " (the widest tried)" : "") +
+                       " between the joint and the reference, the rest of the loop a play-type hysteresis in the "
+                       "fibre (" +
+                       (structure_play ? "the dynamic baseline's " + std::to_string(dyn->n_operators) + " stop operators"
+                                       : std::string("the memory_hysteresis term's stop operators")) +
+                       ", refitted beside each width): the recording does not tell how the loop splits"},
+          {"backlash_width_range_deg", {lo, hi}},
+          {"best_width_deg", c.profile_grid[best]},
+          {"none_alike", none_alike},
+          {"noise_floor_deg", floor},
+          {"tells_apart", tells_apart(core::Effect::kBacklash, core::Effect::kMemoryHysteresis)},
+          {"taken", "as fitted: the compensator applies both the stop operators and a [gap] backlash_deg"}};
+}
+
 // The first candidate, best delta BIC first, that passes the rule and whose magnitude its
 // jackknife tells apart from zero (|x| > 2 SE: a 4 +- 3 ms delay is no finding). Those that pass
-// but are not told apart are said and marked in the scores.
+// but are not told apart are said and marked in the scores. Candidates that explain the same
+// residual as well (ties_with) are named beside it in `ties`; of them the search takes one the
+// compensator can apply, so that model.toml holds what the data allow (docs/gap.md, section 4,
+// "Said, not hidden").
 std::optional<Assessment> first_significant(Ranking& r, const std::vector<CandidateResult>& cands, const Grown& g, int step,
-                                            const Steps& ctx) {
+                                            const Steps& ctx, json& ties) {
   const Options& opt = *ctx.opt;
   std::vector<std::size_t> tried;
   for (const auto& [dbic, i0] : r.order) {
@@ -232,9 +384,31 @@ std::optional<Assessment> first_significant(Ranking& r, const std::vector<Candid
     if (!passes(r, cands, i, opt) || std::find(tried.begin(), tried.end(), i) != tried.end()) continue;
     tried.push_back(i);
     Assessment a = assess(g.sx, g.st, cands[i], g.cur.d.X.cols(), g.cur.cv_resid);
-    if (a.significant) return a;
-    r.scores[std::string(core::to_string(cands[i].effect))]["not_significant"] = a.significance;
-    say(ctx, "step " + std::to_string(step) + ": " + std::string(core::to_string(cands[i].effect)) + " " + a.significance);
+    if (!a.significant) {
+      r.scores[std::string(core::to_string(cands[i].effect))]["not_significant"] = a.significance;
+      say(ctx, "step " + std::to_string(step) + ": " + std::string(core::to_string(cands[i].effect)) + " " +
+                   a.significance);
+      continue;
+    }
+    std::vector<Assessment> tied;
+    ties = ties_with(a, r, cands, g, tried, ctx, tied);
+    if (!applies_online(a.candidate->effect))
+      for (std::size_t k = 0; k < tied.size(); ++k)
+        if (applies_online(tied[k].candidate->effect)) {
+          // The tie's other member is taken; the one ranked first becomes its tie.
+          json first = {{"effect", std::string(core::to_string(a.candidate->effect))},
+                        {"heldout_gap_deg", ctx.gap_deg(a.after.squaredNorm())},
+                        {"explained_overlap", ties[k]["explained_overlap"]},
+                        {"heldout_sse_difference_v2", -ties[k]["heldout_sse_difference_v2"].get<double>()},
+                        {"heldout_sse_difference_se_v2", ties[k]["heldout_sse_difference_se_v2"]},
+                        {"parameters", a.parameters},
+                        {"tells_apart", ties[k]["tells_apart"]},
+                        {"ranked_first", true}};
+          ties.erase(k);
+          ties.push_back(first);
+          return std::move(tied[k]);
+        }
+    return a;
   }
   return std::nullopt;
 }
@@ -371,15 +545,39 @@ void grow(Grown& g, const Steps& ctx) {
     say(ctx, "step " + std::to_string(step) + ": fitting " + std::to_string(core::kEffectCount) + " candidate effects");
     const std::vector<CandidateResult> cands = evaluate_all(g.sx, g.st, g.cur, ctx.opt->threads);
     Ranking r = rank(cands, g.cur, ctx);
-    const std::optional<Assessment> chosen = first_significant(r, cands, g, step, ctx);
+    json ties = json::array();
+    const std::optional<Assessment> chosen = first_significant(r, cands, g, step, ctx, ties);
+    // The dead band's share is said where the search decides about it: the step that takes it, or
+    // the one it stops at.
+    const bool decides_backlash = !chosen || chosen->candidate->effect == core::Effect::kBacklash;
+    if (decides_backlash && !g.st.has(core::Effect::kBacklash) && g.st.backlash_deg == 0)
+      if (json d = dead_band_or_play(cands, g, ctx); !d.is_null()) {
+        d["step"] = step;
+        g.indistinguishable.push_back(std::move(d));
+      }
     if (!chosen) {
       record_stop(g, r, cands, step, ctx);
       break;
     }
     Step stp = accepted_step(r, cands, *chosen, g.cur, step, ctx);
+    if (!ties.empty()) {
+      stp.evidence["indistinguishable_from"] = ties;
+      for (const json& t : ties)
+        g.indistinguishable.push_back({{"effects", {stp.effect, t["effect"]}},
+                                       {"step", step},
+                                       {"what", stp.effect + " and " + t["effect"].get<std::string>() +
+                                                    " explain the same residual, their held-out errors within 2 SE"},
+                                       {"tells_apart", t["tells_apart"]},
+                                       {"taken", stp.effect}});
+      for (const json& t : ties)
+        say(ctx, "step " + std::to_string(step) + ": " + stp.effect + " and " + t["effect"].get<std::string>() +
+                     " explain the same residual here: indistinguishable on this recording");
+    }
     name_spectrum_once(stp, g.steps, g.st, chosen->candidate->effect);
     g.steps.push_back(std::move(stp));
     adopt(g, *chosen, ctx);
+    g.final_gap = g.steps.back().gap_deg;
+    if (ctx.accepted) ctx.accepted(g);
   }
   g.final_gap = g.steps.empty() ? g.baseline_gap : g.steps.back().gap_deg;
 }

@@ -16,6 +16,8 @@
 
 namespace pof::gap {
 
+struct Grown;
+
 /// What a search reads besides its baseline: the recording, its kinematics and phases, the
 /// options, the sensitivity gaps are reported at, and where progress goes.
 struct Steps {
@@ -25,6 +27,8 @@ struct Steps {
   const Options* opt = nullptr;
   double c9 = 1;  // |c9| of the paper fit [deg/V]: every gap in degrees at this sensitivity
   std::function<void(const std::string&)> say;
+  /// Called with the search after each accepted step (may be empty): analysis.cpp's checkpoint.
+  std::function<void(const Grown&)> accepted;
   /// Held-out RMS residual in degrees from a held-out residual sum of squares [V^2].
   [[nodiscard]] double gap_deg(double cv_rss) const;
   /// A residual [V] in degrees: positive when the sensor reads a larger angle than the model.
@@ -42,6 +46,8 @@ struct Grown {
   std::vector<Step> steps;
   Eigen::VectorXd strict_resid;  // the held-out residual of the last accepted step [V]
   nlohmann::json last_rejected;  // the best candidate that was not accepted, and why
+  /// Explanations this recording cannot tell apart (docs/gap.md, section 4, "Said, not hidden").
+  nlohmann::json indistinguishable = nlohmann::json::array();
 };
 
 /// The baseline alone, relinearised (so what the refit left is not credited to a first candidate).

@@ -6,6 +6,13 @@
 
 namespace pof::gap {
 
+double noise_floor(const Eigen::VectorXd& r) {
+  const Eigen::Index n = r.size();
+  if (n < 2) return 0;
+  const Eigen::VectorXd dif = r.tail(n - 1) - r.head(n - 1);
+  return std::sqrt(dif.squaredNorm() / static_cast<double>(dif.size()) / 2.0);
+}
+
 Whiteness whiteness(const Eigen::VectorXd& rf) {
   Whiteness w;
   const Eigen::Index n = rf.size();
@@ -23,8 +30,7 @@ Whiteness whiteness(const Eigen::VectorXd& rf) {
       acf[std::to_string(lag)] = r;
   }
   q *= N * (N + 2);
-  const Eigen::VectorXd dif = rf.tail(n - 1) - rf.head(n - 1);
-  const double floor = std::sqrt(dif.squaredNorm() / static_cast<double>(dif.size()) / 2.0);
+  const double floor = noise_floor(rf);
   const double rms = std::sqrt(c.squaredNorm() / N);
   const double ratio = floor > 0 ? rms / floor : 1.0;
   constexpr double kLjungBoxCritical = 31.41;  // chi^2(20) at 5 %

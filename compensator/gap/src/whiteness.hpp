@@ -15,4 +15,8 @@ struct Whiteness {
 /// rejects whiteness at 5 % (critical value 31.41).
 Whiteness whiteness(const Eigen::VectorXd& r);
 
+/// The scan-to-scan noise floor of a residual r [deg]: std(diff r)/sqrt 2, what white noise alone
+/// would give (no slow structure in it).
+double noise_floor(const Eigen::VectorXd& r);
+
 }  // namespace pof::gap

@@ -267,6 +267,8 @@ Scenario read_scenario(const toml::table& root, const std::string& source) {
       se.drift.enabled = d.get_or("enabled", se.drift.enabled);
       se.drift.rate_v_per_hour = d.get_or("rate_v_per_hour", se.drift.rate_v_per_hour);
       se.drift.random_walk_v_per_sqrt_hour = d.get_or("random_walk_v_per_sqrt_hour", se.drift.random_walk_v_per_sqrt_hour, non_negative);
+      se.drift.wave_v = d.get_or("wave_v", se.drift.wave_v, non_negative);
+      se.drift.wave_period_s = d.get_or("wave_period_s", se.drift.wave_period_s, positive);
     });
     s.with_section("memory_hysteresis", [&](TomlSection& h) {
       auto& mh = se.memory_hysteresis;

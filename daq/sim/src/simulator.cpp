@@ -315,7 +315,8 @@ void Simulator::step(Scan& out, EffectTrace* tr) {
   const double acc = se.acceleration_dependence.enabled ? se.acceleration_dependence.gain_v_per_rad_s2 * alpha : 0.0;
   double drift = 0;
   if (se.drift.enabled) {
-    drift = se.drift.rate_v_per_hour * t / 3600.0 + drift_rw_;
+    drift = se.drift.rate_v_per_hour * t / 3600.0 + drift_rw_ +
+            se.drift.wave_v * std::sin(2 * std::numbers::pi * t / se.drift.wave_period_s);
     if (drift_rw_step_ > 0) drift_rw_ += drift_rw_step_ * rng_drift_.normal();
   }
   double plr = 0;

@@ -17,6 +17,7 @@
 
 namespace pof::gap {
 
+struct Result;
 
 struct Options {
   int folds = 5;                 // time-blocked folds (boundaries moved into holds: whole cycles)
@@ -27,6 +28,11 @@ struct Options {
   int threads = 2;               // candidates are evaluated in parallel
   /// Called with one-line progress messages (the CLI prints them only on a terminal).
   std::function<void(const std::string&)> progress;
+  /// Called with the report as it stands after each stage (the baseline, each accepted step of
+  /// each search, the searches' end), so a run stopped later leaves a report whole up to there
+  /// (docs/gap.md, section 5, "Written as it goes"). Not called for the finished result, which
+  /// analyse() returns.
+  std::function<void(const Result&)> checkpoint;
 };
 
 struct Step {
@@ -44,6 +50,9 @@ struct Series {
 };
 
 struct Result {
+  /// The stage this result is whole up to: "complete", or what a checkpoint had reached.
+  std::string stage = "complete";
+  [[nodiscard]] bool complete() const { return stage == "complete"; }
   double baseline_gap_deg = 0;
   /// Effects of the catalogue the chosen baseline structure carries itself, found by its own
   /// cross-validation rather than by the search (docs/gap.md, section 1, "What the baseline
@@ -52,6 +61,10 @@ struct Result {
   std::vector<Step> steps;
   double final_gap_deg = 0;
   bool unexplained = false;
+  /// Explanations this recording cannot tell apart, each with what would (docs/gap.md, section 4,
+  /// "Said, not hidden"): candidates that explain the same residual alike, the share of a loop
+  /// between a dead band in the reference and a play in the fibre, a delay and a bend lag.
+  nlohmann::json indistinguishable = nlohmann::json::array();
   nlohmann::json baseline;       // fitted baseline (c9, c10), localisation of the baseline residual
   nlohmann::json whiteness;      // final residual: ACF, Ljung-Box, noise floor
   nlohmann::json model;          // improved model: coefficients + accepted terms (for model.toml)

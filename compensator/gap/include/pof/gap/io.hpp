@@ -10,7 +10,8 @@
 
 namespace pof::gap {
 
-/// Writes gap.json, model.toml, series.csv and report.md into dir (created if missing).
+/// Writes gap.json, model.toml, series.csv and report.md into dir (created if missing); for a
+/// checkpoint's result (not complete) everything but model.toml.
 void write_outputs(const Result& r, const std::string& source, const std::filesystem::path& dir);
 
 }  // namespace pof::gap

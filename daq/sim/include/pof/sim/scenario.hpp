@@ -99,7 +99,12 @@ struct SensorSettings {
   struct RateDependentHysteresis { bool enabled = false; double amplitude_v = 0.02, velocity_scale_rad_s = 0.1; } rate_dependent_hysteresis;
   struct Creep { bool enabled = false; std::vector<CreepTerm> terms{CreepTerm{}}; } creep;
   struct AccelerationDependence { bool enabled = false; double gain_v_per_rad_s2 = 0.02; } acceleration_dependence;
-  struct Drift { bool enabled = false; double rate_v_per_hour = 0.02, random_walk_v_per_sqrt_hour = 0; } drift;
+  // A trend, a random walk and a slow oscillation (a room's temperature regulation cycling).
+  struct Drift {
+    bool enabled = false;
+    double rate_v_per_hour = 0.02, random_walk_v_per_sqrt_hour = 0;
+    double wave_v = 0, wave_period_s = 900;
+  } drift;
   // Continuous hysteresis with memory (rate independent in itself, times an optional speed factor
   // exp(rate_sensitivity_s_per_rad * |omega|_lowpassed)); its state persists through holds.
   struct MemoryHysteresis {

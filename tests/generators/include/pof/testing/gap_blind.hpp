@@ -87,15 +87,19 @@ struct Trial {
 /// rmse_before_deg is the most its compensated reduction can be. Its noise is another draw of the
 /// same level. The CSV file is written to dir and removed.
 double effect_free_rmse(std::uint64_t seed, bool short_session, const std::filesystem::path& dir,
-                        double sensor_spread = 0.3, double dynamic_share = 0.0);
+                        double sensor_spread = 0.3, double dynamic_share = 0.0, double other_family_share = 0.0);
 
 /// One blind trial: a sensor (draw_sensor with sensor_spread; 0 = the paper's table 2), with
 /// probability dynamic_share one of the dynamic model's kind (draw_dynamic_sensor, on top of the
 /// drawn f5), and `count` random effects (0, 1, 2, ...) drawn with `seed`, the recording written to
 /// dir/blind_<seed>.csv, read back and analysed with only the file. The sensor's kind is drawn
 /// from a stream of its own, so a paper-structure sensor and its effects are the same draw for a
-/// seed whatever the share.
+/// seed whatever the share. With probability other_family_share a dynamic-kind sensor's memory is a
+/// Preisach relay density and its relaxation a power law (families the dynamic model does not
+/// contain; its bend lag and bow stay), from a stream of its own again: 0 draws every sensor as
+/// before.
 Trial run_trial(std::uint64_t seed, int count, bool short_session, const std::filesystem::path& dir,
-                const Options& opt = {}, double sensor_spread = 0.3, double dynamic_share = 0.0);
+                const Options& opt = {}, double sensor_spread = 0.3, double dynamic_share = 0.0,
+                double other_family_share = 0.0);
 
 }  // namespace pof::gap::blind

@@ -6,10 +6,11 @@
 #      memory and Prony relaxation, not the paper's step model) and fitted: `pof calibrate` fits the
 #      paper's model and the dynamic model, marks the one with the lower held-out error active and
 #      writes cal.toml and a report with the paper's figures and the dynamic model's;
-#   2. live session: pof-daqd streams a simulated session on the same fibre (sim:fibre_session: 5
-#      subject cycles, then point-to-point moves with half-way reversals and holds; real time,
-#      ~95 s) over LCM on this host; pof-compensatord compensates every scan; pof record records
-#      every POF_* channel losslessly;
+#   2. live session: pof-daqd streams the first 62 s of a simulated session on the same fibre
+#      (sim:fibre_session: a hold and three subject cycles; $POF_DEMO_SECONDS, up to 115 s, adds
+#      the last two cycles and the point-to-point moves with part-way reversals) in real time over
+#      LCM on this host; pof-compensatord compensates every scan; pof record records every POF_*
+#      channel losslessly;
 #   3. summary: the per-cycle statistics (table 3) the daemon published, and a plot.
 # Everything printed is measured in this run. Output: demo-output/<UTC time>/ (or $POF_DEMO_DIR).
 set -euo pipefail
@@ -18,6 +19,10 @@ BIN=$PWD/build/bin
 OUT=${POF_DEMO_DIR:-$PWD/demo-output/$(date -u +%Y%m%dT%H%M%SZ)}
 mkdir -p "$OUT"
 cd "$OUT"
+# The live session's length: 62 s ends just after the third subject cycle (the daemon publishes a
+# cycle's statistics once the next one starts), most of the demo's run time.
+SECONDS_LIVE=${POF_DEMO_SECONDS:-62}
+case "$SECONDS_LIVE" in '' | *[!0-9]*) echo "demo: POF_DEMO_SECONDS takes whole seconds, got '$SECONDS_LIVE'" >&2; exit 2 ;; esac
 PORT=$((20000 + RANDOM % 30000))        # a private LCM bus for this run (ttl=0: this host only)
 URL="udpm://239.255.76.67:$PORT?ttl=0"
 say() { printf '\n\033[1m== %s\033[0m\n' "$*"; }
@@ -45,13 +50,13 @@ pids+=($!); compensator=$!
 "$BIN/pof" dash --lcm-url "$URL" --port "${POF_DASH_PORT:-0}" >dash.log 2>&1 &
 pids+=($!)
 sleep 1
-"$BIN/pof-daqd" --device sim:fibre_session --lcm-url "$URL" 2>daqd.log &
+"$BIN/pof-daqd" --device sim:fibre_session --duration "$SECONDS_LIVE" --lcm-url "$URL" 2>daqd.log &
 pids+=($!); daqd=$!
 grep -o 'http://[^ ]*' dash.log | sed 's/^/watch it live in a browser: /' || echo "pof dash did not start: see $OUT/dash.log"
 sleep 20
 echo "what is on the bus 20 s in (pof spy snapshot; run 'build/bin/pof spy --lcm-url \"$URL\"' for the live view):"
 "$BIN/pof" spy --lcm-url "$URL" --duration 2 || true
-echo "... the session goes on for ~95 s in real time"
+echo "... the session goes on for $SECONDS_LIVE s in real time"
 wait "$daqd" || { cat daqd.log; exit 1; }
 sleep 1
 kill -TERM "$compensator"; wait "$compensator" || true

@@ -8,8 +8,6 @@
 
 namespace pof::cli {
 
-const char* git_describe() { return POF_GIT_DESCRIBE; }
-
 void add_version(CLI::App& app) {
   auto* cmd = app.add_subcommand("version", "Print the pofkit version and the library versions it was built with");
   cmd->callback([] {

@@ -7,7 +7,7 @@
 namespace pof::cli {
 
 void add_version(CLI::App& app);
-// `git describe` of the sources built: only cmd_version.cpp sees it, so a commit recompiles one file.
+// `git describe` of the sources built: only git_describe.cpp sees it, so a commit recompiles one small file.
 const char* git_describe();
 void add_calibrate(CLI::App& app);
 void add_compensate(CLI::App& app);

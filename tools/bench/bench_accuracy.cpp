@@ -3,14 +3,15 @@
 // the viscoelastic lag; and the paper's own step model), calibrated on the paper's protocol and
 // tested on held-out gait, rehabilitation cycles and random point-to-point moves:
 //
-//   build/bin/bench_accuracy [--minutes 30]      (figures in BENCHMARKS.md)
+//   build/bin/bench_accuracy [--minutes 30] [--calibration-with-gait]      (figures in BENCHMARKS.md)
 //
 // Each fibre: `fibre_calibration` (the paper's protocol) simulated with that fibre -> pof calibrate's
 // path (calibrate(), fit_dynamic(), compare_held_out() picking the active model) -> the three
 // held-out scenarios simulated with the same fibre and a different seed -> compensate_recording()
 // with the paper model, the dynamic model and the active one; RMSE and |error| p99 over every scan,
 // holds included. --minutes also times the calibration of a recording that long (the paper's
-// protocol repeated), the figure for "30 min of 200 Hz in < 5 s".
+// protocol repeated), the figure for "30 min of 200 Hz in < 5 s". --calibration-with-gait appends
+// gait to each calibration (calibration_with_gait).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -197,12 +198,23 @@ void latency(const std::vector<Fibre>& all) {
   }
 }
 
+// The paper's protocol followed by heldout_gait's trajectory (its knee limits for both): what a
+// calibration that reaches gait speeds (up to 2 rad/s) identifies that the protocol alone cannot.
+void calibration_with_gait(Scenario& cs) {
+  const Scenario gait = pof::sim::builtin_scenario("heldout_gait");
+  cs.knee = gait.knee;
+  cs.trajectory.insert(cs.trajectory.end(), gait.trajectory.begin(), gait.trajectory.end());
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   double minutes = 30;
-  for (int i = 1; i < argc; ++i)
+  bool with_gait = false;
+  for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--minutes") == 0 && i + 1 < argc) minutes = std::atof(argv[++i]);
+    else if (std::strcmp(argv[i], "--calibration-with-gait") == 0) with_gait = true;
+  }
 
   // Pooled into "all three"; heldout_fast_gait (gait at ~4x the calibration's fastest speed) apart.
   const char* tests[] = {"heldout_gait", "heldout_rehab", "heldout_random", "heldout_fast_gait"};
@@ -212,6 +224,7 @@ int main(int argc, char** argv) {
   for (const Fibre& f : fibres()) {
     Scenario cs = pof::sim::builtin_scenario("fibre_calibration");
     cs.sensor = f.sensor;
+    if (with_gait) calibration_with_gait(cs);
     const pof::io::Recording cal = simulate(cs, ++seed);
     const auto pr = pof::core::calibrate(cal.t_s, cal.sensor_v, cal.reference_v, cal.angle_ref_deg);
     pof::core::ReferenceGuard g;

@@ -26,6 +26,7 @@
 #include "pof/core/model_selection.hpp"
 #include "pof/core/normalise.hpp"
 #include "pof/core/offline.hpp"
+#include "pof/core/units.hpp"
 #include "pof/io/atomic_file.hpp"
 #include "pof/io/calibration_file.hpp"
 #include "pof/base/errors.hpp"
@@ -166,6 +167,11 @@ void run(const CalibrateOptions& o) {
                 m.n_operators ? m.threshold_deg[static_cast<std::size_t>(m.n_operators - 1)] : 0.0, m.loop_half_height_v(),
                 m.rate_gain_s_per_rad, m.n_prony, m.bend_lag_s, dyn->train_rmse_deg, dyn->chosen.cv_rmse_deg, dyn->candidates.size());
     if (!f.dynamic_fit_note.empty()) std::printf("          %s\n", f.dynamic_fit_note.c_str());
+    // What the recording cannot tell: the loop's rate dependence beyond its fastest motion
+    // (docs/calibration.md, "Speeds beyond the calibration": gait after a slow-only protocol).
+    std::printf("speeds    identified up to %.2f rad/s (%.0f deg/s); faster, the loop keeps its shape at that speed and "
+                "the angle carries QUALITY_VELOCITY_EXTRAPOLATED: to compensate gait (2 rad/s and more), record some in the "
+                "calibration\n", m.speed_limit_rad_s, m.speed_limit_rad_s * pof::core::kDegPerRad);
     if (f.cal.estimator)
       std::printf("estimator voltage noise %.3g mV (holds), acceleration noise %.0f deg/s^2\n",
                   1e3 * f.cal.estimator->voltage_noise_v, f.cal.estimator->acceleration_noise_deg_s2);

@@ -7,6 +7,7 @@
 #include "pof/core/units.hpp"
 
 namespace pof::gap {
+namespace acceleration_dependence_effect {  // named: the effects share unity batches (CMakeLists.txt)
 namespace {
 
 // The acceleration of the angle, differentiated twice over +-h: a short window follows the drive's
@@ -25,6 +26,7 @@ nlohmann::json physical(double h_s, const Eigen::VectorXd& b, const Context& cx)
 }
 
 }  // namespace
+}  // namespace acceleration_dependence_effect
 
 extern const EffectDef kAccelerationDependence{
     .id = core::Effect::kAccelerationDependence,
@@ -33,8 +35,8 @@ extern const EffectDef kAccelerationDependence{
     .magnitude_key = "gain_deg_per_rad_s2",
     .refit_theta = true,
     .grid = [](const Context&, const Eigen::VectorXd&) { return std::vector<double>{0.015, 0.025, 0.035, 0.05, 0.075, 0.1}; },
-    .columns = columns,
-    .physical = physical,
+    .columns = acceleration_dependence_effect::columns,
+    .physical = acceleration_dependence_effect::physical,
 };
 
 }  // namespace pof::gap

@@ -2,6 +2,7 @@
 #include "effect.hpp"
 
 namespace pof::gap {
+namespace creep_effect {  // named: the effects share unity batches (CMakeLists.txt)
 namespace {
 
 // Standard-linear-solid memory: the fibre sees the angle plus g (x - angle), x the angle low-passed
@@ -18,6 +19,7 @@ nlohmann::json physical(double tau, const Eigen::VectorXd& b, const Context& cx)
 }
 
 }  // namespace
+}  // namespace creep_effect
 
 extern const EffectDef kCreep{
     .id = core::Effect::kCreep,
@@ -30,8 +32,8 @@ extern const EffectDef kCreep{
     // relaxation shows over seconds in the holds.
     .grid = [](const Context&, const Eigen::VectorXd&) { return basis::log_grid(1.0, 200.0, 21); },
     .refine = basis::log_refine,
-    .columns = columns,
-    .physical = physical,
+    .columns = creep_effect::columns,
+    .physical = creep_effect::physical,
 };
 
 }  // namespace pof::gap

@@ -6,6 +6,7 @@
 #include "effect.hpp"
 
 namespace pof::gap {
+namespace drift_effect {  // named: the effects share unity batches (CMakeLists.txt)
 namespace {
 
 // A drift's fastest component is slower than the slowest relaxation the catalogue fits (creep and
@@ -61,6 +62,7 @@ nlohmann::json physical(double, const Eigen::VectorXd& b, const Context& cx) {
 }
 
 }  // namespace
+}  // namespace drift_effect
 
 extern const EffectDef kDrift{
     .id = core::Effect::kDrift,
@@ -68,9 +70,9 @@ extern const EffectDef kDrift{
                "(source ageing, temperature)",
     .magnitude_key = "rms_deg",
     .grid = [](const Context&, const Eigen::VectorXd&) { return std::vector<double>{0.0}; },
-    .columns = columns,
-    .physical = physical,
-    .linear_of = degree,
+    .columns = drift_effect::columns,
+    .physical = drift_effect::physical,
+    .linear_of = drift_effect::degree,
 };
 
 }  // namespace pof::gap

@@ -4,6 +4,7 @@
 #include "effect.hpp"
 
 namespace pof::gap {
+namespace memory_hysteresis_effect {  // named: the effects share unity batches (CMakeLists.txt)
 namespace {
 
 // Prandtl-Ishlinskii stop operators on a fixed bank of thresholds (Brokate & Sprekels 1996,
@@ -43,6 +44,7 @@ nlohmann::json physical(double, const Eigen::VectorXd& b, const Context& cx) {
 }
 
 }  // namespace
+}  // namespace memory_hysteresis_effect
 
 extern const EffectDef kMemoryHysteresis{
     .id = core::Effect::kMemoryHysteresis,
@@ -50,10 +52,10 @@ extern const EffectDef kMemoryHysteresis{
     .linear = 5,
     .magnitude_key = "half_height_deg",
     .grid = [](const Context&, const Eigen::VectorXd&) { return std::vector<double>{0.0}; },
-    .columns = columns,
-    .physical = physical,
+    .columns = memory_hysteresis_effect::columns,
+    .physical = memory_hysteresis_effect::physical,
     .basis_key = "thresholds_deg",
-    .basis_values = [](double) { return bank(); },
+    .basis_values = [](double) { return memory_hysteresis_effect::bank(); },
 };
 
 }  // namespace pof::gap

@@ -8,6 +8,7 @@
 #include "effect.hpp"
 
 namespace pof::gap {
+namespace periodic_interference_effect {  // named: the effects share unity batches (CMakeLists.txt)
 namespace {
 
 // The strongest spectral peak of the residual above 2 Hz (the movement itself is < 1 Hz) and a fine
@@ -58,6 +59,7 @@ nlohmann::json physical(double f, const Eigen::VectorXd& b, const Context& cx) {
 }
 
 }  // namespace
+}  // namespace periodic_interference_effect
 
 extern const EffectDef kPeriodicInterference{
     .id = core::Effect::kPeriodicInterference,
@@ -65,9 +67,9 @@ extern const EffectDef kPeriodicInterference{
     .linear = 4,
     .theta_key = "frequency_hz",
     .magnitude_key = "amplitude_mv",
-    .grid = grid,
-    .columns = columns,
-    .physical = physical,
+    .grid = periodic_interference_effect::grid,
+    .columns = periodic_interference_effect::columns,
+    .physical = periodic_interference_effect::physical,
 };
 
 }  // namespace pof::gap

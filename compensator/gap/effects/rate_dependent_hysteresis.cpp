@@ -5,6 +5,7 @@
 #include "effect.hpp"
 
 namespace pof::gap {
+namespace rate_dependent_hysteresis_effect {  // named: the effects share unity batches (CMakeLists.txt)
 namespace {
 
 // A direction-signed opening that saturates with the speed, +-A (1 - exp(-|w|/w0)) sin(pi angle/90)
@@ -22,6 +23,7 @@ nlohmann::json physical(double w0, const Eigen::VectorXd& b, const Context& cx) 
 }
 
 }  // namespace
+}  // namespace rate_dependent_hysteresis_effect
 
 extern const EffectDef kRateDependentHysteresis{
     .id = core::Effect::kRateDependentHysteresis,
@@ -31,8 +33,8 @@ extern const EffectDef kRateDependentHysteresis{
     .refit_theta = true,
     .grid = [](const Context&, const Eigen::VectorXd&) { return basis::log_grid(0.02, 1.0, 13); },
     .refine = basis::log_refine,
-    .columns = columns,
-    .physical = physical,
+    .columns = rate_dependent_hysteresis_effect::columns,
+    .physical = rate_dependent_hysteresis_effect::physical,
     .file_coefficients = 2,
 };
 

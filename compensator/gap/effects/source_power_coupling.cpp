@@ -4,6 +4,7 @@
 #include "effect.hpp"
 
 namespace pof::gap {
+namespace source_power_coupling_effect {  // named: the effects share unity batches (CMakeLists.txt)
 namespace {
 
 // v ~ T(angle) (1 + gamma dP/P) + o dP/P: the two photodiodes respond differently to the source
@@ -22,15 +23,16 @@ std::string_view not_identifiable(const Context& cx) {
 }
 
 }  // namespace
+}  // namespace source_power_coupling_effect
 
 extern const EffectDef kSourcePowerCoupling{
     .id = core::Effect::kSourcePowerCoupling,
     .meaning = "the reference fibre does not cancel the source power exactly (photodiode responses, dark offset)",
     .linear = 2,
     .grid = [](const Context&, const Eigen::VectorXd&) { return std::vector<double>{0.0}; },
-    .columns = columns,
+    .columns = source_power_coupling_effect::columns,
     .physical = [](double, const Eigen::VectorXd& b, const Context&) { return nlohmann::json{{"gamma", b(0)}, {"offset_v", b(1)}}; },
-    .not_identifiable = not_identifiable,
+    .not_identifiable = source_power_coupling_effect::not_identifiable,
     .fast_part_s = 40,  // the simulator's and a lab LED's wander: minutes; its steps and flicker: faster
 };
 

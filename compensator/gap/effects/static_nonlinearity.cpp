@@ -6,6 +6,7 @@
 #include "effect.hpp"
 
 namespace pof::gap {
+namespace static_nonlinearity_effect {  // named: the effects share unity batches (CMakeLists.txt)
 namespace {
 
 // An angle error polynomial in u = (angle - 45)/45: a bow (u^2), an S (u^3) and the +-2 %
@@ -38,6 +39,7 @@ nlohmann::json physical(double, const Eigen::VectorXd& b, const Context& cx) {
 }
 
 }  // namespace
+}  // namespace static_nonlinearity_effect
 
 extern const EffectDef kStaticNonlinearity{
     .id = core::Effect::kStaticNonlinearity,
@@ -45,8 +47,8 @@ extern const EffectDef kStaticNonlinearity{
     .linear = 4,
     .magnitude_key = "max_deviation_deg",
     .grid = [](const Context&, const Eigen::VectorXd&) { return std::vector<double>{0.0}; },
-    .columns = columns,
-    .physical = physical,
+    .columns = static_nonlinearity_effect::columns,
+    .physical = static_nonlinearity_effect::physical,
 };
 
 }  // namespace pof::gap

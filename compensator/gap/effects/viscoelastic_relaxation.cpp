@@ -6,6 +6,7 @@
 #include "effect.hpp"
 
 namespace pof::gap {
+namespace viscoelastic_relaxation_effect {  // named: the effects share unity batches (CMakeLists.txt)
 namespace {
 
 // Two Prony terms (a generalised Maxwell model) at time constants at least ~4x apart: a polymer
@@ -68,6 +69,7 @@ std::vector<double> basis_values(double theta) {
 }
 
 }  // namespace
+}  // namespace viscoelastic_relaxation_effect
 
 extern const EffectDef kViscoelasticRelaxation{
     .id = core::Effect::kViscoelasticRelaxation,
@@ -75,14 +77,14 @@ extern const EffectDef kViscoelasticRelaxation{
     .linear = 2,
     .theta_key = "pair_index",
     .magnitude_key = "total_gain",
-    .grid = grid,
-    .columns = columns,
-    .physical = physical,
-    .inadmissible = inadmissible,
+    .grid = viscoelastic_relaxation_effect::grid,
+    .columns = viscoelastic_relaxation_effect::columns,
+    .physical = viscoelastic_relaxation_effect::physical,
+    .inadmissible = viscoelastic_relaxation_effect::inadmissible,
     .generalises = core::Effect::kCreep,
     .theta_in_file = false,
     .basis_key = "time_constants_s",
-    .basis_values = basis_values,
+    .basis_values = viscoelastic_relaxation_effect::basis_values,
 };
 
 }  // namespace pof::gap

@@ -19,6 +19,7 @@ grep -Eq 'held-out .*paper RMSE [0-9.]+ deg.*dynamic RMSE [0-9.]+ deg' <<<"$out"
 grep -q '^sensor_id = "LEFT_KNEE"$' cal.toml || fail "sensor id not stored"
 grep -q 'alpha_f = (' <<<"$out" || fail "eq. (11) not printed: $out"
 grep -q 'alpha_e = (' <<<"$out" || fail "eq. (12) not printed: $out"
+grep -Eq '^speeds +identified up to [0-9.]+ rad/s' <<<"$out" || fail "the identified speed range not printed: $out"
 [[ "$out$err" != *$'\r'* ]] || fail "progress output in a pipe"
 for f in calibration.json compensated.csv fig6_quasi_static.png fig7_regressions.png loops.png error_vs_angle.png \
   dynamic.csv dynamic_loop.png heldout_error.png; do

@@ -7,7 +7,7 @@ PORT=${PORT:-$((20000 + RANDOM % 30000))}
 URL="udpm://239.255.76.67:$PORT?ttl=0"
 PUB="$BIN_DIR/../tests/pof-testpub"
 POF="$BIN_DIR/pof"
-command -v tmux >/dev/null || fail "tmux is missing (it is in ./pofkit PACKAGES)"
+command -v tmux >/dev/null || fail "tmux is missing (it is in ./pofkit TEST_PACKAGES)"
 
 sock="$WORK_DIR/tmux.sock"
 tm() { tmux -S "$sock" "$@"; }

@@ -166,7 +166,7 @@ void latency(const std::vector<Fibre>& all) {
               "delay the angle shows beyond the lag [ms]\n");
   std::uint64_t seed = 500;
   for (const Fibre& f : all) {
-    if (std::strcmp(f.name, "A") != 0 && std::strcmp(f.name, "B") != 0) continue;
+    if (std::strcmp(f.name, "A") != 0 && std::strcmp(f.name, "B") != 0 && std::strcmp(f.name, "D") != 0) continue;
     Scenario cs = pof::sim::builtin_scenario("fibre_calibration");
     cs.sensor = f.sensor;
     const pof::io::Recording cal = simulate(cs, ++seed);

@@ -29,12 +29,18 @@ vdaq --model 1208ls --duration 5 --rate 250 --decimate 1 --block-scans 10 --min-
 summary
 echo "seams $(report seams): not taken $(report seam_scans_not_taken), flagged $(report seam_gaps), dropped $(report seam_dropped_scans), max error $(report max_seam_length_error_scans) scans"
 [ "$(report seam_gaps)" -ge 4 ] || fail "seams not flagged: $(report seam_gaps)"
-# What a seam costs on the published bus (docs/daq.md, fact 15): the last report's GET_REPORT
-# (16-17 ms of low-speed control transactions) asked for when the device's timer completes it,
-# then the AInScan's interrupt OUT (0-10 ms): at most 28 ms, 7 scans at 250 scans/s. A daemon
-# that polls blindly finds the last report up to a whole transfer later (p50 9 scans, max 11).
-at_most "$(report seam_scans_not_taken.p50)" 7 ||
-  fail "seams of $(report seam_scans_not_taken.p50) scans (p50): the last report is read late"
+# Each report is asked for when the device's timer completes it (docs/daq.md, fact 15), once: a
+# GET_REPORT holds EP0 for 16-17 ms at low speed, and a daemon that polls blindly sent ~3 for each
+# report (496 in 10 s against 151; 238 against 74 here), each one delaying the next. Reports: the
+# scans published (those the device took) in 64-sample reports of 4 inputs; the bound leaves room
+# for the layout probes at open. The seam itself (the last read, then the AInScan's interrupt OUT
+# on the device's 10-ms schedule) measured 6-11 scans either way, its p50 6 or 9 from run to run on
+# an idle host: not a bound that tells the two apart.
+reads=$(report usb_control_ms.n)
+reports=$(awk -v s="$(report scans_published)" 'BEGIN { print s * 4 / 64 }')
+echo "seams: $reads GET_REPORTs for $reports scan reports"
+at_most "$reads" "$(awk -v r="$reports" 'BEGIN { print 1.2 * r + 4 }')" ||
+  fail "seams: $reads GET_REPORTs for $reports scan reports: the reports are polled for, not asked for when complete"
 at_most "$(report max_value_error_lsb)" 1.0 || fail "seams: value error above 1 LSB"
 #    With decimation the partial window at each seam goes with the hole (published scans are
 #    then ~6 % fewer than the rate: 0.51-s executions, a window of 5 lost at each seam), plus the

@@ -30,13 +30,13 @@ has() {  # has <deb> <path>...: every path is in the package
     printf '%s\n' "$listing" | awk -v p="./$p" '$0 == p {f=1} END {exit !f}' || fail "$(basename "$deb") lacks $p"
   done
 }
-has "$runtime" usr/bin/pof usr/bin/pof-daqd usr/bin/pof-compensatord usr/bin/pof-gen-udev-rules \
+has "$runtime" usr/bin/pof usr/bin/pof-gap usr/bin/pof-daqd usr/bin/pof-compensatord usr/bin/pof-gen-udev-rules \
   usr/sbin/pof-setup-multicast usr/lib/systemd/system/pof-multicast-route.service \
   usr/lib/systemd/system/pof-daqd@.service usr/lib/systemd/system/pof-compensatord@.service \
   usr/lib/systemd/system/pof.target usr/lib/sysusers.d/pof.conf usr/lib/sysctl.d/60-pof-lcm.conf \
   etc/pof/pof.env etc/pof/record.env etc/pof/daqd.toml usr/share/pofkit/plot/calibration_report.py \
   usr/share/java/pof_lcmtypes.jar usr/share/doc/pofkit/copyright usr/share/doc/pofkit/changelog.gz \
-  usr/share/doc/pofkit/README.md usr/share/man/man1/pof.1.gz usr/share/man/man1/pof-daqd.1.gz \
+  usr/share/doc/pofkit/README.md usr/share/man/man1/pof.1.gz usr/share/man/man1/pof-gap.1.gz usr/share/man/man1/pof-daqd.1.gz \
   usr/share/man/man1/pof-compensatord.1.gz usr/share/man/man1/pof-gen-udev-rules.1.gz \
   usr/share/man/man8/pof-setup-multicast.8.gz
 for r in "$SOURCE_DIR"/deploy/udev/*.rules; do has "$runtime" "usr/lib/udev/rules.d/$(basename "$r")"; done
@@ -126,6 +126,9 @@ grep -q 'With `ttl=0` (the default URL)' "$SOURCE_DIR/docs/deployment.md" ||
 # The unpacked pof with the source tree out of reach (needs a mount namespace: root or userns).
 # The work directory is inside the source tree (build/), so this part runs from a copy in /tmp.
 "$root/usr/bin/pof" --version >version.txt || fail "unpacked pof --version failed"
+# `pof gap` runs the pof-gap beside the unpacked pof, not the build's.
+"$root/usr/bin/pof" gap --help >gap_help.txt || fail "unpacked pof gap --help failed"
+grep -q "min-reduction" gap_help.txt || fail "unpacked pof gap --help is not pof-gap's help: $(head -3 gap_help.txt)"
 outside=$(mktemp -d /tmp/pofkit-deb.XXXXXX)
 trap 'rm -rf "$outside"' EXIT
 cp -a "$root" "$outside/root"

@@ -102,4 +102,12 @@ expect_exit 65 "$BIN_DIR/pof" gap bad.csv --out report
 cmp -s before.json report/gap.json || fail "a failed run changed an existing gap.json"
 touch notadir
 expect_exit 74 "$BIN_DIR/pof" gap creep.csv --out notadir/sub --no-plots
+# `pof gap` is the program pof-gap beside pof: its help passes through, and a pof without it (a
+# build of the demo's targets only) says what to build.
+expect_exit 0 "$BIN_DIR/pof" gap --help
+grep -q "^Usage: pof gap " <<<"$out" || fail "pof gap --help is not pof-gap's help: $(head -2 <<<"$out")"
+mkdir -p lone && cp "$BIN_DIR/pof" lone/
+expect_exit 78 lone/pof gap creep.csv --out x
+grep -q "lone/pof-gap, which is not there: build it (cmake --build build --target pof-gap)" <<<"$err" ||
+  fail "a missing pof-gap is not named: $err"
 echo "ok"

@@ -1,5 +1,6 @@
 // `pof gap <recording> --out DIR`: where the baseline model and the recording disagree,
 // which physical effect is missing, and how much adding it closes the gap. Method: docs/gap.md.
+// Built into its own program, pof-gap, which `pof gap` runs (helper.cpp says why).
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -110,9 +111,8 @@ class StagedReport {
 
 }  // namespace
 
-void add_gap(CLI::App& app) {
-  auto* cmd = app.add_subcommand(
-      "gap", "Find where the model and a recording disagree, name the missing effect, add it, show the gap shrink");
+void setup_gap(CLI::App& app) {
+  app.description(kGapSummary);
   struct Args {
     std::string input, out;
     int folds = 5, max_steps = 4;
@@ -120,17 +120,17 @@ void add_gap(CLI::App& app) {
     bool no_plots = false;
   };
   auto a = std::make_shared<Args>();
-  cmd->add_option("recording", a->input, "Recording: CSV t_s,sensor_v,reference_v,angle_ref_deg, or an LCM log of POF_RAW blocks")->required();
-  cmd->add_option("--out,-o", a->out, "Output directory (gap.json, model.toml, report.md, PNG plots)")->required();
-  cmd->add_option("--folds", a->folds, "Time-blocked cross-validation folds")->check(CLI::Range(2, 20))->capture_default_str();
-  cmd->add_option("--block-seconds", a->block_s,
-                  "Length of the folds' time blocks, dealt to the folds in turn [s]; 0: one contiguous block per fold")
+  app.add_option("recording", a->input, "Recording: CSV t_s,sensor_v,reference_v,angle_ref_deg, or an LCM log of POF_RAW blocks")->required();
+  app.add_option("--out,-o", a->out, "Output directory (gap.json, model.toml, report.md, PNG plots)")->required();
+  app.add_option("--folds", a->folds, "Time-blocked cross-validation folds")->check(CLI::Range(2, 20))->capture_default_str();
+  app.add_option("--block-seconds", a->block_s,
+                 "Length of the folds' time blocks, dealt to the folds in turn [s]; 0: one contiguous block per fold")
       ->check(CLI::Range(0.0, 3600.0))->capture_default_str();
-  cmd->add_option("--max-steps", a->max_steps, "Most effects to add")->check(CLI::Range(0, 9))->capture_default_str();
-  cmd->add_option("--min-reduction", a->min_reduction_pct, "Acceptance: least held-out RMS reduction [%]")
+  app.add_option("--max-steps", a->max_steps, "Most effects to add")->check(CLI::Range(0, 9))->capture_default_str();
+  app.add_option("--min-reduction", a->min_reduction_pct, "Acceptance: least held-out RMS reduction [%]")
       ->check(CLI::Range(0.0, 100.0))->capture_default_str();
-  cmd->add_flag("--no-plots", a->no_plots, "Skip the matplotlib plots");
-  cmd->callback([a] {
+  app.add_flag("--no-plots", a->no_plots, "Skip the matplotlib plots");
+  app.callback([a] {
     const fs::path in(a->input);
     std::vector<io::NamedPath> outputs;
     for (const char* f : {"gap.json", "model.toml", "series.csv", "report.md"}) outputs.push_back({"--out", fs::path(a->out) / f});

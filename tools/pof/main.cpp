@@ -18,7 +18,7 @@ int main(int argc, char** argv) {
   pof::cli::add_version(app);
   pof::cli::add_calibrate(app);
   pof::cli::add_compensate(app);
-  pof::cli::add_gap(app);
+  pof::cli::add_helper(app, "gap", pof::cli::kGapSummary);  // the program pof-gap
   pof::cli::add_sim(app);
   pof::cli::add_record(app);
   pof::cli::add_spy(app);

@@ -331,6 +331,13 @@ int Trial::hits() const {
   return n;
 }
 
+int Trial::hits_or_said() const {
+  int n = 0;
+  for (const auto& h : hidden)
+    n += std::count(found.begin(), found.end(), h.effect) + std::count(said.begin(), said.end(), h.effect) > 0 ? 1 : 0;
+  return n;
+}
+
 int Trial::false_finds() const {
   int n = 0;
   // On a sensor of the dynamic model's kind, memory hysteresis or relaxation named on top of the
@@ -433,6 +440,8 @@ Trial run_trial(std::uint64_t seed, int count, bool short_session, const std::fi
   t.analysis_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   for (const auto& st : r.in_baseline) t.found.push_back(st.effect);  // what the baseline itself names, then the search
   for (const auto& st : r.steps) t.found.push_back(st.effect);
+  for (const auto& d : r.indistinguishable)
+    for (const auto& e : d["effects"]) t.said.push_back(e.get<std::string>());
   t.baseline_gap_deg = r.baseline_gap_deg;
   t.final_gap_deg = r.final_gap_deg;
   t.gap = r.to_json();

@@ -65,6 +65,7 @@ struct Trial {
   std::vector<std::string> covered;  // the effects the dynamic sensor's own physics is (draw_dynamic_sensor)
   std::vector<Hidden> hidden;
   std::vector<std::string> found;   // accepted effects, in order
+  std::vector<std::string> said;    // effects the report names as indistinguishable from another here (gap.json)
   double baseline_gap_deg = 0, final_gap_deg = 0;
   double analysis_s = 0;
   // The compensator's angle (gap.json's `compensated`: the baseline's, and block by block the found
@@ -76,6 +77,7 @@ struct Trial {
 
   [[nodiscard]] bool correct() const;        // every hidden effect found, nothing else
   [[nodiscard]] int hits() const;            // hidden effects that were found
+  [[nodiscard]] int hits_or_said() const;    // ... or named as one of a pair the report says it cannot tell apart
   [[nodiscard]] int false_finds() const;     // found effects that were neither hidden nor the sensor's own physics (covered)
   [[nodiscard]] double shrink() const { return baseline_gap_deg > 0 ? 1.0 - final_gap_deg / baseline_gap_deg : 0.0; }
 };

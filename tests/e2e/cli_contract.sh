@@ -13,7 +13,7 @@ expect_exit 2 "$BIN_DIR/pof"
 # --help, and exit 2 on an unknown flag.
 expect_exit 0 "$BIN_DIR/pof" --version
 want=$out
-for b in pof-daqd pof-compensatord; do
+for b in pof-daqd pof-compensatord pof-gap; do
   expect_exit 0 "$BIN_DIR/$b" --version
   [ "$out" = "$want" ] || fail "$b --version printed '$out', pof --version '$want'"
   expect_exit 0 "$BIN_DIR/$b" --help

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "plot.hpp"
 #include "pof/base/errors.hpp"
 
 namespace pof::cli {
@@ -18,10 +19,9 @@ namespace pof::cli {
 namespace {
 
 std::filesystem::path helper_path(const std::string& name) {
-  std::error_code ec;
-  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-  if (ec) throw pof::IoError("cannot find this program's own path (/proc/self/exe): " + ec.message());
-  return exe.parent_path() / ("pof-" + name);
+  const std::filesystem::path bin = own_folder();
+  if (bin.empty()) throw pof::IoError("cannot find this program's own folder (/proc/self/exe)");
+  return bin / ("pof-" + name);
 }
 
 }  // namespace

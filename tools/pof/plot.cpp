@@ -15,6 +15,12 @@ extern char** environ;
 
 namespace pof::cli {
 
+std::filesystem::path own_folder() {
+  std::error_code ec;
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  return ec ? std::filesystem::path() : exe.parent_path();
+}
+
 std::string find_share_file(const char* env_var, const std::string& installed_relative, const std::string& source_dir,
                             const std::string& file) {
   // In order: the user's override, the installed copy next to this binary, and the source tree
@@ -24,9 +30,8 @@ std::string find_share_file(const char* env_var, const std::string& installed_re
   // own files, whatever prefix the build was configured with.
   const char* env = std::getenv(env_var);
   std::string installed;
-  std::error_code ec;
-  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-  if (!ec) installed = (exe.parent_path().parent_path() / installed_relative).string();
+  if (const std::filesystem::path bin = own_folder(); !bin.empty())
+    installed = (bin.parent_path() / installed_relative).string();
   const std::string dirs[] = {env != nullptr ? env : "", installed, source_dir};
   for (const std::string& dir : dirs) {
     if (dir.empty()) continue;

@@ -64,6 +64,12 @@ struct EffectDef {
   std::vector<double> (*refine)(double best) = nullptr;
   /// The n x linear columns at theta (volts per unit of coefficient); null for kinematic effects.
   Eigen::MatrixXd (*columns)(double theta, const Context&, const Kinematics&) = nullptr;
+  /// For an effect whose columns at every theta are some of one fixed set (viscoelastic_relaxation:
+  /// two of its 17 time constants), the set and which of its columns theta takes, in the order
+  /// `columns` gives them; null: none. The search then forms the set's cross products once per
+  /// state instead of once per grid value (the same sums, taken from one larger product).
+  Eigen::MatrixXd (*column_set)(const Context&, const Kinematics&) = nullptr;
+  std::vector<Eigen::Index> (*columns_in_set)(double theta) = nullptr;
   /// Physical parameters from theta and the coefficients b (calibration volts per unit of basis).
   nlohmann::json (*physical)(double theta, const Eigen::VectorXd& b, const Context&) = nullptr;
   /// Why the effect cannot be identified on this recording, or "" (e.g. a constant source power).

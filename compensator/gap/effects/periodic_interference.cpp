@@ -42,8 +42,7 @@ Eigen::MatrixXd columns(double f, const Context& cx, const Kinematics& k) {
   Eigen::MatrixXd C(cx.s->n, 4);
   const double om = 2.0 * std::numbers::pi * f;
   for (Eigen::Index i = 0; i < cx.s->n; ++i) {
-    C(i, 0) = std::sin(om * cx.s->t(i));
-    C(i, 1) = std::cos(om * cx.s->t(i));
+    sincos(om * cx.s->t(i), &C(i, 0), &C(i, 1));  // glibc: sin and cos in one call, the same bits
     C(i, 2) = vq(i) * C(i, 0);
     C(i, 3) = vq(i) * C(i, 1);
   }

@@ -14,25 +14,35 @@ namespace {
 // the pair in a fixed list: both from creep's range, 1..200 s in 17 log steps (x1.39), the slow one
 // at least four steps (x3.7) above the fast one; the gains are the linear coefficients. 1 s is the
 // shortest for the reason creep's grid starts there (shorter memories are a delay plus acceleration).
-const std::vector<std::pair<double, double>>& pairs() {
-  static const std::vector<std::pair<double, double>> p = [] {
-    const std::vector<double> taus = basis::log_grid(1.0, 200.0, 17);
-    std::vector<std::pair<double, double>> out;
-    for (std::size_t i = 0; i < taus.size(); ++i)
-      for (std::size_t j = i + 4; j < taus.size(); ++j) out.emplace_back(taus[i], taus[j]);
+const std::vector<double>& taus() {
+  static const std::vector<double> t = basis::log_grid(1.0, 200.0, 17);
+  return t;
+}
+
+// The pairs as indices into taus().
+const std::vector<std::pair<std::size_t, std::size_t>>& pair_indices() {
+  static const std::vector<std::pair<std::size_t, std::size_t>> p = [] {
+    std::vector<std::pair<std::size_t, std::size_t>> out;
+    for (std::size_t i = 0; i < taus().size(); ++i)
+      for (std::size_t j = i + 4; j < taus().size(); ++j) out.emplace_back(i, j);
     return out;
   }();
   return p;
 }
 
-std::pair<double, double> pair_of(double theta) {
+std::pair<std::size_t, std::size_t> indices_of(double theta) {
   const auto i = static_cast<std::size_t>(std::lround(theta));
-  return pairs().at(std::min(i, pairs().size() - 1));
+  return pair_indices().at(std::min(i, pair_indices().size() - 1));
+}
+
+std::pair<double, double> pair_of(double theta) {
+  const auto [i, j] = indices_of(theta);
+  return {taus()[i], taus()[j]};
 }
 
 std::vector<double> grid(const Context&, const Eigen::VectorXd&) {
   std::vector<double> g;
-  for (std::size_t i = 0; i < pairs().size(); ++i) g.push_back(static_cast<double>(i));
+  for (std::size_t i = 0; i < pair_indices().size(); ++i) g.push_back(static_cast<double>(i));
   return g;
 }
 
@@ -42,6 +52,19 @@ Eigen::MatrixXd columns(double theta, const Context& cx, const Kinematics& k) {
   C.col(0) = basis::relaxation(k.angle, cx.s->dt, fast);
   C.col(1) = basis::relaxation(k.angle, cx.s->dt, slow);
   return C;
+}
+
+// Every time constant's column: each pair is two of them.
+Eigen::MatrixXd column_set(const Context& cx, const Kinematics& k) {
+  Eigen::MatrixXd C(cx.s->n, static_cast<Eigen::Index>(taus().size()));
+  for (std::size_t i = 0; i < taus().size(); ++i)
+    C.col(static_cast<Eigen::Index>(i)) = basis::relaxation(k.angle, cx.s->dt, taus()[i]);
+  return C;
+}
+
+std::vector<Eigen::Index> columns_in_set(double theta) {
+  const auto [i, j] = indices_of(theta);
+  return {static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)};
 }
 
 nlohmann::json physical(double theta, const Eigen::VectorXd& b, const Context& cx) {
@@ -79,6 +102,8 @@ extern const EffectDef kViscoelasticRelaxation{
     .magnitude_key = "total_gain",
     .grid = viscoelastic_relaxation_effect::grid,
     .columns = viscoelastic_relaxation_effect::columns,
+    .column_set = viscoelastic_relaxation_effect::column_set,
+    .columns_in_set = viscoelastic_relaxation_effect::columns_in_set,
     .physical = viscoelastic_relaxation_effect::physical,
     .inadmissible = viscoelastic_relaxation_effect::inadmissible,
     .generalises = core::Effect::kCreep,

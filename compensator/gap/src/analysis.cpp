@@ -338,7 +338,8 @@ LoopClosed close_the_loop(Result& res, const io::Recording& rec, const Grown& ch
                                                  .st = st_applied,
                                                  .after = lc.applied,
                                                  .not_applied = lc.online.refused,
-                                                 .transition = transition});
+                                                 .transition = transition,
+                                                 .threads = ctx.opt->threads});
     res.compensated = std::move(scores.report);
     lc.written = std::move(scores.written);
     lc.comp_before = std::move(scores.angle_before);

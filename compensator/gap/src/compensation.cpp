@@ -21,6 +21,8 @@
 #include "pof/core/model.hpp"
 #include "pof/core/units.hpp"
 
+#include "parallel.hpp"
+
 namespace pof::gap {
 
 using Eigen::Index;
@@ -267,12 +269,11 @@ void score_blocks(HeldOut& h, const VectorXd& a, const VectorXd& ref, const cv::
 // compensator refuses, see online_part), fold by fold with the model fitted on the other
 // folds, scored on the held-out blocks.
 HeldOut held_out(const io::Recording& rec, const Search& sx, const State& st, const AppliedFit& after,
-                 const Applied& use, const VectorXd& a0) {
+                 const Applied& use, const VectorXd& a0, int threads) {
   const Signals& s = *sx.cx.s;
   const double rate = 1.0 / s.dt;
-  HeldOut h;
-  h.angle = a0;
-  for (std::size_t f = 0; f < sx.blocks.size(); ++f) {
+  std::vector<VectorXd> per_fold(sx.blocks.size());
+  parallel_for(per_fold.size(), threads, [&](std::size_t f) {
     core::Calibration cal = calibration_of(after.structure(), s);
     core::GapModel g = gap_model_of(st, after.beta[f], after.cx);
     if (!use.delay) g.delay_s = 0;
@@ -282,7 +283,12 @@ HeldOut held_out(const io::Recording& rec, const Search& sx, const State& st, co
       if (use.terms[t]) kept.push_back(g.terms[t]);
     g.terms = std::move(kept);
     if (!g.empty()) cal.gap = std::move(g);
-    const VectorXd af = compensate(rec, cal, rate);
+    per_fold[f] = compensate(rec, cal, rate);
+  });
+  HeldOut h;
+  h.angle = a0;
+  for (std::size_t f = 0; f < sx.blocks.size(); ++f) {
+    const VectorXd& af = per_fold[f];
     const std::vector<cv::Span>& fold = sx.blocks.folds[f];
     for (const cv::Span& sp : fold) h.angle.segment(sp.start, sp.len) = af.segment(sp.start, sp.len);
     h.folds.push_back({{"rmse_before_deg", rms_of(a0, rec.angle_ref_deg, fold)}, {"rmse_after_deg", rms_of(af, rec.angle_ref_deg, fold)}});
@@ -383,11 +389,11 @@ struct EffectRuns {
 EffectRuns effect_runs(const CompensationInputs& in, const VectorXd& a0) {
   EffectRuns e;
   e.all.terms.assign(in.st.terms.size(), true);
-  e.with_all = held_out(in.rec, in.sx, in.st, in.after, e.all, a0);
+  e.with_all = held_out(in.rec, in.sx, in.st, in.after, e.all, a0, in.threads);
   auto add_without = [&](std::string effect, void (*clear)(Applied&, std::size_t), std::size_t term) {
     Applied a = e.all;
     clear(a, term);
-    e.without.push_back({std::move(effect), clear, term, held_out(in.rec, in.sx, in.st, in.after, a, a0)});
+    e.without.push_back({std::move(effect), clear, term, held_out(in.rec, in.sx, in.st, in.after, a, a0, in.threads)});
   };
   if (in.st.delay_s != 0) add_without("time_delay", [](Applied& a, std::size_t) { a.delay = false; }, 0);
   if (in.st.backlash_deg > 0) add_without("backlash", [](Applied& a, std::size_t) { a.backlash = false; }, 0);
@@ -408,7 +414,7 @@ class KeptRuns {
     if (same(keep, e_.all)) return e_.with_all;
     for (const auto& [a, h] : runs_)
       if (same(a, keep)) return h;
-    runs_.emplace_back(keep, held_out(in_.rec, in_.sx, in_.st, in_.after, keep, a0_));
+    runs_.emplace_back(keep, held_out(in_.rec, in_.sx, in_.st, in_.after, keep, a0_, in_.threads));
     return runs_.back().second;
   }
 

@@ -64,6 +64,7 @@ struct CompensationInputs {
   const AppliedFit& after;
   const std::vector<std::string>& not_applied;
   const std::vector<bool>& transition;
+  int threads = 1;  // the folds' compensator runs are spread over this many workers
 };
 
 /// The report's "compensated" section, which of the state's effects model.toml may hold, and the

@@ -111,6 +111,19 @@ Grams extend_grams(const Grams& base, const MatrixXd& X0, const MatrixXd& C, con
   return gr;
 }
 
+Grams select_columns(const Grams& g, Index k0, const std::vector<Index>& extra) {
+  std::vector<Index> idx(static_cast<std::size_t>(k0));
+  for (Index i = 0; i < k0; ++i) idx[static_cast<std::size_t>(i)] = i;
+  for (Index e : extra) idx.push_back(k0 + e);
+  Grams out;
+  for (std::size_t b = 0; b < g.G.size(); ++b) {
+    out.G.emplace_back(g.G[b](idx, idx));
+    out.g.emplace_back(g.g[b](idx));
+    out.yy.push_back(g.yy[b]);
+  }
+  return out;
+}
+
 // Jacobi-scaled LDLT with a tiny ridge: a column that is all zeros (an input that never varies)
 // gets a zero coefficient instead of a NaN.
 VectorXd solve(const MatrixXd& G, const VectorXd& g) {

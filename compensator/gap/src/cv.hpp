@@ -40,6 +40,10 @@ Grams make_grams(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, const Block
 Grams extend_grams(const Grams& base, const Eigen::MatrixXd& X0, const Eigen::MatrixXd& C, const Eigen::VectorXd& y,
                    const Blocks& b);
 
+/// The grams of the first k0 columns and, after them, the listed ones of those that follow (counted
+/// from k0): the normal equations of the design with only those columns.
+Grams select_columns(const Grams& g, Eigen::Index k0, const std::vector<Eigen::Index>& extra);
+
 /// Jacobi-scaled LDLT with a tiny ridge: a column that is all zeros gets a zero coefficient.
 Eigen::VectorXd solve(const Eigen::MatrixXd& G, const Eigen::VectorXd& g);
 

@@ -7,8 +7,8 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
-#include <future>
+
+#include "parallel.hpp"
 
 namespace pof::gap {
 
@@ -93,9 +93,13 @@ Kinematics baseline_kinematics(const Context& cx, double delay_s, double backlas
 }
 
 Design build_design(const Search& sx, const State& st) {
+  return build_design(sx, st, baseline_kinematics(sx.cx, st.delay_s, st.backlash_deg));
+}
+
+Design build_design(const Search& sx, const State& st, Kinematics k) {
   const Context& cx = sx.cx;
   Design d;
-  d.k = baseline_kinematics(cx, st.delay_s, st.backlash_deg);
+  d.k = std::move(k);
   const Index nb = base_cols(cx);
   std::vector<MatrixXd> cols;
   Index total = nb;
@@ -131,8 +135,12 @@ VectorXd heldout_residual(const Design& d, const cv::Blocks& b, const std::vecto
 }
 
 CurrentFit fit_state(const Search& sx, const State& st) {
+  return fit_state(sx, st, baseline_kinematics(sx.cx, st.delay_s, st.backlash_deg));
+}
+
+CurrentFit fit_state(const Search& sx, const State& st, Kinematics k) {
   CurrentFit c;
-  c.d = build_design(sx, st);
+  c.d = build_design(sx, st, std::move(k));
   c.grams = cv::make_grams(c.d.X, c.d.y, sx.blocks);
   c.fit = cv::cross_validate({c.grams}, base_cols(sx.cx));
   c.cv_resid = heldout_residual(c.d, sx.blocks, c.fit.beta);
@@ -287,41 +295,56 @@ std::vector<double> refined_within(const EffectDef& def, double best, const std:
 }
 
 // The fit of state st on all data (its full_rss and beta_full; the state's grid is one value).
-cv::FoldFit all_data_fit(const Search& sx, const State& st) {
-  const Design d = build_design(sx, st);
+cv::FoldFit all_data_fit(const Design& d, const Search& sx) {
   return cv::cross_validate({cv::make_grams(d.X, d.y, sx.blocks)}, base_cols(sx.cx));
 }
+cv::FoldFit all_data_fit(const Search& sx, const State& st) { return all_data_fit(build_design(sx, st), sx); }
 
-double full_rss(const Search& sx, const State& st) { return all_data_fit(sx, st).full_rss; }
+// The kinematics a coordinate's values share: none (each value moves them: the delay), those
+// before the belt play (the play's width), or all of them (a term's theta).
+enum class Shares { kNothing, kUpToPlay, kAll };
 
-// Coordinate search of one scalar of the state over candidate values, on all data.
+// Coordinate search of one scalar of the state over candidate values, on all data: the values are
+// scored on `threads` workers, then taken in order (the first of equal fits wins, as in one pass).
 template <class Set>
-void coordinate(const Search& sx, State& st, const std::vector<double>& values, double current, Set set) {
-  double best = full_rss(sx, st), bv = current;
-  for (double x : values) {
-    if (x == current) continue;
+void coordinate(const Search& sx, State& st, const std::vector<double>& values, double current, Set set, int threads,
+                Shares shares) {
+  const Kinematics pre = shares == Shares::kNothing ? Kinematics{}
+                         : shares == Shares::kAll   ? baseline_kinematics(sx.cx, st.delay_s, st.backlash_deg)
+                                                    : make_kinematics(sx.cx.s->angle, sx.cx.s->dt, st.delay_s);
+  auto rss_of = [&](const State& s2) {
+    if (shares == Shares::kNothing) return all_data_fit(sx, s2).full_rss;
+    Kinematics k = pre;
+    if (shares == Shares::kUpToPlay && s2.backlash_deg > 0) apply_backlash(k, s2.backlash_deg, sx.cx.s->dt);
+    return all_data_fit(build_design(sx, s2, std::move(k)), sx).full_rss;
+  };
+  std::vector<double> rss(values.size());
+  parallel_for(values.size(), threads, [&](std::size_t i) {
+    if (values[i] == current) return;
     State s2 = st;
-    set(s2, x);
-    const double r = full_rss(sx, s2);
-    if (r < best) { best = r; bv = x; }
-  }
+    set(s2, values[i]);
+    rss[i] = rss_of(s2);
+  });
+  double best = rss_of(st), bv = current;
+  for (std::size_t i = 0; i < values.size(); ++i)
+    if (values[i] != current && rss[i] < best) { best = rss[i]; bv = values[i]; }
   set(st, bv);
 }
 
 }  // namespace
 
-void refit_thetas(const Search& sx, State& st, const VectorXd& resid) {
+void refit_thetas(const Search& sx, State& st, const VectorXd& resid, int threads) {
   // A creep time constant fitted while a delay was still missing would otherwise stay biased.
   if (st.delay_s != 0) {
     std::vector<double> v;
     for (int j = -20; j <= 20; ++j) v.push_back(st.delay_s + j * 0.001);
-    coordinate(sx, st, v, st.delay_s, [](State& s, double x) { s.delay_s = x; });
+    coordinate(sx, st, v, st.delay_s, [](State& s, double x) { s.delay_s = x; }, threads, Shares::kNothing);
   }
   if (st.backlash_deg > 0) {
     std::vector<double> v;
     for (int j = -10; j <= 10; ++j)
       if (st.backlash_deg + j * 0.02 > 0) v.push_back(st.backlash_deg + j * 0.02);
-    coordinate(sx, st, v, st.backlash_deg, [](State& s, double x) { s.backlash_deg = x; });
+    coordinate(sx, st, v, st.backlash_deg, [](State& s, double x) { s.backlash_deg = x; }, threads, Shares::kUpToPlay);
   }
   for (std::size_t i = 0; i < st.terms.size(); ++i) {
     const EffectDef& def = effect_def(st.terms[i].effect);
@@ -329,11 +352,12 @@ void refit_thetas(const Search& sx, State& st, const VectorXd& resid) {
     std::vector<double> values = def.grid(sx.cx, resid);
     const std::vector<double> fine = refined_within(def, st.terms[i].theta, values);
     values.insert(values.end(), fine.begin(), fine.end());
-    coordinate(sx, st, values, st.terms[i].theta, [i](State& s, double x) { s.terms[i].theta = x; });
+    coordinate(sx, st, values, st.terms[i].theta, [i](State& s, double x) { s.terms[i].theta = x; }, threads,
+               Shares::kAll);
   }
 }
 
-void refit_rate_gain(Search& sx, const State& st) {
+void refit_rate_gain(Search& sx, const State& st, int threads) {
   // phi(w) multiplies the stop operators only: without one the gain changes nothing.
   if (!sx.cx.dyn || active_operators(*sx.cx.dyn_origin).empty()) return;
   // The all-data fit at gain g (the structure's coefficients free) and whether the structure can
@@ -343,20 +367,23 @@ void refit_rate_gain(Search& sx, const State& st) {
     double rss = 0;
     bool feasible = false;
   };
+  const Kinematics k = baseline_kinematics(sx.cx, st.delay_s, st.backlash_deg);  // the gains share them
   auto score = [&](double g) {
     Search at = sx;
     at.cx.dyn->rate_gain_s_per_rad = g;
-    const cv::FoldFit f = all_data_fit(at, st);
+    const cv::FoldFit f = all_data_fit(build_design(at, st, k), at);
     return Score{f.full_rss, dynamic_move_allowed(dynamic_moved_fully(at.cx, f.beta_full), at.cx)};
   };
   // The gain in place stays unless a feasible one fits better.
   const double current = sx.cx.dyn->rate_gain_s_per_rad;
+  const std::vector<double> gains = core::DynamicFitSettings{}.rate_gains_s_per_rad;
+  std::vector<Score> scores(gains.size());
+  parallel_for(gains.size(), threads, [&](std::size_t i) {
+    if (gains[i] != current) scores[i] = score(gains[i]);
+  });
   double best = score(current).rss, best_gain = current;
-  for (double g : core::DynamicFitSettings{}.rate_gains_s_per_rad) {
-    if (g == current) continue;
-    const Score sc = score(g);
-    if (sc.feasible && sc.rss < best) { best = sc.rss; best_gain = g; }
-  }
+  for (std::size_t i = 0; i < gains.size(); ++i)
+    if (gains[i] != current && scores[i].feasible && scores[i].rss < best) { best = scores[i].rss; best_gain = gains[i]; }
   sx.cx.dyn->rate_gain_s_per_rad = best_gain;
 }
 
@@ -388,12 +415,31 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
     }
   }
   cr.grid = def.grid(sx.cx, cur.cv_resid);
-  // Sensor candidates extend the current grams by their columns; kinematic ones rebuild the whole
-  // design for each grid value.
+  // Sensor candidates extend the current grams by their columns (by the effect's whole column set
+  // once per fit, when it has one: EffectDef::column_set); kinematic ones rebuild the whole design
+  // for each grid value.
+  const CurrentFit* set_of = nullptr;
+  cv::Grams set_grams;
+  std::optional<Kinematics> pre_play;
   auto grams_at = [&](const Search& at, const CurrentFit& c, double th) {
+    if (def.column_set != nullptr) {
+      if (set_of != &c) {
+        set_grams = cv::extend_grams(c.grams, c.d.X, def.column_set(at.cx, c.d.k), c.d.y, at.blocks);
+        set_of = &c;
+      }
+      return cv::select_columns(set_grams, c.d.X.cols(), def.columns_in_set(th));
+    }
     if (def.acts == Acts::kSensor)
       return cv::extend_grams(c.grams, c.d.X, def.columns(th, at.cx, c.d.k), c.d.y, at.blocks);
     if (def.acts == Acts::kDelay && th == 0.0) return c.grams;
+    if (def.acts == Acts::kBacklash) {
+      // Every width shares the kinematics before the play (the state's delay).
+      if (!pre_play) pre_play = make_kinematics(sx.cx.s->angle, sx.cx.s->dt, st.delay_s);
+      Kinematics k = *pre_play;
+      apply_backlash(k, th, sx.cx.s->dt);
+      const Design dd = build_design(at, st.with(e, th), std::move(k));
+      return cv::make_grams(dd.X, dd.y, at.blocks);
+    }
     const Design dd = build_design(at, st.with(e, th));
     return cv::make_grams(dd.X, dd.y, at.blocks);
   };
@@ -431,7 +477,8 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
     cv::FoldFit f = cr.fit;
     for (int it = 0; it < 3; ++it) {
       const Search next = moved(at, f.beta_full);
-      const CurrentFit c2 = fit_state(next, st);
+      const CurrentFit c2 = fit_state(next, st, cur.d.k);  // the state's kinematics: the structure moved
+      set_of = nullptr;  // a new fit, perhaps where the last one was
       std::vector<cv::Grams> per2;
       for (double th : grid) per2.push_back(grams_at(next, c2, th));
       cv::FoldFit f2 = cv::cross_validate(per2, base_cols(next.cx));
@@ -455,15 +502,7 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
 
 std::vector<CandidateResult> evaluate_all(const Search& sx, const State& st, const CurrentFit& cur, int threads) {
   std::vector<CandidateResult> out(core::kEffectCount);
-  // Workers pull candidates off a shared index (the candidates are independent).
-  std::atomic<std::size_t> next{0};
-  auto worker = [&] {
-    for (std::size_t i = next++; i < out.size(); i = next++) out[i] = evaluate(core::kAllEffects[i], sx, st, cur);
-  };
-  std::vector<std::future<void>> pool;
-  for (int t = 1; t < std::max(1, threads); ++t) pool.push_back(std::async(std::launch::async, worker));
-  worker();
-  for (auto& f : pool) f.get();
+  parallel_for(out.size(), threads, [&](std::size_t i) { out[i] = evaluate(core::kAllEffects[i], sx, st, cur); });
   return out;
 }
 

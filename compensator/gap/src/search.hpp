@@ -54,6 +54,10 @@ Kinematics baseline_kinematics(const Context& cx, double delay_s, double backlas
 /// The design of state st: y = v - the baseline simulator's voltage at st's kinematics, X = the
 /// simulator's gradient in the structure's coefficients (base_cols), then each term's columns.
 Design build_design(const Search& sx, const State& st);
+/// The same with st's kinematics given: k must be baseline_kinematics(sx.cx, st.delay_s,
+/// st.backlash_deg), computed once where many designs share them (a grid over a term's theta,
+/// over a belt play at one delay).
+Design build_design(const Search& sx, const State& st, Kinematics k);
 
 /// The baseline structure at some coefficients: the paper's (always there: f5 gives the quiet
 /// angle and the sensitivity) and the dynamic model when it is the baseline (what the compensator
@@ -97,20 +101,23 @@ struct CurrentFit {
 };
 
 CurrentFit fit_state(const Search& sx, const State& st);
+/// The same with st's kinematics given (as build_design's).
+CurrentFit fit_state(const Search& sx, const State& st, Kinematics k);
 
 /// Held-out residual of design d with one coefficient vector per block.
 Eigen::VectorXd heldout_residual(const Design& d, const cv::Blocks& b, const std::vector<Eigen::VectorXd>& beta);
 
 /// "Add and refit" (docs/gap.md, section 4): re-chooses the nonlinear parameters of the accepted
 /// terms on all data with the others fixed (one coordinate pass). resid: the current held-out
-/// residual [V], for grids that look at it.
-void refit_thetas(const Search& sx, State& st, const Eigen::VectorXd& resid);
+/// residual [V], for grids that look at it; the values are scored on `threads` workers.
+void refit_thetas(const Search& sx, State& st, const Eigen::VectorXd& resid, int threads);
 
 /// On the dynamic baseline: re-chooses the model's rate gain kappa (core::fit_dynamic's grid) on
 /// all data with the accepted terms in. Fitted without them, kappa imitates what they explain (a
 /// gain of 1 s/rad took part of a fibre's acceleration dependence); once the term holds that, the
-/// stale kappa leaves a speed-proportional residual for the next candidate to take.
-void refit_rate_gain(Search& sx, const State& st);
+/// stale kappa leaves a speed-proportional residual for the next candidate to take. The gains are
+/// scored on `threads` workers.
+void refit_rate_gain(Search& sx, const State& st, int threads);
 
 struct CandidateResult {
   core::Effect effect;

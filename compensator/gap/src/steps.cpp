@@ -510,13 +510,13 @@ void adopt(Grown& g, const Assessment& chosen, const Steps& ctx) {
   bool gain_moved = false;
   if (sx.cx.dyn) {
     const double before = sx.cx.dyn->rate_gain_s_per_rad;
-    refit_rate_gain(sx, st);
+    refit_rate_gain(sx, st, ctx.opt->threads);
     gain_moved = sx.cx.dyn->rate_gain_s_per_rad != before;
     g.steps.back().evidence["dynamic_rate_gain_s_per_rad"] = {{"before", before}, {"after", sx.cx.dyn->rate_gain_s_per_rad}};
   }
   // A term's theta was chosen beside the others and the rate gain as they stood: re-chosen when
   // either has changed.
-  if (st.size() > 1 || gain_moved) refit_thetas(sx, st, chosen.after);
+  if (st.size() > 1 || gain_moved) refit_thetas(sx, st, chosen.after, ctx.opt->threads);
   // The next ranking compares candidates with the state refitted the same way they are (accepted
   // nonlinear parameters fixed); the reported gaps stay the strict per-fold ones.
   g.cur = relinearise(sx, st);

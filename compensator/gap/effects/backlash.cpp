@@ -18,7 +18,7 @@ extern const EffectDef kBacklash{
       for (int i = 1; i <= 30; ++i) g.push_back(0.1 * i);
       return g;
     },
-    .refine = [](double best) { return basis::linear_refine(best, 0.01, 0.0); },
+    .refine = [](double best, const Context&) { return basis::linear_refine(best, 0.01, 0.0); },
     .physical = [](double b, const Eigen::VectorXd&, const Context&) { return nlohmann::json{{"width_deg", b}}; },
 };
 

@@ -31,7 +31,7 @@ extern const EffectDef kCreep{
     // delay plus an acceleration term (LP(x) - x = -tau x' + tau^2 x'' - ...); the fibre's
     // relaxation shows over seconds in the holds.
     .grid = [](const Context&, const Eigen::VectorXd&) { return basis::log_grid(1.0, 200.0, 21); },
-    .refine = basis::log_refine,
+    .refine = [](double best, const Context&) { return basis::log_refine(best); },
     .columns = creep_effect::columns,
     .physical = creep_effect::physical,
 };

@@ -61,7 +61,7 @@ struct EffectDef {
   /// per-fold choice then runs over both. A coarse grid alone would leave part of an effect in the
   /// residual for a candidate with more columns to take (creep at tau 4 s between grid values 3.75
   /// and 4.88 s is fitted better by five relaxation terms than by the nearest single one).
-  std::vector<double> (*refine)(double best) = nullptr;
+  std::vector<double> (*refine)(double best, const Context&) = nullptr;
   /// The n x linear columns at theta (volts per unit of coefficient); null for kinematic effects.
   Eigen::MatrixXd (*columns)(double theta, const Context&, const Kinematics&) = nullptr;
   /// For an effect whose columns at every theta are some of one fixed set (viscoelastic_relaxation:

@@ -11,18 +11,27 @@ namespace pof::gap {
 namespace periodic_interference_effect {  // named: the effects share unity batches (CMakeLists.txt)
 namespace {
 
-// The strongest spectral peak of the residual above 2 Hz (the movement itself is < 1 Hz) and a fine
-// grid around it (1/30 of a bin) so the phase holds over the whole recording.
-std::vector<double> grid(const Context& cx, const Eigen::VectorXd& r) {
+// The FFT's length for a recording of n scans (the next power of two) and so its bin width [Hz].
+Eigen::Index fft_length(Eigen::Index n) {
   Eigen::Index nfft = 1;
-  while (nfft < r.size()) nfft *= 2;
+  while (nfft < n) nfft *= 2;
+  return nfft;
+}
+double bin_hz(const Context& cx) { return 1.0 / (static_cast<double>(fft_length(cx.s->n)) * cx.s->dt); }
+
+// The strongest spectral peak of the residual above 2 Hz (the movement itself is < 1 Hz) and a grid
+// of 1/6 bin over +-1.5 bins around it, refined to 1/30 of a bin around the best (refine) so the
+// phase holds over the whole recording. A line's fit varies with its frequency on the scale of the
+// main lobe, two bins wide: the coarse step finds the lobe, the fine one its top.
+std::vector<double> grid(const Context& cx, const Eigen::VectorXd& r) {
+  const Eigen::Index nfft = fft_length(r.size());
   std::vector<double> x(static_cast<std::size_t>(nfft), 0.0);
   const double m = r.mean();
   for (Eigen::Index i = 0; i < r.size(); ++i) x[static_cast<std::size_t>(i)] = r(i) - m;
   Eigen::FFT<double> fft;
   std::vector<std::complex<double>> X;
   fft.fwd(X, x);
-  const double df = 1.0 / (static_cast<double>(nfft) * cx.s->dt);
+  const double df = bin_hz(cx);
   const auto lo = static_cast<std::size_t>(std::ceil(2.0 / df));
   const std::size_t hi = static_cast<std::size_t>(nfft / 2) - 2;
   std::size_t best = lo;
@@ -30,7 +39,14 @@ std::vector<double> grid(const Context& cx, const Eigen::VectorXd& r) {
   for (std::size_t i = lo; i < hi; ++i)
     if (std::norm(X[i]) > bp) { bp = std::norm(X[i]); best = i; }
   std::vector<double> g;
-  for (int j = -45; j <= 45; ++j) g.push_back((static_cast<double>(best) + j / 30.0) * df);
+  for (int j = -9; j <= 9; ++j) g.push_back((static_cast<double>(best) + j / 6.0) * df);
+  return g;
+}
+
+std::vector<double> refine(double best, const Context& cx) {
+  std::vector<double> g;
+  for (int j = -4; j <= 4; ++j)
+    if (j != 0) g.push_back(best + j / 30.0 * bin_hz(cx));
   return g;
 }
 
@@ -67,6 +83,7 @@ extern const EffectDef kPeriodicInterference{
     .theta_key = "frequency_hz",
     .magnitude_key = "amplitude_mv",
     .grid = periodic_interference_effect::grid,
+    .refine = periodic_interference_effect::refine,
     .columns = periodic_interference_effect::columns,
     .physical = periodic_interference_effect::physical,
 };

@@ -32,7 +32,7 @@ extern const EffectDef kRateDependentHysteresis{
     .magnitude_key = "amplitude_deg",
     .refit_theta = true,
     .grid = [](const Context&, const Eigen::VectorXd&) { return basis::log_grid(0.02, 1.0, 13); },
-    .refine = basis::log_refine,
+    .refine = [](double best, const Context&) { return basis::log_refine(best); },
     .columns = rate_dependent_hysteresis_effect::columns,
     .physical = rate_dependent_hysteresis_effect::physical,
     .file_coefficients = 2,

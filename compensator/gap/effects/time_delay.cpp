@@ -19,7 +19,7 @@ extern const EffectDef kTimeDelay{
       for (int i = -25; i <= 25; ++i) g.push_back(i * 0.01);
       return g;
     },
-    .refine = [](double best) { return basis::linear_refine(best, 0.001, -1.0); },
+    .refine = [](double best, const Context&) { return basis::linear_refine(best, 0.001, -1.0); },
     .physical = [](double d, const Eigen::VectorXd&, const Context&) { return nlohmann::json{{"delay_ms", d * 1e3}}; },
 };
 

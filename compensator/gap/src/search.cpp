@@ -285,11 +285,11 @@ namespace {
 // hysteresis's velocity scale >= 0.02 rad/s, above the velocity estimate's noise; docs/gap.md,
 // section 3, with the measured case). Refined around a refined value, the velocity scale could
 // walk below that floor, where the estimate's noise switches the term at every start and stop.
-std::vector<double> refined_within(const EffectDef& def, double best, const std::vector<double>& grid) {
+std::vector<double> refined_within(const EffectDef& def, double best, const std::vector<double>& grid, const Context& cx) {
   std::vector<double> out;
   if (def.refine == nullptr || grid.empty()) return out;
   const auto [lo, hi] = std::minmax_element(grid.begin(), grid.end());
-  for (double x : def.refine(best))
+  for (double x : def.refine(best, cx))
     if (x >= *lo && x <= *hi) out.push_back(x);
   return out;
 }
@@ -350,7 +350,7 @@ void refit_thetas(const Search& sx, State& st, const VectorXd& resid, int thread
     const EffectDef& def = effect_def(st.terms[i].effect);
     if (!def.refit_theta) continue;
     std::vector<double> values = def.grid(sx.cx, resid);
-    const std::vector<double> fine = refined_within(def, st.terms[i].theta, values);
+    const std::vector<double> fine = refined_within(def, st.terms[i].theta, values, sx.cx);
     values.insert(values.end(), fine.begin(), fine.end());
     coordinate(sx, st, values, st.terms[i].theta, [i](State& s, double x) { s.terms[i].theta = x; }, threads,
                Shares::kAll);
@@ -450,7 +450,7 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
     // Refine around the coarse optimum chosen on all data; per fold the grid value is still chosen
     // on the training blocks only, over the coarse and the fine values.
     const double c0 = cr.grid[cv::cross_validate(per, base_cols(sx.cx)).full_idx];
-    for (double th : refined_within(def, c0, coarse)) {
+    for (double th : refined_within(def, c0, coarse, sx.cx)) {
       cr.grid.push_back(th);
       per.push_back(grams_at(sx, cur, th));
     }
@@ -470,7 +470,7 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
     const double best = cr.grid[cr.fit.full_idx];
     std::vector<double> grid{best};
     if (def.refine != nullptr)
-      for (double th : refined_within(def, best, coarse)) grid.push_back(th);
+      for (double th : refined_within(def, best, coarse, sx.cx)) grid.push_back(th);
     else
       grid = cr.grid;
     Search at = sx;

@@ -298,3 +298,19 @@ TEST(GapBlind, ADeadBandBesideAFibresPlayIsSaidToBeUndetermined) {
       EXPECT_GE(d.at("backlash_width_range_deg")[1].get<double>(), named - 1e-9);
     }
 }
+
+// Blind seed 366 of the benchmark (a full session, an effect-free Preisach fibre: a relay density
+// the dynamic model does not contain). The paper structure with static_nonlinearity and
+// memory_hysteresis left a change of the output early in the session, while the angle first went
+// through its range, and a drift was named for it: a false discovery (still named with the fibre's
+// power-law relaxation switched off in the draw; gone when the first 198 s, until the angle first
+// reached its top, are cut from the recording). A first loading's columns explain it as well, so
+// it is said, not named (docs/gap.md, section 4, "First loading or drift").
+TEST(GapBlind, APreisachFibresFirstLoadingIsNoDrift) {
+  const auto t = pof::gap::blind::run_trial(366, 0, false, workdir(), {}, 0.3, 1.0, 0.5);
+  SCOPED_TRACE("steps " + t.gap.at("steps").dump().substr(0, 1500));
+  ASSERT_EQ(t.dynamic.at("memory").at("family"), "preisach") << "the test needs another seed";
+  EXPECT_EQ(std::count(t.found.begin(), t.found.end(), "drift"), 0);
+  EXPECT_EQ(t.false_finds(), 0);
+  std::filesystem::remove(t.csv);
+}

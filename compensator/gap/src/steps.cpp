@@ -368,6 +368,54 @@ json dead_band_or_play(const std::vector<CandidateResult>& cands, const Grown& g
           {"taken", "as fitted: the compensator applies both the stop operators and a [gap] backlash_deg"}};
 }
 
+// A first loading's columns: the running maximum and minimum of the angle, scaled to the recording's
+// range, and their squares. A memory whose elements switch once and stay (Preisach relays whose
+// other switching angle the angle never reaches; a polymer's softening up to the largest strain so
+// far, the Mullins effect) gives an output that is a function of the extremes reached so far.
+MatrixXd first_loading_columns(const VectorXd& angle) {
+  const double lo = angle.minCoeff(), span = std::max(angle.maxCoeff() - lo, 1e-9);
+  MatrixXd C(angle.size(), 4);
+  double run_lo = angle(0), run_hi = angle(0);
+  for (Index i = 0; i < angle.size(); ++i) {
+    run_lo = std::min(run_lo, angle(i));
+    run_hi = std::max(run_hi, angle(i));
+    const double a = (run_hi - lo) / span, b = (run_lo - lo) / span;
+    C.row(i) << a, a * a, b, b * b;
+  }
+  return C;
+}
+
+// A drift against a first loading (docs/gap.md, section 4, "First loading or drift"). Until the
+// fibre has first been bent through the recording's range its response may differ for reasons of
+// its own, which changes the output once, early in the session, as a warming source does, and a
+// time basis fits either. When the first loading's columns (beside the state, fitted as every
+// candidate is) explain the held-out residual as well as the drift, within 2 SE over the folds,
+// the recording cannot say which it is: said, not named. A drift that goes on after the angle has
+// been through its range is no first loading and stays named.
+json first_loading_or_drift(const Assessment& a, const Grown& g, const Steps& ctx) {
+  const cv::Grams grams =
+      cv::extend_grams(g.cur.grams, g.cur.d.X, first_loading_columns(ctx.s->angle), g.cur.d.y, g.sx.blocks);
+  const std::vector<double> loading = cv::heldout_profile({grams}, base_cols(g.sx.cx)).front();
+  const std::vector<double> drift = fold_sse(a.after, g.sx.blocks);
+  double sl = 0, sd = 0;
+  for (std::size_t f = 0; f < drift.size(); ++f) { sl += loading[f]; sd += drift[f]; }
+  if (!(sl <= sd || within_2se(drift, loading))) return nullptr;
+  return {{"effects", {"drift", "first loading"}},
+          {"what", "a drift and a first loading (the output a function of the largest and smallest angle reached so "
+                   "far) explain the same residual, their held-out errors within 2 SE (" +
+                       format_fixed(ctx.gap_deg(sd), 3) + " against " + format_fixed(ctx.gap_deg(sl), 3) +
+                       " deg): a change of the output early in the session, while the angle was first going through its "
+                       "range"},
+          {"heldout_gap_drift_deg", ctx.gap_deg(sd)},
+          {"heldout_gap_first_loading_deg", ctx.gap_deg(sl)},
+          {"tells_apart",
+           "a session that starts with the fibre bent through its full range a few times (preconditioned), then "
+           "holds: a drift goes on through the holds and after, a first loading is over once the range has been "
+           "visited"},
+          {"taken", "neither: a drift has no online form, and a first loading is over before the compensator runs on "
+                    "a preconditioned fibre"}};
+}
+
 // The first candidate, best delta BIC first, that passes the rule and whose magnitude its
 // jackknife tells apart from zero (|x| > 2 SE: a 4 +- 3 ms delay is no finding). Those that pass
 // but are not told apart are said and marked in the scores. Candidates that explain the same
@@ -375,7 +423,7 @@ json dead_band_or_play(const std::vector<CandidateResult>& cands, const Grown& g
 // compensator can apply, so that model.toml holds what the data allow (docs/gap.md, section 4,
 // "Said, not hidden").
 std::optional<Assessment> first_significant(Ranking& r, const std::vector<CandidateResult>& cands, const Grown& g, int step,
-                                            const Steps& ctx, json& ties) {
+                                            const Steps& ctx, json& ties, json& said) {
   const Options& opt = *ctx.opt;
   std::vector<std::size_t> tried;
   for (const auto& [dbic, i0] : r.order) {
@@ -390,6 +438,14 @@ std::optional<Assessment> first_significant(Ranking& r, const std::vector<Candid
                    a.significance);
       continue;
     }
+    if (cands[i].effect == core::Effect::kDrift)
+      if (json d = first_loading_or_drift(a, g, ctx); !d.is_null()) {
+        r.scores["drift"]["or_first_loading"] = d["heldout_gap_first_loading_deg"];
+        say(ctx, "step " + std::to_string(step) + ": drift and a first loading explain the same residual here: "
+                 "said, not named");
+        said.push_back(std::move(d));
+        continue;
+      }
     std::vector<Assessment> tied;
     ties = ties_with(a, r, cands, g, tried, ctx, tied);
     if (!applies_online(a.candidate->effect))
@@ -545,8 +601,12 @@ void grow(Grown& g, const Steps& ctx) {
     say(ctx, "step " + std::to_string(step) + ": fitting " + std::to_string(core::kEffectCount) + " candidate effects");
     const std::vector<CandidateResult> cands = evaluate_all(g.sx, g.st, g.cur, ctx.opt->threads);
     Ranking r = rank(cands, g.cur, ctx);
-    json ties = json::array();
-    const std::optional<Assessment> chosen = first_significant(r, cands, g, step, ctx, ties);
+    json ties = json::array(), said = json::array();
+    const std::optional<Assessment> chosen = first_significant(r, cands, g, step, ctx, ties, said);
+    for (json& d : said) {
+      d["step"] = step;
+      g.indistinguishable.push_back(std::move(d));
+    }
     // The dead band's share is said where the search decides about it: the step that takes it, or
     // the one it stops at.
     const bool decides_backlash = !chosen || chosen->candidate->effect == core::Effect::kBacklash;

@@ -389,8 +389,8 @@ MatrixXd first_loading_columns(const VectorXd& angle) {
 // fibre has first been bent through the recording's range its response may differ for reasons of
 // its own, which changes the output once, early in the session, as a warming source does, and a
 // time basis fits either. When the first loading's columns (beside the state, fitted as every
-// candidate is) explain the held-out residual as well as the drift, within 2 SE over the folds,
-// the recording cannot say which it is: said, not named. A drift that goes on after the angle has
+// candidate is) explain the held-out residual as well as the drift (within 2 SE over the folds) or
+// better, the recording cannot say which it is: said, not named. A drift that goes on after the angle has
 // been through its range is no first loading and stays named.
 json first_loading_or_drift(const Assessment& a, const Grown& g, const Steps& ctx) {
   const cv::Grams grams =
@@ -402,7 +402,7 @@ json first_loading_or_drift(const Assessment& a, const Grown& g, const Steps& ct
   if (!(sl <= sd || within_2se(drift, loading))) return nullptr;
   return {{"effects", {"drift", "first loading"}},
           {"what", "a drift and a first loading (the output a function of the largest and smallest angle reached so "
-                   "far) explain the same residual, their held-out errors within 2 SE (" +
+                   "far) explain the same residual, the first loading's held-out error within 2 SE of the drift's or below it (" +
                        format_fixed(ctx.gap_deg(sd), 3) + " against " + format_fixed(ctx.gap_deg(sl), 3) +
                        " deg): a change of the output early in the session, while the angle was first going through its "
                        "range"},

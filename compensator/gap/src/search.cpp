@@ -418,17 +418,13 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
   // Sensor candidates extend the current grams by their columns (by the effect's whole column set
   // once per fit, when it has one: EffectDef::column_set); kinematic ones rebuild the whole design
   // for each grid value.
-  const CurrentFit* set_of = nullptr;
-  cv::Grams set_grams;
+  auto set_grams_of = [&](const Search& at, const CurrentFit& c) {
+    return def.column_set != nullptr ? cv::extend_grams(c.grams, c.d.X, def.column_set(at.cx, c.d.k), c.d.y, at.blocks)
+                                     : cv::Grams{};
+  };
   std::optional<Kinematics> pre_play;
-  auto grams_at = [&](const Search& at, const CurrentFit& c, double th) {
-    if (def.column_set != nullptr) {
-      if (set_of != &c) {
-        set_grams = cv::extend_grams(c.grams, c.d.X, def.column_set(at.cx, c.d.k), c.d.y, at.blocks);
-        set_of = &c;
-      }
-      return cv::select_columns(set_grams, c.d.X.cols(), def.columns_in_set(th));
-    }
+  auto grams_at = [&](const Search& at, const CurrentFit& c, const cv::Grams& set_grams, double th) {
+    if (def.column_set != nullptr) return cv::select_columns(set_grams, c.d.X.cols(), def.columns_in_set(th));
     if (def.acts == Acts::kSensor)
       return cv::extend_grams(c.grams, c.d.X, def.columns(th, at.cx, c.d.k), c.d.y, at.blocks);
     if (def.acts == Acts::kDelay && th == 0.0) return c.grams;
@@ -444,7 +440,8 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
     return cv::make_grams(dd.X, dd.y, at.blocks);
   };
   std::vector<cv::Grams> per;
-  for (double th : cr.grid) per.push_back(grams_at(sx, cur, th));
+  const cv::Grams cur_set = set_grams_of(sx, cur);
+  for (double th : cr.grid) per.push_back(grams_at(sx, cur, cur_set, th));
   const std::vector<double> coarse = cr.grid;
   if (def.refine != nullptr) {
     // Refine around the coarse optimum chosen on all data; per fold the grid value is still chosen
@@ -452,7 +449,7 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
     const double c0 = cr.grid[cv::cross_validate(per, base_cols(sx.cx)).full_idx];
     for (double th : refined_within(def, c0, coarse, sx.cx)) {
       cr.grid.push_back(th);
-      per.push_back(grams_at(sx, cur, th));
+      per.push_back(grams_at(sx, cur, cur_set, th));
     }
   }
   cr.fit = cv::cross_validate(per, base_cols(sx.cx));
@@ -478,9 +475,9 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
     for (int it = 0; it < 3; ++it) {
       const Search next = moved(at, f.beta_full);
       const CurrentFit c2 = fit_state(next, st, cur.d.k);  // the state's kinematics: the structure moved
-      set_of = nullptr;  // a new fit, perhaps where the last one was
+      const cv::Grams c2_set = set_grams_of(next, c2);
       std::vector<cv::Grams> per2;
-      for (double th : grid) per2.push_back(grams_at(next, c2, th));
+      for (double th : grid) per2.push_back(grams_at(next, c2, c2_set, th));
       cv::FoldFit f2 = cv::cross_validate(per2, base_cols(next.cx));
       if (!(f2.cv_rss < 0.99 * f.cv_rss)) {
         if (f2.cv_rss < f.cv_rss) { f = std::move(f2); at = next; }

@@ -866,7 +866,9 @@ int main(int argc, char** argv) {
   if (s.reconnects < min_reconnects) failures.push_back("reconnects " + std::to_string(s.reconnects) + " < " + std::to_string(min_reconnects));
   if (s.usb_errors < min_usb_errors) failures.push_back("usb_errors " + std::to_string(s.usb_errors) + " < " + std::to_string(min_usb_errors));
   if (s.state != 4) failures.push_back("last published state is not 'stopping'");
-  if (!expect_no_data && std::isfinite(measured_rate) && checker.published_rate > 0 &&
+  // A pcap replay's pace is umockdev's, not the capture's (a loaded CI run read 2.3x the recorded
+  // rate, all scans intact), so its scan rate says nothing about the device: not checked.
+  if (replay_pcap.empty() && !expect_no_data && std::isfinite(measured_rate) && checker.published_rate > 0 &&
       (measured_rate / checker.published_rate < min_rate_ratio || measured_rate / checker.published_rate > 2.0 - min_rate_ratio)) {
     failures.push_back("measured scan rate " + std::to_string(measured_rate) + " vs published " + std::to_string(checker.published_rate));
   }

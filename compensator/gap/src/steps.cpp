@@ -474,9 +474,14 @@ void record_stop(Grown& g, const Ranking& r, const std::vector<CandidateResult>&
   if (r.order.empty()) return;
   const CandidateResult& b = cands[r.order.front().second];
   const double red = 1.0 - std::sqrt(b.fit.cv_rss / r.rss0);
-  say(ctx, "step " + std::to_string(step) + ": best " + std::string(core::to_string(b.effect)) + " (" + format_fixed(100 * red, 1) +
-               " %, dBIC " + format_fixed(r.order.front().first, 1) + "): not significant, stopping");
-  g.last_rejected = {{"effect", std::string(core::to_string(b.effect))}, {"reduction_pct", 100 * red},
+  // A drift that passed but was said beside a first loading (first_loading_or_drift) is not named
+  // for that reason, not for lack of significance.
+  const std::string id(core::to_string(b.effect));
+  const bool said = r.scores.contains(id) && r.scores[id].contains("or_first_loading");
+  say(ctx, "step " + std::to_string(step) + ": best " + id + " (" + format_fixed(100 * red, 1) + " %, dBIC " +
+               format_fixed(r.order.front().first, 1) + "): " +
+               (said ? "said beside a first loading, not named" : "not significant") + ", stopping");
+  g.last_rejected = {{"effect", id}, {"reduction_pct", 100 * red},
                      {"delta_bic", r.order.front().first}, {"all", r.scores}};
 }
 

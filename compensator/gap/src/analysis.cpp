@@ -67,7 +67,10 @@ void describe_range(json& model, const Signals& s, const Kinematics& k0) {
 // Not when the search named a time_delay of its own (that one is reported, with its parameters).
 // When the paper structure is taken, its velocity-dependent branches (eqs. (11)/(12)) carry the
 // lateness (a delay d shifts the voltage by -d s'(theta) w, an offset growing with the speed) and
-// the search from it finds no delay to add; the dynamic fit's lag still says it is there.
+// the search from it finds no delay to add. The dynamic fit's lag then says it is there only if
+// the dynamic structure alone describes this sensor better than the paper structure alone, by
+// min_reduction: on a sensor of the paper's kind its lag is those branches seen by a model
+// without them.
 std::optional<Step> named_bend_lag(const json& dyn, double baseline_gap_deg, const Options& opt,
                                    const std::vector<Step>& steps, bool dynamic_taken) {
   const double lag = dyn.value("bend_lag_s", 0.0);
@@ -276,9 +279,13 @@ void report_baseline(Result& res, const Baseline& base, const Grown& chosen, con
   const Structure& baseline_model = chosen.baseline;
   res.baseline_gap_deg = chosen.baseline_gap;
   res.steps = chosen.steps;
-  if (base.dynamic) {
+  const bool dynamic_taken = chosen.sx.cx.dyn.has_value();
+  const auto alone = [&](const char* which) { return choice.at(which).at("heldout_gap_deg").get<double>(); };
+  const bool dynamic_describes = dynamic_taken || (base.dynamic && choice.contains("dynamic") &&
+                                                   alone("dynamic") < (1.0 - ctx.opt->min_reduction) * alone("paper"));
+  if (dynamic_describes) {
     if (std::optional<Step> lag = named_bend_lag(base.detail["dynamic"], chosen.baseline_gap, *ctx.opt, res.steps,
-                                                 chosen.sx.cx.dyn.has_value())) {
+                                                 dynamic_taken)) {
       if (json d = lag_or_delay(lag->parameters["bend_lag_s"].get<double>(), chosen.baseline_resid, ctx); !d.is_null())
         res.indistinguishable.push_back(std::move(d));
       res.in_baseline.push_back(std::move(*lag));

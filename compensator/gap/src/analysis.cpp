@@ -69,8 +69,9 @@ void describe_range(json& model, const Signals& s, const Kinematics& k0) {
 // lateness (a delay d shifts the voltage by -d s'(theta) w, an offset growing with the speed) and
 // the search from it finds no delay to add. The dynamic fit's lag then says it is there only if
 // the dynamic structure alone describes this sensor better than the paper structure alone, by
-// min_reduction: on a sensor of the paper's kind its lag is those branches seen by a model
-// without them.
+// min_reduction, and its search ends within that margin of the paper structure's (the two are
+// one explanation told two ways): on a sensor of the paper's kind, or where the paper structure
+// with its effects is clearly better, its lag is those branches seen by a model without them.
 std::optional<Step> named_bend_lag(const json& dyn, double baseline_gap_deg, const Options& opt,
                                    const std::vector<Step>& steps, bool dynamic_taken) {
   const double lag = dyn.value("bend_lag_s", 0.0);
@@ -280,9 +281,12 @@ void report_baseline(Result& res, const Baseline& base, const Grown& chosen, con
   res.baseline_gap_deg = chosen.baseline_gap;
   res.steps = chosen.steps;
   const bool dynamic_taken = chosen.sx.cx.dyn.has_value();
-  const auto alone = [&](const char* which) { return choice.at(which).at("heldout_gap_deg").get<double>(); };
-  const bool dynamic_describes = dynamic_taken || (base.dynamic && choice.contains("dynamic") &&
-                                                   alone("dynamic") < (1.0 - ctx.opt->min_reduction) * alone("paper"));
+  const double margin = 1.0 - ctx.opt->min_reduction;
+  const auto gap = [&](const char* which, const char* key) { return choice.at(which).value(key, std::nan("")); };
+  const bool dynamic_describes =
+      dynamic_taken || (base.dynamic && choice.contains("dynamic") &&
+                        gap("dynamic", "heldout_gap_deg") < margin * gap("paper", "heldout_gap_deg") &&
+                        gap("dynamic", "charged_gap_deg") * margin <= gap("paper", "charged_gap_deg"));
   if (dynamic_describes) {
     if (std::optional<Step> lag = named_bend_lag(base.detail["dynamic"], chosen.baseline_gap, *ctx.opt, res.steps,
                                                  dynamic_taken)) {

@@ -65,13 +65,6 @@ void describe_range(json& model, const Signals& s, const Kinematics& k0) {
 // It is named when the lag passes the acceptance rule's first test on the fit's own cross-
 // validation: its held-out error at least min_reduction below the best structure without a lag.
 // Not when the search named a time_delay of its own (that one is reported, with its parameters).
-// When the paper structure is taken, its velocity-dependent branches (eqs. (11)/(12)) carry the
-// lateness (a delay d shifts the voltage by -d s'(theta) w, an offset growing with the speed) and
-// the search from it finds no delay to add. The dynamic fit's lag then says it is there only if
-// the dynamic structure alone describes this sensor better than the paper structure alone, by
-// min_reduction, and its search ends within that margin of the paper structure's (the two are
-// one explanation told two ways): on a sensor of the paper's kind, or where the paper structure
-// with its effects is clearly better, its lag is those branches seen by a model without them.
 std::optional<Step> named_bend_lag(const json& dyn, double baseline_gap_deg, const Options& opt,
                                    const std::vector<Step>& steps, bool dynamic_taken) {
   const double lag = dyn.value("bend_lag_s", 0.0);
@@ -97,6 +90,23 @@ std::optional<Step> named_bend_lag(const json& dyn, double baseline_gap_deg, con
                 {"how", "the dynamic model's own blocked cross-validation (core::fit_dynamic): its chosen structure "
                         "against the best one without a bend lag"}};
   return s;
+}
+
+// Whether the dynamic fit's lag is evidence of lateness on this recording. When the paper
+// structure is taken, its velocity-dependent branches (eqs. (11)/(12)) carry a lateness (a delay d
+// shifts the voltage by -d s'(theta) w, an offset growing with the speed) and the search from it
+// finds no delay to add. The lag counts there only if the dynamic structure alone describes this
+// sensor better than the paper structure alone, by min_reduction, and its search ends within that
+// margin of the paper structure's (the two are one explanation told two ways): on a sensor of the
+// paper's kind, or where the paper structure with its effects is clearly better, the lag is those
+// branches seen by a model without them (docs/gap.md, section 1, "What the baseline names").
+bool lag_is_evidence(const json& choice, bool dynamic_taken, const Options& opt) {
+  if (dynamic_taken) return true;
+  if (!choice.contains("dynamic")) return false;
+  const double margin = 1.0 - opt.min_reduction;
+  const auto gap = [&](const char* which, const char* key) { return choice.at(which).value(key, std::nan("")); };
+  return gap("dynamic", "heldout_gap_deg") < margin * gap("paper", "heldout_gap_deg") &&
+         gap("dynamic", "charged_gap_deg") * margin <= gap("paper", "charged_gap_deg");
 }
 
 // A first-order bend lag tau of the fibre and a delay d of the angle differ at second order in the
@@ -281,13 +291,7 @@ void report_baseline(Result& res, const Baseline& base, const Grown& chosen, con
   res.baseline_gap_deg = chosen.baseline_gap;
   res.steps = chosen.steps;
   const bool dynamic_taken = chosen.sx.cx.dyn.has_value();
-  const double margin = 1.0 - ctx.opt->min_reduction;
-  const auto gap = [&](const char* which, const char* key) { return choice.at(which).value(key, std::nan("")); };
-  const bool dynamic_describes =
-      dynamic_taken || (base.dynamic && choice.contains("dynamic") &&
-                        gap("dynamic", "heldout_gap_deg") < margin * gap("paper", "heldout_gap_deg") &&
-                        gap("dynamic", "charged_gap_deg") * margin <= gap("paper", "charged_gap_deg"));
-  if (dynamic_describes) {
+  if (base.dynamic && lag_is_evidence(choice, dynamic_taken, *ctx.opt)) {
     if (std::optional<Step> lag = named_bend_lag(base.detail["dynamic"], chosen.baseline_gap, *ctx.opt, res.steps,
                                                  dynamic_taken)) {
       if (json d = lag_or_delay(lag->parameters["bend_lag_s"].get<double>(), chosen.baseline_resid, ctx); !d.is_null())

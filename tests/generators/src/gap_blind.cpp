@@ -431,6 +431,13 @@ Trial run_trial(std::uint64_t seed, int count, bool short_session, const std::fi
   // docs/gap.md, section 4, "Confusable pairs"). Covered after the draw, so an acceleration
   // dependence may still be hidden on such a fibre (and is then a hit).
   if (t.dynamic.contains("bend_lag_s")) t.covered.emplace_back("acceleration_dependence");
+  // A loop that opens or closes with speed and is back in holds is what `rate_dependent_hysteresis`
+  // means (docs/gap.md, section 6): a memory loop scaled by a speed factor that is 1 at rest draws
+  // one, and so does a bend lag (the loop read at an angle tau w behind, wider with speed). Covered
+  // after the draw for the same reason.
+  if (t.dynamic.contains("bend_lag_s") ||
+      (t.dynamic.contains("memory") && t.dynamic["memory"].value("rate_sensitivity_s_per_rad", 0.0) != 0))
+    t.covered.emplace_back("rate_dependent_hysteresis");
   t.csv = (dir / ("blind_" + std::to_string(seed) + ".csv")).string();
   const io::Recording rec = simulate(s, seed);
   io::write_csv(t.csv, rec);

@@ -387,8 +387,6 @@ void refit_rate_gain(Search& sx, const State& st, int threads) {
   sx.cx.dyn->rate_gain_s_per_rad = best_gain;
 }
 
-namespace {
-
 CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, const CurrentFit& cur) {
   const EffectDef& def = effect_def(e);
   CandidateResult cr;
@@ -494,8 +492,6 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
   }
   return cr;
 }
-
-}  // namespace
 
 std::vector<CandidateResult> evaluate_all(const Search& sx, const State& st, const CurrentFit& cur, int threads) {
   std::vector<CandidateResult> out(core::kEffectCount);

@@ -133,6 +133,8 @@ struct CandidateResult {
   std::vector<std::vector<double>> profile;
 };
 
+/// One candidate of the catalogue against the current fit (its grid, refinement and rescoring).
+CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, const CurrentFit& cur);
 /// Every candidate of the catalogue against the current fit, on `threads` workers.
 std::vector<CandidateResult> evaluate_all(const Search& sx, const State& st, const CurrentFit& cur, int threads);
 

@@ -368,6 +368,52 @@ json dead_band_or_play(const std::vector<CandidateResult>& cands, const Grown& g
           {"taken", "as fitted: the compensator applies both the stop operators and a [gap] backlash_deg"}};
 }
 
+// The dynamic baseline's rate gain against the catalogue's rate-dependent hysteresis (docs/gap.md,
+// section 4, "Said, not hidden"). The gain scales the stop operators' loop by phi(w), 1 at rest: a
+// loop opening that changes with speed and is gone in holds, which is that effect's meaning, so a
+// hidden one is taken up by the gain and the search, scoring the effect beside it, has nothing left
+// to name. Where the gain is evidence (the structure without it is worse by min_reduction) and the
+// effect's own column at a gain of 0 explains the held-out residual as well (within 2 SE over the
+// folds, or better, and significant), the recording cannot say whether the loop's change with speed
+// is the fibre's loop scaled or an opening of its own shape: said. Where the gain is a shape the
+// effect cannot draw (a loop that is no sum of stop operators), the effect alone falls short.
+json rate_gain_or_hysteresis(const Grown& g, const Steps& ctx) {
+  const auto& dyn = g.sx.cx.dyn;
+  constexpr core::Effect kRate = core::Effect::kRateDependentHysteresis;
+  if (!dyn || dyn->rate_gain_s_per_rad == 0 || dyn->n_operators == 0 || g.st.has(kRate)) return nullptr;
+  Search at0 = g.sx;
+  at0.cx.dyn->rate_gain_s_per_rad = 0;
+  const CurrentFit cur0 = fit_state(at0, g.st, g.cur.d.k);
+  const double with_gain = ctx.gap_deg(g.cur.fit.cv_rss), without = ctx.gap_deg(cur0.fit.cv_rss);
+  if (!(with_gain <= (1.0 - ctx.opt->min_reduction) * without)) return nullptr;
+  const CandidateResult c = evaluate(kRate, at0, g.st, cur0);
+  if (!c.eligible || c.grid.empty()) return nullptr;
+  const Assessment a = assess(at0, g.st, c, cur0.d.X.cols(), cur0.cv_resid);
+  if (!a.significant) return nullptr;
+  const std::vector<double> gain = fold_sse(g.cur.cv_resid, g.sx.blocks), effect = fold_sse(a.after, g.sx.blocks);
+  double sg = 0, se = 0;
+  for (std::size_t f = 0; f < gain.size(); ++f) { sg += gain[f]; se += effect[f]; }
+  if (!(se <= sg || within_2se(gain, effect))) return nullptr;
+  const double kappa = dyn->rate_gain_s_per_rad, fastest = dyn->rate_factor(dyn->speed_limit_rad_s);
+  return {{"effects", {"rate_dependent_hysteresis", "rate gain"}},
+          {"what", "the dynamic baseline's loop " + std::string(kappa > 0 ? "opens" : "closes") + " with speed (rate gain " +
+                       format_fixed(kappa, 2) + " s/rad, " + format_fixed(fastest, 2) + " times its width at rest by " +
+                       format_fixed(dyn->speed_limit_rad_s, 2) + " rad/s; " + format_fixed(without, 3) + " deg without it, " +
+                       format_fixed(with_gain, 3) + "), and a rate-dependent hysteresis of its own shape in place of the "
+                       "gain explains the same (" + format_fixed(ctx.gap_deg(se), 3) +
+                       " deg, within 2 SE): the recording does not tell the fibre's loop scaled by speed from an "
+                       "opening beside it"},
+          {"heldout_gap_with_gain_deg", with_gain},
+          {"heldout_gap_without_gain_deg", without},
+          {"heldout_gap_effect_at_no_gain_deg", ctx.gap_deg(se)},
+          {"parameters", a.parameters},
+          {"tells_apart",
+           "moves at several speeds over several excursions, small ones among them: a scaled loop narrows or "
+           "widens in proportion to the loop, minor loops too; an opening of its own keeps its size whatever the "
+           "excursion and saturates with speed"},
+          {"taken", "the rate gain, in the dynamic model the compensator runs"}};
+}
+
 // A first loading's columns: the running maximum and minimum of the angle, scaled to the recording's
 // range, and their squares. A memory whose elements switch once and stay (Preisach relays whose
 // other switching angle the angle never reaches; a polymer's softening up to the largest strain so
@@ -621,6 +667,10 @@ void grow(Grown& g, const Steps& ctx) {
         g.indistinguishable.push_back(std::move(d));
       }
     if (!chosen) {
+      if (json d = rate_gain_or_hysteresis(g, ctx); !d.is_null()) {
+        d["step"] = step;
+        g.indistinguishable.push_back(std::move(d));
+      }
       record_stop(g, r, cands, step, ctx);
       break;
     }

@@ -310,6 +310,13 @@ std::vector<double> fold_sse(const VectorXd& r, const cv::Blocks& blocks) {
   return out;
 }
 
+// The held-out squared error over all folds (the sum of fold_sse's entries).
+double total(const std::vector<double>& per_fold) {
+  double s = 0;
+  for (double x : per_fold) s += x;
+  return s;
+}
+
 // Whether the sum of b - a over folds is within 2 of its standard errors (the folds' spread).
 bool within_2se(const std::vector<double>& a, const std::vector<double>& b) {
   const auto nf = static_cast<double>(a.size());
@@ -338,7 +345,6 @@ json dead_band_or_play(const std::vector<CandidateResult>& cands, const Grown& g
   if (it == cands.end() || !it->eligible || it->profile.empty()) return nullptr;
   const CandidateResult& c = *it;
   std::size_t best = 0;
-  auto total = [](const std::vector<double>& v) { double s = 0; for (double x : v) s += x; return s; };
   for (std::size_t t = 1; t < c.profile.size(); ++t)
     if (total(c.profile[t]) < total(c.profile[best])) best = t;
   const std::vector<double> none = fold_sse(g.cur.cv_resid, g.sx.blocks);
@@ -391,8 +397,7 @@ json rate_gain_or_hysteresis(const Grown& g, const Steps& ctx) {
   const Assessment a = assess(at0, g.st, c, cur0.d.X.cols(), cur0.cv_resid);
   if (!a.significant) return nullptr;
   const std::vector<double> gain = fold_sse(g.cur.cv_resid, g.sx.blocks), effect = fold_sse(a.after, g.sx.blocks);
-  double sg = 0, se = 0;
-  for (std::size_t f = 0; f < gain.size(); ++f) { sg += gain[f]; se += effect[f]; }
+  const double sg = total(gain), se = total(effect);
   if (!(se <= sg || within_2se(gain, effect))) return nullptr;
   const double kappa = dyn->rate_gain_s_per_rad, fastest = dyn->rate_factor(dyn->speed_limit_rad_s);
   return {{"effects", {"rate_dependent_hysteresis", "rate gain"}},
@@ -443,8 +448,7 @@ json first_loading_or_drift(const Assessment& a, const Grown& g, const Steps& ct
       cv::extend_grams(g.cur.grams, g.cur.d.X, first_loading_columns(ctx.s->angle), g.cur.d.y, g.sx.blocks);
   const std::vector<double> loading = cv::heldout_profile({grams}, base_cols(g.sx.cx)).front();
   const std::vector<double> drift = fold_sse(a.after, g.sx.blocks);
-  double sl = 0, sd = 0;
-  for (std::size_t f = 0; f < drift.size(); ++f) { sl += loading[f]; sd += drift[f]; }
+  const double sl = total(loading), sd = total(drift);
   if (!(sl <= sd || within_2se(drift, loading))) return nullptr;
   return {{"effects", {"drift", "first loading"}},
           {"what", "a drift and a first loading (the output a function of the largest and smallest angle reached so "

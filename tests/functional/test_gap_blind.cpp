@@ -139,19 +139,19 @@ TEST(GapBlind, APaperBaselineStillNamesTheLateAngle) {
   std::filesystem::remove(t.csv);
 }
 
-// A rate-dependent hysteresis on a Preisach fibre that lags the joint: the dynamic fit takes the
-// opening into its rate gain (kappa = -4 s/rad, the loop closing with speed), and the search,
-// scoring the effect beside the gain, names nothing. The effect's own column with the gain at 0
-// explains the residual as well, so the report says the two are indistinguishable here and keeps
-// the gain (docs/gap.md, section 4, "Said, not hidden"). Blind seed 342 of the benchmark.
+// A rate-dependent hysteresis and an acceleration term on a Bouc-Wen fibre whose loop has a speed
+// factor of its own: the dynamic fit takes the opening into its rate gain, and the search, scoring
+// the effect beside the gain, names the acceleration term only. The effect's own column with the
+// gain at 0 explains the residual as well, so the report says the two are indistinguishable here
+// and keeps the gain (docs/gap.md, section 4, "Said, not hidden"). Blind seed 305 of the benchmark.
 TEST(GapBlind, ALoopThatChangesWithSpeedIsSaidAsGainOrOpening) {
-  const auto t = pof::gap::blind::run_trial(342, 1, false, workdir(), {}, 0.3, 1.0, 0.5);
+  const auto t = pof::gap::blind::run_trial(305, 2, false, workdir(), {}, 0.3, 1.0, 0.5);
   SCOPED_TRACE("hidden " + names(t.hidden) + ", said " + t.gap.at("indistinguishable").dump());
-  ASSERT_EQ(t.hidden.size(), 1U);
-  ASSERT_EQ(t.hidden[0].effect, "rate_dependent_hysteresis");
+  ASSERT_EQ(t.hidden.size(), 2U);
+  ASSERT_TRUE(t.hidden[0].effect == "rate_dependent_hysteresis" || t.hidden[1].effect == "rate_dependent_hysteresis");
   ASSERT_EQ(t.gap.at("baseline").at("choice").at("chosen").get<std::string>(), "dynamic") << "the test needs another seed";
   EXPECT_TRUE(said(t.gap, "rate_dependent_hysteresis", "rate gain"));
-  EXPECT_EQ(t.hits_or_said(), 1);
+  EXPECT_EQ(t.hits_or_said(), 2);
   EXPECT_EQ(t.false_finds(), 0);
   // The gain stays in the model the compensator runs; no [gap] term is added for the opening.
   for (const auto& st : t.gap.at("steps")) EXPECT_NE(st.at("effect").get<std::string>(), "rate_dependent_hysteresis");

@@ -11,8 +11,11 @@ namespace {
 // "Hysteresis and Phase Transitions", ch. 2; a Maxwell-slip model): S_k = clamp(S_k-1 + angle_k -
 // angle_k-1, -r, r). Unlike the paper's hysteresis, the operators keep their state through holds
 // (the loop does not close when the knee stops), a reversal part-way unsaturates only the small
-// operators (minor loops inside the major one), and speed plays no part.
-std::vector<double> bank() { return {1.0, 2.0, 4.0, 8.0, 16.0}; }
+// operators (minor loops inside the major one), and speed plays no part. The bank reaches a loop as
+// wide as most of the knee's range (64 deg), as the dynamic fit's own operators do (0.4 of the
+// angle span): a polymer's relays that switch 20 deg either side of a mid-range angle draw such a
+// loop, and a bank ending at 16 left it in the holds (docs/gap.md, section 3).
+std::vector<double> bank() { return {1.0, 2.0, 4.0, 8.0, 16.0, 32.0}; }
 
 Eigen::MatrixXd columns(double, const Context& cx, const Kinematics& k) {
   const std::vector<double> r = bank();
@@ -48,8 +51,8 @@ nlohmann::json physical(double, const Eigen::VectorXd& b, const Context& cx) {
 
 extern const EffectDef kMemoryHysteresis{
     .id = core::Effect::kMemoryHysteresis,
-    .meaning = "rate-independent hysteresis with memory: persists through holds, minor loops (stop operators, 1-16 deg)",
-    .linear = 5,
+    .meaning = "rate-independent hysteresis with memory: persists through holds, minor loops (stop operators, 1-32 deg)",
+    .linear = 6,
     .magnitude_key = "half_height_deg",
     .grid = [](const Context&, const Eigen::VectorXd&) { return std::vector<double>{0.0}; },
     .columns = memory_hysteresis_effect::columns,

@@ -23,6 +23,7 @@
 source "$(dirname "$0")/lib.sh"
 POF="$BIN_DIR/pof"
 GOLDEN="$SOURCE_DIR/tests/e2e/golden"
+command -v numdiff >/dev/null || fail "numdiff is missing: ./pofkit setup installs it (the Debian package numdiff)"
 
 # --- Calibrations and offline compensation --------------------------------------------------------
 "$POF" sim paper -o paper-cal.csv --seed 11 2>/dev/null

@@ -23,6 +23,7 @@ dev=$(find "$WORK_DIR/pkg" -maxdepth 1 -name 'pofkit-dev_*.deb' | head -n 1)
 # The stand-in for /proc/sys/net/core: the two keys the package sets, at Debian's defaults.
 mkdir -p core && echo 212992 >core/rmem_max && echo 212992 >core/rmem_default
 mkdir -p ovl
+cp "$SOURCE_DIR/tests/e2e/deb_lifecycle_root.sh" "$WORK_DIR/deb_lifecycle_root.sh"
 cat >enter.sh <<SH
 set -e
 mount -t tmpfs -o size=2g pofkit-lifecycle "$WORK_DIR/ovl"
@@ -33,9 +34,11 @@ mount --rbind /dev "\$r/dev"
 mount --rbind /sys "\$r/sys"
 mount -t tmpfs tmpfs "\$r/run"
 mount -t tmpfs tmpfs "\$r/tmp"
-# This test's directory, writable through to the host: the packages in, the logs out.
+# This test's directory, writable through to the host: the packages in, the logs out. Its mount
+# point made first: under /tmp (a clone there) it is not in the fresh tmpfs mounted above.
+mkdir -p "\$r$WORK_DIR"
 mount --bind "$WORK_DIR" "\$r$WORK_DIR"
-inner="$SOURCE_DIR/tests/e2e/deb_lifecycle_root.sh"
+inner="$WORK_DIR/deb_lifecycle_root.sh"   # copied in: the source tree may be under /tmp too
 clean_env=(env -i PATH=/usr/sbin:/usr/bin:/sbin:/bin HOME=/root LANG=C.UTF-8)
 # systemd as PID 1 of a pid namespace in that root, booted to a target of its own (journald only:
 # nothing this host enables starts); --kill-child: nothing of it outlives this script.

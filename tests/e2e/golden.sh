@@ -16,8 +16,8 @@
 # between FMA on and off (GLIBC_TUNABLES=glibc.cpu.hwcaps=-AVX2,-FMA,-AVX512F), the largest
 # difference was 4e-9 relative, 2e-11 absolute, on a reduction near zero in gap.json. What passes
 # unseen: a change below 1e-8 of a kept number, or of a float column's sum in the rows not kept
-# (a stateful estimator carries a change into the kept rows); integer columns are hashed whole. (Eigen's blocking, the other machine dependence, is pinned in
-# compensator/CMakeLists.txt.)
+# (a stateful estimator carries a change into the kept rows); integer columns are hashed whole.
+# (Eigen's blocking, the other machine dependence, is pinned in compensator/CMakeLists.txt.)
 # A change that is meant to change behaviour regenerates the references (`POF_GOLDEN_UPDATE=1`,
 # the test then writes them and passes) and says why in its commit body.
 source "$(dirname "$0")/lib.sh"
@@ -162,14 +162,16 @@ if [ "${POF_GOLDEN_UPDATE:-0}" = 1 ]; then
   echo "wrote ${#files[@]} references to $GOLDEN"
   exit 0
 fi
+# Fields split at these characters; numbers within 1e-8 relative or 1e-9 absolute are equal.
+same=(-s ' \t\n,=[]{}:"|' -r 1e-8 -a 1e-9)
 differ=()
 for f in "${files[@]}"; do
   [ -s "$GOLDEN/$f" ] || fail "$GOLDEN/$f missing: run this test once with POF_GOLDEN_UPDATE=1"
-  numdiff -q -s ' \t\n,=[]{}:"|' -r 1e-8 -a 1e-9 "$GOLDEN/$f" "kept/$f" >/dev/null || differ+=("$f")
+  numdiff -q "${same[@]}" "$GOLDEN/$f" "kept/$f" >/dev/null || differ+=("$f")
 done
 for f in "${differ[@]}"; do
   echo "--- $f differs from the golden one (first differences; '<==' golden, '==>' now):"
-  numdiff -s ' \t\n,=[]{}:"|' -r 1e-8 -a 1e-9 "$GOLDEN/$f" "kept/$f" | head -20 || true
+  numdiff "${same[@]}" "$GOLDEN/$f" "kept/$f" | head -20 || true
 done
 [ ${#differ[@]} = 0 ] || fail "${#differ[@]} output(s) differ from the golden ones: ${differ[*]} (work files kept in $WORK_DIR)"
 echo "ok: ${#files[@]} outputs as the golden ones"

@@ -120,22 +120,31 @@ TEST(GapBlind, DynamicBaselineNamesNoLateAngleWhereThereIsNone) {
   std::filesystem::remove(t.csv);
 }
 
-// A delay of the angle on a Preisach fibre: the paper structure with static_nonlinearity and
-// memory_hysteresis is taken, its velocity-dependent branches absorb the lateness and its search
-// adds no delay step; the dynamic fit's own cross-validation still finds the lag, so the baseline
-// names it (docs/gap.md, section 1, "What the baseline names"). Blind seed 338 of the benchmark
-// (a full session: a 49 ms delay, the dynamic fit's lag 34 ms).
-TEST(GapBlind, APaperBaselineStillNamesTheLateAngle) {
+// A 49 ms delay of the angle on a Preisach fibre (blind seed 338 of the benchmark, a full session).
+// The dynamic baseline with the memory term's relays fits it better than the paper structure, whose
+// velocity-dependent branches had absorbed the lateness (it was kept there before the relay form).
+// The structure's bend lag (34 ms) carries most of the lateness and the search adds a delay step on
+// top: the step reports both together, the lateness a user would measure (docs/gap.md, section 1,
+// "What the baseline names").
+TEST(GapBlind, ALateAngleOnAPreisachFibreIsNamedWithTheBendLag) {
   const auto t = pof::gap::blind::run_trial(338, 1, false, workdir(), {}, 0.3, 1.0, 0.5);
-  SCOPED_TRACE("hidden " + names(t.hidden) + ", in the baseline " + t.gap.at("in_baseline").dump());
+  SCOPED_TRACE("hidden " + names(t.hidden) + ", steps " + t.gap.at("steps").dump().substr(0, 1500) +
+               ", in the baseline " + t.gap.at("in_baseline").dump());
   ASSERT_EQ(t.hidden.size(), 1U);
   ASSERT_EQ(t.hidden[0].effect, "time_delay");
-  ASSERT_EQ(t.gap.at("baseline").at("choice").at("chosen").get<std::string>(), "paper") << "the test needs another seed";
-  ASSERT_EQ(t.gap.at("in_baseline").size(), 1U);
-  const double truth_ms = 1e3 * t.hidden[0].truth.at("delay_s").get<double>();
-  EXPECT_NEAR(t.gap.at("in_baseline")[0].at("parameters").at("delay_ms").get<double>(), truth_ms, 0.5 * truth_ms);
+  ASSERT_EQ(t.dynamic.at("memory").at("family"), "preisach") << "the test needs another seed";
+  EXPECT_EQ(t.gap.at("baseline").at("choice").at("chosen"), "dynamic");
   EXPECT_EQ(t.hits(), 1);
-  EXPECT_EQ(t.false_finds(), 0);
+  double lateness_ms = 0;
+  for (const auto& st : t.gap.at("in_baseline")) lateness_ms = st.at("parameters").at("delay_ms").get<double>();
+  for (const auto& st : t.gap.at("steps"))
+    if (st.at("effect") == "time_delay") {
+      const auto& p = st.at("parameters");
+      lateness_ms = p.value("with_bend_lag_ms", p.at("delay_ms").get<double>());
+    }
+  const double truth_ms = 1e3 * t.hidden[0].truth.at("delay_s").get<double>();
+  EXPECT_NEAR(lateness_ms, truth_ms, 0.5 * truth_ms);
+  EXPECT_LE(t.false_finds(), 1);
   std::filesystem::remove(t.csv);
 }
 
@@ -338,6 +347,32 @@ TEST(GapBlind, ADeadBandBesideAFibresPlayIsSaidToBeUndetermined) {
       EXPECT_LE(d.at("backlash_width_range_deg")[0].get<double>(), named + 1e-9);
       EXPECT_GE(d.at("backlash_width_range_deg")[1].get<double>(), named - 1e-9);
     }
+}
+
+// Blind seed 313 of the benchmark (a full session): a Preisach loop at 33 deg (+-10 deg) and a
+// 12.5 ms delay of the angle. The dynamic baseline's stop operators cannot draw a loop at a fixed
+// angle; what they left (0.27 deg held out) hid the delay (3.4 %, below the rule). The memory term's
+// relay form takes the loop, the delay is named under it, and the compensator, running the same
+// relays, ends within 1.5x of the forward gap (docs/gap.md, section 3, "A loop at a fixed angle").
+TEST(GapBlind, APreisachLoopIsDrawnByRelaysAndTheDelayUnderItNamed) {
+  const auto t = pof::gap::blind::run_trial(313, 1, false, workdir(), {}, 0.3, 1.0, 0.5);
+  SCOPED_TRACE("steps " + t.gap.at("steps").dump().substr(0, 1500));
+  ASSERT_EQ(t.dynamic.at("memory").at("family"), "preisach") << "the test needs another seed";
+  ASSERT_EQ(names(t.hidden).rfind("time_delay", 0), 0u) << names(t.hidden);
+  EXPECT_EQ(t.gap.at("baseline").at("choice").at("chosen"), "dynamic");
+  double relay_width = 0, delay_ms = 0;
+  for (const auto& st : t.gap.at("steps")) {
+    if (st.at("effect") == "memory_hysteresis") relay_width = st.at("parameters").value("relay_half_width_deg", 0.0);
+    if (st.at("effect") == "time_delay") delay_ms = st.at("parameters").at("delay_ms").get<double>();
+  }
+  EXPECT_GE(relay_width, 4.0);
+  EXPECT_GT(delay_ms, 4.0);
+  EXPECT_LT(t.final_gap_deg, 0.6 * t.baseline_gap_deg);
+  const auto& c = t.gap.at("compensated");
+  EXPECT_LT(c.at("rmse_after_deg").get<double>(), 0.6 * c.at("rmse_before_deg").get<double>());
+  const auto& av = t.gap.at("angle_vs_forward");
+  EXPECT_LT(av.at("angle_rmse_deg").get<double>(), 1.5 * av.at("forward_gap_deg").get<double>());
+  std::filesystem::remove(t.csv);
 }
 
 // Blind seed 366 of the benchmark (a full session, an effect-free Preisach fibre: a relay density

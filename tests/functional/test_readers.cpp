@@ -656,6 +656,11 @@ time_constants_s = [ 1.5, 30 ]
 effect = "periodic_interference"
 theta = 50.0
 coefficients_v = [ 0.001, 0.002, 0.0, 0.0005 ]
+[[gap.terms]]
+effect = "memory_hysteresis"
+theta = 12.0
+coefficients_v = [ 0.0001, 0.0004, 0.0002 ]
+relay_centres_deg = [ 20.0, 35.0, 50.0 ]
 )";
 
 std::string with_gap(const std::string& gap_section) {
@@ -681,7 +686,7 @@ TEST(CalibrationFile, GapTermsAreReadWrittenBackAndApplied) {
   const pof::core::GapModel& g = *f.cal.gap;
   EXPECT_EQ(g.delay_s, 0.012);
   EXPECT_EQ(g.backlash_deg, 0.6);
-  ASSERT_EQ(g.terms.size(), 4u);
+  ASSERT_EQ(g.terms.size(), 5u);
   EXPECT_EQ(g.terms[0].effect, "creep");
   EXPECT_EQ(g.terms[0].theta, 5.0);
   EXPECT_EQ(g.terms[0].coefficients_v, std::vector<double>{-0.0012});
@@ -691,6 +696,8 @@ TEST(CalibrationFile, GapTermsAreReadWrittenBackAndApplied) {
   EXPECT_EQ(g.terms[1].thresholds_deg, (std::vector<double>{1.0, 4.0}));
   EXPECT_EQ(g.terms[2].time_constants_s, (std::vector<double>{1.5, 30.0}));
   EXPECT_EQ(g.terms[3].coefficients_v.size(), 4u);
+  EXPECT_EQ(g.terms[4].theta, 12.0);  // the relay form
+  EXPECT_EQ(g.terms[4].relay_centres_deg, (std::vector<double>{20.0, 35.0, 50.0}));
   // Written back by io's one writer and read again: the same model, the same text.
   const std::string once = pof::io::to_toml(f);
   const auto again = pof::io::parse_calibration(once, "again.toml");
@@ -701,6 +708,7 @@ TEST(CalibrationFile, GapTermsAreReadWrittenBackAndApplied) {
     EXPECT_EQ(a.theta, b.theta);
     EXPECT_EQ(a.coefficients_v, b.coefficients_v);
     EXPECT_EQ(a.thresholds_deg, b.thresholds_deg);
+    EXPECT_EQ(a.relay_centres_deg, b.relay_centres_deg);
     EXPECT_EQ(a.time_constants_s, b.time_constants_s);
     EXPECT_EQ(a.parameters, b.parameters);
   }

@@ -107,9 +107,11 @@ TEST(CompensatorAlloc, GapTermsNeverAllocate) {
   g.terms = {term("static_nonlinearity", 0, {0.01, -0.008, 0.005, 0.004}), term("creep", 5.0, {-0.001}),
              term("viscoelastic_relaxation", 0, {-0.0005, -0.0002}), term("memory_hysteresis", 0, {0.0003, 0.0003}),
              term("rate_dependent_hysteresis", 0.2, {0.005, 0.2}), term("acceleration_dependence", 0.05, {0.002}),
-             term("source_power_coupling", 0, {0.1, 0.02}), term("periodic_interference", 50, {0.003, 0.002, 0.001, 0.001})};
+             term("source_power_coupling", 0, {0.1, 0.02}), term("periodic_interference", 50, {0.003, 0.002, 0.001, 0.001}),
+             term("memory_hysteresis", 10.0, {0.0002, 0.0004})};
   g.terms[2].time_constants_s = {1.5, 20};
   g.terms[3].thresholds_deg = {1, 3};
+  g.terms[8].relay_centres_deg = {20, 70};
   for (const bool dynamic : {false, true}) {
     for (const double delay : {0.012, -0.02}) {
       g.delay_s = delay;

@@ -186,7 +186,11 @@ TEST(TermChains, TheQuietAngleTakesACreepOff) {
   cal.model = pof::core::paper_coefficients();
   cal.reference_level_v = 4.0;
   pof::core::GapModel g;
-  g.terms.push_back({"creep", 4.0, {0.002}, {}, {}, {}, 0});
+  pof::core::GapTerm creep;
+  creep.effect = "creep";
+  creep.theta = 4.0;
+  creep.coefficients_v = {0.002};
+  g.terms.push_back(creep);
   cal.gap = g;
   TermChains t(cal, 200.0, false);
   ASSERT_TRUE(t.active());

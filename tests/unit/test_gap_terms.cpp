@@ -302,6 +302,46 @@ TEST(GapBasis, MemoryHysteresisRunsStopOperators) {
   expect_equal_series(predicted(g, h), want, 1e-12);
 }
 
+// The relay form: one relay per degree between the knots, weighted by the knots' coefficients
+// interpolated at its centre; each relay starts demagnetised at the first angle and is committed
+// on the low-passed angle, and the voltage at A_k is every relay stepped on from its state by A_k.
+TEST(GapBasis, MemoryHysteresisRelayFormRunsPreisachRelays) {
+  const History h = history(80);
+  GapTerm m = term("memory_hysteresis", 6.0, {0.0004, -0.0002, 0.0003});
+  m.relay_centres_deg = {30, 36, 48};
+  GapModel g;
+  g.terms.push_back(m);
+  const double lp = 1.0 - std::exp(-kDt / pof::core::kMemoryInputTauS);
+  std::vector<double> want(h.size(), 0.0);
+  for (int c = 30; c <= 48; ++c) {
+    const double w = c <= 36 ? 0.0004 + (c - 30) / 6.0 * (-0.0002 - 0.0004) : -0.0002 + (c - 36) / 12.0 * (0.0003 + 0.0002);
+    auto step = [&](double r, double a) { return a >= c + 6.0 ? 1.0 : (a <= c - 6.0 ? -1.0 : r); };
+    double x = h.angle[0];
+    double r = c < x ? 1.0 : -1.0;
+    for (std::size_t k = 1; k < h.size(); ++k) {
+      want[k] += w * step(r, h.angle[k]);
+      x += lp * (h.angle[k] - x);
+      r = step(r, x);
+    }
+  }
+  expect_equal_series(predicted(g, h), want, 1e-12);
+}
+
+TEST(GapBasis, RelayPlacesAreOnePerDegreeBetweenTheKnots) {
+  const auto p = pof::core::relay_places({10.0, 12.0, 16.0});
+  ASSERT_EQ(p.size(), 7u);
+  EXPECT_DOUBLE_EQ(p[0].centre_deg, 10.0);
+  EXPECT_EQ(p[0].knot, 0u);
+  EXPECT_DOUBLE_EQ(p[0].frac, 0.0);
+  EXPECT_EQ(p[2].knot, 0u);  // the knot itself: the end of the first interval
+  EXPECT_DOUBLE_EQ(p[2].frac, 1.0);
+  EXPECT_EQ(p[3].knot, 1u);
+  EXPECT_DOUBLE_EQ(p[3].frac, 0.25);
+  EXPECT_DOUBLE_EQ(p[6].centre_deg, 16.0);
+  EXPECT_DOUBLE_EQ(p[6].frac, 1.0);
+  EXPECT_TRUE(pof::core::relay_places({10.0}).empty());
+}
+
 // One memory_hysteresis stop operator of 1 deg (0.001 V/deg), loaded to +1 deg by a flexion to
 // 20 deg at 20 deg/s.
 GapCorrector one_operator_after_a_flexion() {
@@ -593,6 +633,30 @@ TEST(GapProblems, EveryUnappliableTermIsNamedWithWhy) {
   EXPECT_EQ(all[8], "[gap] term 10 'creep': theta (the creep time constant tau [s]) must be > 0, got 0");
   // Without a rate the Nyquist check is left to the program that knows it.
   EXPECT_EQ(problems(g).size(), 8u);
+  // The relay form's own checks.
+  auto relay = [](double theta, std::vector<double> knots, std::vector<double> c) {
+    GapModel r;
+    GapTerm t = term("memory_hysteresis", theta, std::move(c));
+    t.relay_centres_deg = std::move(knots);
+    r.terms.push_back(t);
+    return problems(r);
+  };
+  EXPECT_TRUE(relay(8, {20, 40, 60}, {1, 2, 3}).empty());
+  EXPECT_EQ(relay(8, {20, 60}, {1, 2, 3}),
+            (std::vector<std::string>{"[gap] term 1 'memory_hysteresis': expected 2 coefficients_v (one per basis function), got 3"}));
+  EXPECT_EQ(relay(8, {40, 20}, {1, 2}),
+            (std::vector<std::string>{"[gap] term 1 'memory_hysteresis': relay_centres_deg must be ascending, got 40 then 20"}));
+  EXPECT_EQ(relay(8, {20}, {1}),
+            (std::vector<std::string>{"[gap] term 1 'memory_hysteresis': the relay form (theta > 0) needs 2 to 16 relay_centres_deg, got 1"}));
+  EXPECT_EQ(relay(-1, {20, 40}, {1, 2}),
+            (std::vector<std::string>{"[gap] term 1 'memory_hysteresis': theta (0 for stop operators, else the relays' half-width [deg]) must be >= 0, got -1"}));
+  EXPECT_EQ(relay(0, {20, 40}, {1, 2}),
+            (std::vector<std::string>{"[gap] term 1 'memory_hysteresis': needs its stop operators' thresholds_deg (at least one)"}));
+  GapModel wrong;
+  GapTerm cr = term("creep", 5.0, {1});
+  cr.relay_centres_deg = {20, 40};
+  wrong.terms.push_back(cr);
+  EXPECT_EQ(problems(wrong), (std::vector<std::string>{"[gap] term 1 'creep': relay_centres_deg belongs to memory_hysteresis only"}));
   GapModel k;
   k.delay_s = std::nan("");
   k.backlash_deg = -1;

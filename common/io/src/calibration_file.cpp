@@ -139,6 +139,7 @@ pof::core::GapModel read_gap(TomlSection& g) {
       term.theta = t.get_or("theta", 0.0);
       term.coefficients_v = t.array("coefficients_v").values<double>();
       if (const auto r = t.find_array("thresholds_deg")) term.thresholds_deg = r->values<double>();
+      if (const auto c = t.find_array("relay_centres_deg")) term.relay_centres_deg = c->values<double>();
       if (const auto tau = t.find_array("time_constants_s")) term.time_constants_s = tau->values<double>();
       t.with_section("parameters", [&](TomlSection& p) {
         for (const std::string& key : p.keys()) term.parameters.emplace_back(key, p.get<double>(key));
@@ -170,6 +171,7 @@ void write_gap(std::ostringstream& o, const pof::core::GapModel& g) {
       << "theta = " << num(t.theta) << "\n"
       << "coefficients_v = " << list(t.coefficients_v) << "    # volts per unit of each basis function\n";
     if (!t.thresholds_deg.empty()) o << "thresholds_deg = " << list(t.thresholds_deg) << "\n";
+    if (!t.relay_centres_deg.empty()) o << "relay_centres_deg = " << list(t.relay_centres_deg) << "\n";
     if (!t.time_constants_s.empty()) o << "time_constants_s = " << list(t.time_constants_s) << "\n";
     if (!t.parameters.empty()) {
       o << "[gap.terms.parameters]    # for humans; not applied\n";

@@ -18,6 +18,7 @@
 
 #include "pof/core/dynamic_model.hpp"
 #include "pof/core/effects.hpp"
+#include "pof/core/gap_terms.hpp"
 #include "pof/core/model.hpp"
 #include "pof/gap/signals.hpp"
 
@@ -95,10 +96,10 @@ struct EffectDef {
   /// (rate_dependent_hysteresis: the paper-hysteresis scale, which the refitted baseline carries).
   bool theta_in_file = true;
   int file_coefficients = 0;  // 0: linear
-  /// Fixed basis constants written to model.toml beside the coefficients: the key and its values
-  /// (memory_hysteresis: thresholds_deg; viscoelastic_relaxation: time_constants_s), or none.
-  std::string_view basis_key{};
-  std::vector<double> (*basis_values)(double theta) = nullptr;
+  /// Writes the fixed basis constants model.toml holds beside the coefficients into the term
+  /// (memory_hysteresis: thresholds_deg or relay_centres_deg; viscoelastic_relaxation:
+  /// time_constants_s), or null: none.
+  void (*write_basis)(double theta, const Context&, core::GapTerm& term) = nullptr;
   /// For an effect whose number of columns depends on the recording (drift: its degree follows the
   /// recording's length), that number; null: `linear`. Read through linear_columns().
   int (*linear_of)(const Context&) = nullptr;

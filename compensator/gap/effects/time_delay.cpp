@@ -20,7 +20,14 @@ extern const EffectDef kTimeDelay{
       return g;
     },
     .refine = [](double best, const Context&) { return basis::linear_refine(best, 0.001, -1.0); },
-    .physical = [](double d, const Eigen::VectorXd&, const Context&) { return nlohmann::json{{"delay_ms", d * 1e3}}; },
+    // On the dynamic baseline the delay adds to the fibre's bend lag the structure carries (a lag and
+    // a delay look alike at these speeds: docs/gap.md, section 1, "What the baseline names"): the
+    // lateness a user would measure is both, with_bend_lag_ms.
+    .physical = [](double d, const Eigen::VectorXd&, const Context& cx) {
+      nlohmann::json p{{"delay_ms", d * 1e3}};
+      if (cx.dyn && cx.dyn->bend_lag_s > 0) p["with_bend_lag_ms"] = 1e3 * (d + cx.dyn->bend_lag_s);
+      return p;
+    },
 };
 
 }  // namespace pof::gap

@@ -86,9 +86,9 @@ std::string inadmissible(const nlohmann::json& p) {
   return sig("gain_fast") * sig("gain_slow") < 0 ? "gains of both signs beyond 2 SE: not a relaxation spectrum" : "";
 }
 
-std::vector<double> basis_values(double theta) {
+void write_basis(double theta, const Context&, core::GapTerm& term) {
   const auto [fast, slow] = pair_of(theta);
-  return {fast, slow};
+  term.time_constants_s = {fast, slow};
 }
 
 }  // namespace
@@ -108,8 +108,7 @@ extern const EffectDef kViscoelasticRelaxation{
     .inadmissible = viscoelastic_relaxation_effect::inadmissible,
     .generalises = core::Effect::kCreep,
     .theta_in_file = false,
-    .basis_key = "time_constants_s",
-    .basis_values = viscoelastic_relaxation_effect::basis_values,
+    .write_basis = viscoelastic_relaxation_effect::write_basis,
 };
 
 }  // namespace pof::gap

@@ -406,6 +406,7 @@ json written_terms(const LoopClosed& lc) {
     const core::GapTerm& t = g.terms[i];
     json term = {{"effect", t.effect}, {"theta", t.theta}, {"coefficients_v", t.coefficients_v}};
     if (!t.thresholds_deg.empty()) term["thresholds_deg"] = t.thresholds_deg;
+    if (!t.relay_centres_deg.empty()) term["relay_centres_deg"] = t.relay_centres_deg;
     if (!t.time_constants_s.empty()) term["time_constants_s"] = t.time_constants_s;
     json p = json::object();
     for (const auto& [k, v] : t.parameters) p[k] = v;

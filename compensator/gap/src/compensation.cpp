@@ -41,11 +41,7 @@ core::GapModel gap_model_of(const State& st, const VectorXd& beta, const Context
     const int linear = linear_columns(def, cx);
     for (Index i = 0; i < linear; ++i) term.coefficients_v.push_back(beta(c + i));
     term.coefficients_v.resize(static_cast<std::size_t>(std::max(linear, def.file_coefficients)), 0.0);
-    if (def.basis_values != nullptr) {
-      const std::vector<double> b = def.basis_values(t.theta);
-      if (def.basis_key == "thresholds_deg") term.thresholds_deg = b;
-      else term.time_constants_s = b;
-    }
+    if (def.write_basis != nullptr) def.write_basis(t.theta, cx, term);
     const nlohmann::json p = def.physical(t.theta, beta.segment(c, linear), cx);
     for (auto it = p.begin(); it != p.end(); ++it) term.parameters.emplace_back(it.key(), it.value().get<double>());
     g.terms.push_back(std::move(term));

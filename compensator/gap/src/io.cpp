@@ -82,6 +82,7 @@ std::string model_toml(const Result& r, const std::string& source) {
     term.theta = t["theta"].get<double>();
     term.coefficients_v = t["coefficients_v"].get<std::vector<double>>();
     if (t.contains("thresholds_deg")) term.thresholds_deg = t["thresholds_deg"].get<std::vector<double>>();
+    if (t.contains("relay_centres_deg")) term.relay_centres_deg = t["relay_centres_deg"].get<std::vector<double>>();
     if (t.contains("time_constants_s")) term.time_constants_s = t["time_constants_s"].get<std::vector<double>>();
     for (auto it = t["parameters"].begin(); it != t["parameters"].end(); ++it)
       term.parameters.emplace_back(it.key(), it.value().get<double>());

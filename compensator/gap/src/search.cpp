@@ -263,9 +263,8 @@ std::string covered_by_baseline(core::Effect e, const Context& cx) {
   if (!cx.dyn) return {};
   const core::DynamicModel& d = *cx.dyn;
   switch (e) {
-    case core::Effect::kMemoryHysteresis:
-      if (d.n_operators > 0) return "held by the dynamic baseline's " + std::to_string(d.n_operators) + " stop operators";
-      break;
+    // memory_hysteresis is not held: its stop operators are, and on this baseline the term is
+    // offered in its relay form only (effects/memory_hysteresis.cpp).
     case core::Effect::kCreep:
     case core::Effect::kViscoelasticRelaxation:
       if (d.n_prony > 0) return "held by the dynamic baseline's " + std::to_string(d.n_prony) + " Prony terms";

@@ -84,8 +84,9 @@ Structure moved_structure(const Context& cx, const Eigen::VectorXd& beta);
 /// sx with the baseline's coefficients moved by the first base_cols values of a solution beta.
 Search moved(const Search& sx, const Eigen::VectorXd& beta);
 
-/// Why effect e is no candidate on this baseline, or "": the dynamic model's stop operators are a
-/// memory hysteresis, its Prony terms a relaxation, its polynomial a static nonlinearity. Beside
+/// Why effect e is no candidate on this baseline, or "": the dynamic model's Prony terms are a
+/// relaxation, its polynomial a static nonlinearity (its stop operators are a memory hysteresis, so
+/// there memory_hysteresis is offered only as relays, which they cannot draw). Beside
 /// them such a term draws the same curve: the fit splits it between the two, and a move of the
 /// structure shortened by its bounds (moved_dynamic) leaves the term's share applied alone, which
 /// makes the online angle worse than no term (docs/gap.md, section 1, "The dynamic structure in the

@@ -42,6 +42,21 @@ std::string positive_list_problem(const std::vector<double>& v, const std::strin
   return {};
 }
 
+// A memory_hysteresis term in its relay form (theta > 0): its knots and the relays they make.
+std::string relay_problem(const GapTerm& t) {
+  const std::vector<double>& c = t.relay_centres_deg;
+  if (!t.thresholds_deg.empty()) return "theta > 0 is the relay form: relay_centres_deg, not thresholds_deg";
+  if (c.size() < 2 || c.size() > static_cast<std::size_t>(kMaxOperators))
+    return "the relay form (theta > 0) needs 2 to " + std::to_string(kMaxOperators) + " relay_centres_deg, got " +
+           std::to_string(c.size());
+  if (!all_finite(c)) return "relay_centres_deg must be finite numbers";
+  for (std::size_t i = 1; i < c.size(); ++i)
+    if (!(c[i] > c[i - 1])) return "relay_centres_deg must be ascending, got " + num(c[i - 1]) + " then " + num(c[i]);
+  if ((c.back() - c.front()) / kRelaySpacingDeg + 1 > static_cast<double>(kMaxRelays))
+    return "relay_centres_deg may span at most " + num(kRelaySpacingDeg * static_cast<double>(kMaxRelays - 1)) + " deg";
+  return {};
+}
+
 // The first reason the compensator cannot apply term t, or "" (the rate-independent checks, then
 // the Nyquist check when scan_rate_hz > 0).
 std::string term_problem(const GapTerm& t, double scan_rate_hz) {
@@ -63,17 +78,25 @@ std::string term_problem(const GapTerm& t, double scan_rate_hz) {
     if (!std::isfinite(value)) return "parameters." + name + " must be a finite number";
   if (!t.thresholds_deg.empty() && *e != Effect::kMemoryHysteresis)
     return "thresholds_deg belongs to memory_hysteresis only";
+  if (!t.relay_centres_deg.empty() && *e != Effect::kMemoryHysteresis)
+    return "relay_centres_deg belongs to memory_hysteresis only";
   if (!t.time_constants_s.empty() && *e != Effect::kViscoelasticRelaxation)
     return "time_constants_s belongs to viscoelastic_relaxation only";
-  if (*e == Effect::kMemoryHysteresis)
-    if (std::string why = positive_list_problem(t.thresholds_deg, "thresholds_deg", "stop operators' thresholds_deg", kMaxOperators);
-        !why.empty())
+  if (*e == Effect::kMemoryHysteresis) {
+    if (t.theta < 0) return "theta (0 for stop operators, else the relays' half-width [deg]) must be >= 0, got " + num(t.theta);
+    if (t.theta > 0) {
+      if (std::string why = relay_problem(t); !why.empty()) return why;
+    } else if (std::string why = positive_list_problem(t.thresholds_deg, "thresholds_deg", "stop operators' thresholds_deg", kMaxOperators);
+               !why.empty()) {
       return why;
+    }
+  }
   if (*e == Effect::kViscoelasticRelaxation)
     if (std::string why = positive_list_problem(t.time_constants_s, "time_constants_s", "time_constants_s", kMaxPronyTerms);
         !why.empty())
       return why;
-  const std::size_t want = *basis_size(*e, t.thresholds_deg.size(), t.time_constants_s.size());
+  const std::size_t n_memory = t.theta > 0 ? t.relay_centres_deg.size() : t.thresholds_deg.size();
+  const std::size_t want = *basis_size(*e, n_memory, t.time_constants_s.size());
   if (t.coefficients_v.size() != want)
     return "expected " + std::to_string(want) + " coefficients_v (one per basis function), got " +
            std::to_string(t.coefficients_v.size());
@@ -101,6 +124,22 @@ std::string term_problem(const GapTerm& t, double scan_rate_hz) {
 }
 
 }  // namespace
+
+std::vector<RelayPlace> relay_places(const std::vector<double>& knots) {
+  std::vector<RelayPlace> out;
+  // At least two knots, spanning at most kMaxRelays relays (false for a NaN: no endless loop).
+  if (knots.size() < 2 || !(knots.back() - knots.front() <= kRelaySpacingDeg * static_cast<double>(kMaxRelays - 1)))
+    return out;
+  std::size_t k = 0;
+  // Centres by index, not by accumulating the spacing: every reader places them identically.
+  for (std::size_t j = 0;; ++j) {
+    const double c = knots.front() + kRelaySpacingDeg * static_cast<double>(j);
+    if (c > knots.back() + 1e-9) break;
+    while (k + 2 < knots.size() && c > knots[k + 1]) ++k;
+    out.push_back({c, k, std::clamp((c - knots[k]) / (knots[k + 1] - knots[k]), 0.0, 1.0)});
+  }
+  return out;
+}
 
 std::optional<std::size_t> basis_size(Effect e, std::size_t n_thresholds, std::size_t n_time_constants) {
   switch (e) {
@@ -210,6 +249,8 @@ GapCorrector::GapCorrector(const Calibration& cal, double scan_rate_hz) {
         break;
       case Effect::kMemoryHysteresis:
         for (std::size_t i = 0; i < t.thresholds_deg.size(); ++i) stops_.push_back({t.thresholds_deg[i], c[i], 0.0});
+        for (const RelayPlace& p : relay_places(t.relay_centres_deg))
+          relays_.push_back({p.centre_deg, t.theta, (1 - p.frac) * c[p.knot] + p.frac * c[p.knot + 1], 0.0});
         break;
       case Effect::kRateDependentHysteresis:
         rate_.push_back({t.theta, c[0], c[1]});
@@ -299,7 +340,8 @@ double GapCorrector::voltage_at(double angle, double reference_v, double velocit
     for (const Creep& c : creep_) v += c.coefficient * (c.x + c.alpha * (angle - c.x) - angle);
     const double step = angle - stop_input_;
     for (const Stop& s : stops_) v += s.coefficient * stop_operator(s.s, step, s.r);
-  }  // before the first angle: creep relaxed (x_0 = A_0) and stop operators at 0: no voltage
+    for (const Relay& r : relays_) v += r.coefficient * relay_step(r.r, angle, r.centre, r.half_width);
+  }  // before the first angle: creep relaxed (x_0 = A_0), stop operators at 0, relays unset: no voltage
   if (!rate_.empty()) {
     const double w = std::isfinite(velocity_rad_s) ? std::abs(velocity_rad_s) : 0.0;
     const double sign = d == Direction::kFlexion ? 1.0 : d == Direction::kExtension ? -1.0 : 0.0;
@@ -347,12 +389,14 @@ double GapCorrector::advance(double angle, double reference_v, double angle_per_
   }
   const double open = accel_.empty() || angle_per_volt == 0 ? angle : angle + angle_per_volt * accel_v_;
   for (Creep& c : creep_) c.x = started_ ? c.x + c.alpha * (angle - c.x) : angle;
-  // The stop operators move on the low-passed angle (kMemoryInputTauS): committed on the angle
-  // itself, an operator left at its threshold by a movement ratcheted with the noise on its sliding
-  // side and walked across its width through a hold (docs/calibration.md, "[gap]").
+  // The stop operators and relays move on the low-passed angle (kMemoryInputTauS): committed on the
+  // angle itself, an operator left at its threshold by a movement ratcheted with the noise on its
+  // sliding side and walked across its width through a hold (docs/calibration.md, "[gap]"), and a
+  // relay would switch on a noise peak the joint never reached.
   const double input = started_ ? stop_input_ + memory_smooth_ * (angle - stop_input_) : angle;
   const double step = started_ ? input - stop_input_ : 0.0;
   for (Stop& s : stops_) s.s = stop_operator(s.s, step, s.r);
+  for (Relay& r : relays_) r.r = started_ ? relay_step(r.r, input, r.centre, r.half_width) : relay_start(input, r.centre);
   stop_input_ = input;
   started_ = true;
   const int hsize = static_cast<int>(hist_.size());
@@ -418,7 +462,8 @@ void GapCorrector::interrupt() noexcept {
 void GapCorrector::reset() noexcept {
   interrupt();
   started_ = false;
-  for (Stop& s : stops_) s.s = 0;  // unloaded; creep relaxes and the play centres at the next angle
+  for (Stop& s : stops_) s.s = 0;  // unloaded; creep relaxes, relays restart demagnetised and the play
+                                   // centres at the next angle
   ref_count_ = 0;
   ref_sum_ = 0;
   ref_since_refresh_ = 0;

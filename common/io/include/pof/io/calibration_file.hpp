@@ -22,7 +22,8 @@
 //   [equations]        flexion, extension (eq. (11)/(12) as text; informational, not read back)
 //   [potentiometer]    deg_per_volt, zero_v, offsets = [[angle_deg, correction_deg], ...] (optional)
 //   [gap]              schema_version = 1, delay_s, backlash_deg, [[gap.terms]] (effect, theta,
-//                      coefficients_v, thresholds_deg, time_constants_s, [gap.terms.parameters]):
+//                      coefficients_v, thresholds_deg, relay_centres_deg, time_constants_s,
+//                      [gap.terms.parameters]):
 //                      the effect terms `pof gap` accepted (optional; pof/core/gap_terms.hpp)
 //
 // Loading validates every key (missing, wrong type, NaN/inf, impossible range) and names it with

@@ -46,7 +46,8 @@ struct GapTerm {
   std::string effect;                    // an id of kEffectIds, as written (an unknown id is kept for gap_problems)
   double theta = 0;                      // the effect's nonlinear parameter (0 where it has none)
   std::vector<double> coefficients_v;    // one per basis function
-  std::vector<double> thresholds_deg;    // memory_hysteresis: the stop operators' thresholds r_i
+  std::vector<double> thresholds_deg;    // memory_hysteresis (theta 0): the stop operators' thresholds r_i
+  std::vector<double> relay_centres_deg;  // memory_hysteresis (theta = relay half-width > 0): the knots c_i
   std::vector<double> time_constants_s;  // viscoelastic_relaxation: the relaxation times tau_j
   std::vector<std::pair<std::string, double>> parameters;  // physical parameters for humans, in file order
   int line = 0;                          // where the term starts in its file (0: not read from a file)
@@ -61,9 +62,36 @@ struct GapModel {
 };
 
 /// The number of basis functions (= coefficients) of a term of effect e, nullopt for an effect
-/// that is never a term (time_delay, backlash). memory_hysteresis has one per threshold and
-/// viscoelastic_relaxation one per time constant: pass their counts.
+/// that is never a term (time_delay, backlash). memory_hysteresis has one per threshold (or per
+/// relay knot) and viscoelastic_relaxation one per time constant: pass their counts.
 std::optional<std::size_t> basis_size(Effect e, std::size_t n_thresholds = 0, std::size_t n_time_constants = 0);
+
+/// memory_hysteresis in its relay form (theta = h > 0): Preisach relays of half-width h, one every
+/// kRelaySpacingDeg from the first knot of relay_centres_deg to the last, each weighted by the
+/// knots' coefficients interpolated linearly at its centre (docs/calibration.md, "[gap]"). A relay
+/// is up (+1) once the angle reaches centre + h, down (-1) once it falls to centre - h, and keeps
+/// its state in between (Mayergoyz 1991, "Mathematical Models of Hysteresis", ch. 1): its loop sits
+/// at an absolute angle, which stop operators, whose loops follow the reversals, cannot draw.
+inline constexpr double kRelaySpacingDeg = 1.0;
+inline constexpr std::size_t kMaxRelays = 361;  // a knot span of 360 deg
+/// One relay of the bank: its centre, and its weight (1 - frac) c[knot] + frac c[knot + 1].
+struct RelayPlace {
+  double centre_deg = 0;
+  std::size_t knot = 0;
+  double frac = 0;
+};
+/// The relays of knots c_1 < ... < c_m (m >= 2, spanning at most kMaxRelays relays), in order of
+/// centre; none for knots that are not.
+std::vector<RelayPlace> relay_places(const std::vector<double>& knots);
+/// One step of a relay of centre c and half-width h at the angle [deg].
+inline double relay_step(double state, double angle_deg, double centre_deg, double half_width_deg) {
+  if (angle_deg >= centre_deg + half_width_deg) return 1.0;
+  if (angle_deg <= centre_deg - half_width_deg) return -1.0;
+  return state;
+}
+/// A relay's state at the first angle: the demagnetised state, up where the centre is below the
+/// angle (outside its loop this is the state the angle sets).
+inline double relay_start(double angle_deg, double centre_deg) { return centre_deg < angle_deg ? 1.0 : -1.0; }
 
 /// Why part of a GapModel cannot be applied online.
 struct GapProblem {
@@ -195,6 +223,9 @@ class GapCorrector {
   struct Stop {  // one Prandtl-Ishlinskii stop operator of threshold r
     double r = 0, coefficient = 0, s = 0;
   };
+  struct Relay {  // one Preisach relay of the relay form (relay_places)
+    double centre = 0, half_width = 0, coefficient = 0, r = 0;
+  };
   struct RateHysteresis {
     double w0 = 1, c_shape = 0, c_paper = 0;
   };
@@ -220,6 +251,7 @@ class GapCorrector {
   double static_lo_deg_ = -1e9, static_hi_deg_ = 1e9;
   std::vector<Creep> creep_;
   std::vector<Stop> stops_;
+  std::vector<Relay> relays_;
   std::vector<RateHysteresis> rate_;
   std::vector<Acceleration> accel_;
   double accel_v_ = 0;  // the acceleration terms' voltage for the next scan (committed angles only)

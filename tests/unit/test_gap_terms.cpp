@@ -651,7 +651,9 @@ TEST(GapProblems, EveryUnappliableTermIsNamedWithWhy) {
   EXPECT_EQ(relay(-1, {20, 40}, {1, 2}),
             (std::vector<std::string>{"[gap] term 1 'memory_hysteresis': theta (0 for stop operators, else the relays' half-width [deg]) must be >= 0, got -1"}));
   EXPECT_EQ(relay(0, {20, 40}, {1, 2}),
-            (std::vector<std::string>{"[gap] term 1 'memory_hysteresis': needs its stop operators' thresholds_deg (at least one)"}));
+            (std::vector<std::string>{"[gap] term 1 'memory_hysteresis': relay_centres_deg needs theta = the relays' half-width "
+                                      "[deg] > 0 (theta 0 is the stop-operator form, with thresholds_deg)"}));
+  EXPECT_EQ(relay(0, {20, 40, 60}, {1}).size(), 1u);  // refused before a coefficient is counted, never read past
   GapModel wrong;
   GapTerm cr = term("creep", 5.0, {1});
   cr.relay_centres_deg = {20, 40};

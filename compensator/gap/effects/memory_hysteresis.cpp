@@ -29,7 +29,8 @@ std::vector<double> relay_widths() { return {4.0, 8.0, 12.0, 16.0, 24.0}; }
 
 std::vector<double> knots(double h, const Context& cx) {
   const double lo = cx.angle_min_deg + h, hi = cx.angle_max_deg - h;
-  if (!(hi - lo >= 2.0 * (kKnots - 1))) return {};
+  const double most = core::kRelaySpacingDeg * static_cast<double>(core::kMaxRelays - 1);  // what a file may hold
+  if (!(hi - lo >= 2.0 * (kKnots - 1)) || !(hi - lo <= most)) return {};
   std::vector<double> k;
   for (int i = 0; i < kKnots; ++i) k.push_back(lo + (hi - lo) * i / (kKnots - 1));
   return k;
@@ -41,6 +42,13 @@ std::vector<double> grid(const Context& cx, const Eigen::VectorXd&) {
   for (const double h : relay_widths())
     if (!knots(h, cx).empty()) g.push_back(h);
   return g;
+}
+
+// On the dynamic baseline with no width whose knots fit the range: no relay loop to offer.
+std::string_view not_identifiable(const Context& cx) {
+  if (cx.dyn && grid(cx, Eigen::VectorXd()).empty())
+    return "the recording's angle range is too narrow for a relay loop beside the dynamic baseline's stop operators";
+  return {};
 }
 
 Eigen::MatrixXd relay_columns(double h, const Context& cx, const Kinematics& k) {
@@ -75,21 +83,23 @@ Eigen::MatrixXd columns(double theta, const Context& cx, const Kinematics& k) {
 
 // Half the height of the saturated loop, as an angle: the error left at a hold after a long
 // movement, with the sign of the last movement's direction. Stop operators: sum of w_j r_j;
-// relays: the sum of every relay's weight, and where the loop sits (the weights' mean centre).
+// relays: the sum of every relay's weight, and where the loop sits (the centres' mean weighted by
+// |w|: a fold's unconstrained fit may give weights of both signs).
 // The keys are the same at every width: the jackknife pairs them over folds that chose others.
 nlohmann::json physical(double theta, const Eigen::VectorXd& b, const Context& cx) {
   nlohmann::json p;
   double half_height = 0;
   if (theta > 0) {
-    double moment = 0;
+    double moment = 0, mass = 0;
     for (const core::RelayPlace& r : core::relay_places(knots(theta, cx))) {
       const auto k0 = static_cast<Eigen::Index>(r.knot);
       const double w = basis::as_angle_error((1 - r.frac) * b(k0) + r.frac * b(k0 + 1), cx);
       half_height += w;
-      moment += w * r.centre_deg;
+      mass += std::abs(w);
+      moment += std::abs(w) * r.centre_deg;
     }
     p["relay_half_width_deg"] = theta;
-    p["loop_centre_deg"] = half_height != 0 ? moment / half_height : 0.5 * (cx.angle_min_deg + cx.angle_max_deg);
+    p["loop_centre_deg"] = mass > 0 ? moment / mass : 0.5 * (cx.angle_min_deg + cx.angle_max_deg);
   } else {
     const std::vector<double> r = bank();
     for (std::size_t j = 0; j < r.size(); ++j) {
@@ -121,6 +131,7 @@ extern const EffectDef kMemoryHysteresis{
     .grid = memory_hysteresis_effect::grid,
     .columns = memory_hysteresis_effect::columns,
     .physical = memory_hysteresis_effect::physical,
+    .not_identifiable = memory_hysteresis_effect::not_identifiable,
     .write_basis = memory_hysteresis_effect::write_basis,
 };
 

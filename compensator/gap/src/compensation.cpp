@@ -124,7 +124,7 @@ AppliedFit applied_fit(const Search& sx, const State& st, const CurrentFit& afte
     a.beta_full = VectorXd::Zero(nb);
     return a;
   }
-  // A memory term's stop-operator weights are held to one sign, whichever fits better: with
+  // A memory term's stop-operator (or relay-knot) weights are held to one sign, whichever fits better: with
   // weights of one sign every loop, major or minor, runs the same way round (docs/calibration.md,
   // "Why stop operators"); a weight against the others draws loops that run the other way, a
   // Maxwell-slip element of negative stiffness, which no fibre is taken to have. Least squares on

@@ -412,6 +412,11 @@ CandidateResult evaluate(core::Effect e, const Search& sx, const State& st, cons
     }
   }
   cr.grid = def.grid(sx.cx, cur.cv_resid);
+  if (cr.grid.empty()) {  // a grid fitted to the recording with nothing in it (not_identifiable says why)
+    cr.eligible = false;
+    cr.note = "no value of its parameter fits this recording";
+    return cr;
+  }
   // Sensor candidates extend the current grams by their columns (by the effect's whole column set
   // once per fit, when it has one: EffectDef::column_set); kinematic ones rebuild the whole design
   // for each grid value.

@@ -331,8 +331,8 @@ bool within_2se(const std::vector<double>& a, const std::vector<double>& b) {
 // hidden"). Both keep an offset of the sign of the last movement through the holds; they differ
 // only in how it switches at a reversal (the reference standing while the sensor moves, or the
 // sensor while the reference moves), which a reversal from a hold at the protocol's speeds resolves
-// little. Stop operators are a play in the fibre, the dynamic baseline's or an accepted
-// memory_hysteresis term's, and are refitted beside every backlash width, so the widths whose held-out error is within 2 SE of the best's (and
+// little. Stop operators are a play in the fibre, the dynamic baseline's or (on the paper
+// structure) an accepted memory_hysteresis term's, and are refitted beside every backlash width, so the widths whose held-out error is within 2 SE of the best's (and
 // "none" when the structure alone is too) are explanations the recording does not tell apart: how
 // much of the loop is the belt's and how much the fibre's. Said when that range moves the hold offset
 // (half the width) by more than twice the scan-to-scan noise floor: less is within the noise.

@@ -86,6 +86,9 @@ std::string term_problem(const GapTerm& t, double scan_rate_hz) {
     if (t.theta < 0) return "theta (0 for stop operators, else the relays' half-width [deg]) must be >= 0, got " + num(t.theta);
     if (t.theta > 0) {
       if (std::string why = relay_problem(t); !why.empty()) return why;
+    } else if (!t.relay_centres_deg.empty()) {
+      return "relay_centres_deg needs theta = the relays' half-width [deg] > 0 (theta 0 is the stop-operator form, "
+             "with thresholds_deg)";
     } else if (std::string why = positive_list_problem(t.thresholds_deg, "thresholds_deg", "stop operators' thresholds_deg", kMaxOperators);
                !why.empty()) {
       return why;
@@ -249,8 +252,9 @@ GapCorrector::GapCorrector(const Calibration& cal, double scan_rate_hz) {
         break;
       case Effect::kMemoryHysteresis:
         for (std::size_t i = 0; i < t.thresholds_deg.size(); ++i) stops_.push_back({t.thresholds_deg[i], c[i], 0.0});
-        for (const RelayPlace& p : relay_places(t.relay_centres_deg))
-          relays_.push_back({p.centre_deg, t.theta, (1 - p.frac) * c[p.knot] + p.frac * c[p.knot + 1], 0.0});
+        if (t.theta > 0)
+          for (const RelayPlace& p : relay_places(t.relay_centres_deg))
+            relays_.push_back({p.centre_deg, t.theta, (1 - p.frac) * c[p.knot] + p.frac * c[p.knot + 1], 0.0});
         break;
       case Effect::kRateDependentHysteresis:
         rate_.push_back({t.theta, c[0], c[1]});

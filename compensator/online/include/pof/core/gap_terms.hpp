@@ -141,11 +141,11 @@ inline constexpr double kNotchQ = 5.0;
 /// The window of the quadratic fit that extrapolates a positive delay (GapCorrector) [s].
 inline constexpr double kDelayFitWindowS = 0.12;
 /// backlash and memory_hysteresis: the time constant of the first-order low-pass on the angle
-/// that moves the memories, the play's side and the stop operators' states [s]. A play or stop
-/// operator fed the estimated angle is pushed to its noise's peaks in every hold (the belt and the
-/// fibre see the joint, not the noise), so they move on the angle low-passed at about the knee's
-/// own bandwidth (6 Hz); the play's offset is applied to the angle itself and the operators are
-/// evaluated at it, which keeps the latency.
+/// that moves the memories, the play's side and the stop operators' (and relays') states [s]. A
+/// play or stop operator fed the estimated angle is pushed to its noise's peaks in every hold (the
+/// belt and the fibre see the joint, not the noise), so they move on the angle low-passed at about
+/// the knee's own bandwidth (6 Hz); the play's offset is applied to the angle itself and the
+/// operators are evaluated at it, which keeps the latency.
 inline constexpr double kMemoryInputTauS = 0.025;
 /// source_power_coupling: the reference level's averaging window [s].
 inline constexpr double kSourceMeanWindowS = 1.0;
@@ -209,7 +209,8 @@ class GapCorrector {
   /// dynamic inverter keeps its own.
   void interrupt() noexcept;
   /// Lost scans: everything restarts from the next angle (relaxed creep, unloaded stop
-  /// operators, play centred), as OnlineCompensator::reset() restarts its dynamic inverter.
+  /// operators, relays demagnetised, play centred), as OnlineCompensator::reset() restarts its
+  /// dynamic inverter.
   void reset() noexcept;
 
   [[nodiscard]] bool active() const noexcept { return active_; }

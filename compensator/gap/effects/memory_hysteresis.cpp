@@ -56,9 +56,10 @@ Eigen::MatrixXd relay_columns(double h, const Context& cx, const Kinematics& k) 
   Eigen::MatrixXd C = Eigen::MatrixXd::Zero(n, kKnots);
   for (const core::RelayPlace& p : core::relay_places(knots(h, cx))) {
     const auto k0 = static_cast<Eigen::Index>(p.knot);
+    const double alpha = p.centre_deg + h, beta = p.centre_deg - h;
     double r = core::relay_start(k.angle(0), p.centre_deg);
     for (Eigen::Index i = 0; i < n; ++i) {
-      r = core::relay_step(r, k.angle(i), p.centre_deg, h);
+      r = core::relay_step(r, k.angle(i), alpha, beta);
       C(i, k0) += (1 - p.frac) * r;
       C(i, k0 + 1) += p.frac * r;
     }

@@ -254,7 +254,8 @@ GapCorrector::GapCorrector(const Calibration& cal, double scan_rate_hz) {
         for (std::size_t i = 0; i < t.thresholds_deg.size(); ++i) stops_.push_back({t.thresholds_deg[i], c[i], 0.0});
         if (t.theta > 0)
           for (const RelayPlace& p : relay_places(t.relay_centres_deg))
-            relays_.push_back({p.centre_deg, t.theta, (1 - p.frac) * c[p.knot] + p.frac * c[p.knot + 1], 0.0});
+            relays_.push_back({p.centre_deg + t.theta, p.centre_deg - t.theta, p.centre_deg,
+                               (1 - p.frac) * c[p.knot] + p.frac * c[p.knot + 1], 0.0});
         break;
       case Effect::kRateDependentHysteresis:
         rate_.push_back({t.theta, c[0], c[1]});
@@ -344,7 +345,7 @@ double GapCorrector::voltage_at(double angle, double reference_v, double velocit
     for (const Creep& c : creep_) v += c.coefficient * (c.x + c.alpha * (angle - c.x) - angle);
     const double step = angle - stop_input_;
     for (const Stop& s : stops_) v += s.coefficient * stop_operator(s.s, step, s.r);
-    for (const Relay& r : relays_) v += r.coefficient * relay_step(r.r, angle, r.centre, r.half_width);
+    for (const Relay& r : relays_) v += r.coefficient * relay_step(r.r, angle, r.alpha, r.beta);
   }  // before the first angle: creep relaxed (x_0 = A_0), stop operators at 0, relays unset: no voltage
   if (!rate_.empty()) {
     const double w = std::isfinite(velocity_rad_s) ? std::abs(velocity_rad_s) : 0.0;
@@ -400,7 +401,7 @@ double GapCorrector::advance(double angle, double reference_v, double angle_per_
   const double input = started_ ? stop_input_ + memory_smooth_ * (angle - stop_input_) : angle;
   const double step = started_ ? input - stop_input_ : 0.0;
   for (Stop& s : stops_) s.s = stop_operator(s.s, step, s.r);
-  for (Relay& r : relays_) r.r = started_ ? relay_step(r.r, input, r.centre, r.half_width) : relay_start(input, r.centre);
+  for (Relay& r : relays_) r.r = started_ ? relay_step(r.r, input, r.alpha, r.beta) : relay_start(input, r.centre);
   stop_input_ = input;
   started_ = true;
   const int hsize = static_cast<int>(hist_.size());

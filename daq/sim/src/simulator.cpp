@@ -120,7 +120,7 @@ Simulator::Simulator(const Scenario& s, std::uint64_t seed, double scan_rate_hz)
         relay_w_.push_back(std::exp(-0.5 * (zu * zu + zv * zv)));
         // The demagnetised state at the start angle: relays centred below it up, the others down
         // (the memory line alpha + beta = 2 theta_0).
-        relay_r_.push_back(u < s.knee.start_deg ? 1.0 : -1.0);
+        relay_r_.push_back(pof::core::relay_start(s.knee.start_deg, u));
         wsum += relay_w_.back();
       }
     }
@@ -203,7 +203,7 @@ double Simulator::preisach_step(double theta_deg) {
   // flexion branch lies above (the voltage falls with bend and lags it), as for the other families.
   double acc = 0;
   for (std::size_t i = 0; i < relay_r_.size(); ++i) {
-    const double r = theta_deg >= relay_alpha_[i] ? 1.0 : (theta_deg <= relay_beta_[i] ? -1.0 : relay_r_[i]);
+    const double r = pof::core::relay_step(relay_r_[i], theta_deg, relay_alpha_[i], relay_beta_[i]);
     relay_r_[i] = r;
     acc += relay_w_[i] * r;
   }

@@ -59,6 +59,20 @@ inline double stop_operator(double s, double increment_deg, double r_deg) {
 /// effect's inverse (gap_terms.hpp) run it.
 inline double play_operator(double y, double x_deg, double r_deg) { return std::clamp(y, x_deg - r_deg, x_deg + r_deg); }
 
+/// One step of a Preisach relay (Mayergoyz 1991, "Mathematical Models of Hysteresis", ch. 1) that
+/// switches up at alpha and down at beta < alpha [deg]: +1 once the angle reaches alpha, -1 once
+/// it falls to beta, else unchanged. The simulator's Preisach fibre and the memory_hysteresis
+/// effect's relay form (gap_terms.hpp) both run it.
+inline double relay_step(double state, double angle_deg, double alpha_deg, double beta_deg) {
+  if (angle_deg >= alpha_deg) return 1.0;
+  if (angle_deg <= beta_deg) return -1.0;
+  return state;
+}
+
+/// A relay's state at the first angle: the demagnetised state, up where its centre (alpha + beta)
+/// / 2 is below the angle (outside its loop this is the state the angle sets).
+inline double relay_start(double angle_deg, double centre_deg) { return centre_deg < angle_deg ? 1.0 : -1.0; }
+
 inline constexpr int kMaxDegree = 5;
 inline constexpr int kMaxOperators = 16;
 inline constexpr int kMaxPronyTerms = 8;

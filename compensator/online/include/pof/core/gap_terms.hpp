@@ -83,15 +83,7 @@ struct RelayPlace {
 /// The relays of knots c_1 < ... < c_m (m >= 2, spanning at most kMaxRelays relays), in order of
 /// centre; none for knots that are not.
 std::vector<RelayPlace> relay_places(const std::vector<double>& knots);
-/// One step of a relay of centre c and half-width h at the angle [deg].
-inline double relay_step(double state, double angle_deg, double centre_deg, double half_width_deg) {
-  if (angle_deg >= centre_deg + half_width_deg) return 1.0;
-  if (angle_deg <= centre_deg - half_width_deg) return -1.0;
-  return state;
-}
-/// A relay's state at the first angle: the demagnetised state, up where the centre is below the
-/// angle (outside its loop this is the state the angle sets).
-inline double relay_start(double angle_deg, double centre_deg) { return centre_deg < angle_deg ? 1.0 : -1.0; }
+/// Each relay runs core::relay_step (dynamic_model.hpp) from core::relay_start.
 
 /// Why part of a GapModel cannot be applied online.
 struct GapProblem {
@@ -224,8 +216,8 @@ class GapCorrector {
   struct Stop {  // one Prandtl-Ishlinskii stop operator of threshold r
     double r = 0, coefficient = 0, s = 0;
   };
-  struct Relay {  // one Preisach relay of the relay form (relay_places)
-    double centre = 0, half_width = 0, coefficient = 0, r = 0;
+  struct Relay {  // one Preisach relay of the relay form (relay_places): up at alpha, down at beta
+    double alpha = 0, beta = 0, centre = 0, coefficient = 0, r = 0;
   };
   struct RateHysteresis {
     double w0 = 1, c_shape = 0, c_paper = 0;
